@@ -1,0 +1,156 @@
+#include "core/node.hpp"
+
+#include <algorithm>
+
+namespace cansim {
+
+Node::Node(NodeSetup setup, FrameSink& sink, Application* app, NodeStorage* storage)
+    : setup_(std::move(setup)),
+      sink_(sink),
+      app_(app),
+      storage_(storage),
+      values_(setup_.layout),
+      node_id_(setup_.node_id),
+      bit_rate_(setup_.bit_rate_index),
+      bus_bit_rate_(setup_.bit_rate_index) {
+  if (!setup_.options) setup_.options = std::make_shared<NodeOptions>();
+}
+
+template <typename Fn>
+void Node::for_each_service(Fn&& fn) {
+  fn(lss_);
+  fn(nmt_);
+  fn(sdo_);
+  fn(heartbeat_);
+  fn(guarding_);
+  fn(sync_);
+  fn(pdo_);
+  fn(emcy_);
+  fn(store_);
+}
+
+template <typename Fn>
+void Node::for_each_service(Fn&& fn) const {
+  const_cast<Node*>(this)->for_each_service([&](const auto& s) { fn(s); });
+}
+
+void Node::power_on(TimeUs now) {
+  powered_ = true;
+  silent_ = false;
+  node_id_ = setup_.node_id;
+  bit_rate_ = setup_.bit_rate_index;
+  nmt_.power_on(now);
+}
+
+void Node::power_off() {
+  powered_ = false;
+  rx_changed();
+}
+
+bool Node::allowed(Service s) const {
+  switch (state()) {
+    case NmtState::kOperational:
+      return true;
+    case NmtState::kPreOperational:
+      return s != Service::kPdo;
+    default:
+      return false;
+  }
+}
+
+void Node::send(const CanFrame& frame) {
+  if (on_bus()) sink_.send(frame);
+}
+
+void Node::on_frame(const CanFrame& frame, TimeUs now) {
+  if (!powered_ || bit_rate_ != bus_bit_rate_) return;
+  // Every service sees the frame until one claims it; the order puts the
+  // broadcast services (LSS, NMT) first.
+  bool done = false;
+  for_each_service([&](auto& s) {
+    if (!done) done = s.on_frame(frame, now);
+  });
+}
+
+void Node::advance(TimeUs now) {
+  if (!powered_) return;
+  for_each_service([&](auto& s) {
+    if (s.next_deadline() <= now) s.process(now);
+  });
+  if (app_ && app_next_ <= now) app_next_ = app_->process(*this, now);
+}
+
+TimeUs Node::next_deadline() const {
+  if (!powered_) return kNever;
+  TimeUs t = app_next_;
+  for_each_service([&](const auto& s) { t = std::min(t, s.next_deadline()); });
+  return t;
+}
+
+void Node::collect_rx_ids(std::vector<std::uint32_t>& out) const {
+  if (!powered_) return;
+  for_each_service([&](const auto& s) { s.collect_rx_ids(out); });
+}
+
+SdoAbort Node::read(const OdEntry& e, TimeUs now, std::span<const std::uint8_t>& out) {
+  if (!readable(e.access)) return SdoAbort::kWriteOnly;
+  refresh(e, now);
+  out = values_.bytes(e);
+  return SdoAbort::kNone;
+}
+
+SdoAbort Node::read(std::uint16_t index, std::uint8_t sub, TimeUs now,
+                    std::span<const std::uint8_t>& out) {
+  SdoAbort why = SdoAbort::kNone;
+  const OdEntry* e = od().lookup(index, sub, why);
+  return e ? read(*e, now, out) : why;
+}
+
+void Node::refresh(const OdEntry& e, TimeUs now) {
+  if ((e.hooks & kHookRead) && app_) app_->refresh(*this, e, now);
+}
+
+SdoAbort Node::write(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now) {
+  if (!writable(e.access)) return SdoAbort::kReadOnly;
+  if (SdoAbort a = check_value(e, data); !ok(a)) return a;
+  SdoAbort result = SdoAbort::kNone;
+  bool handled = false;
+  for_each_service([&](auto& s) {
+    if (!handled && s.owns(e.index)) {
+      handled = true;
+      result = s.write(e, data, now);
+    }
+  });
+  if (handled) return result;
+  if ((e.hooks & kHookWrite) && app_) {
+    if (SdoAbort a = app_->check_write(*this, e, data, now); !ok(a)) return a;
+  }
+  values_.set_bytes(e, data);
+  if ((e.hooks & kHookWrite) && app_) app_->after_write(*this, e, now);
+  return SdoAbort::kNone;
+}
+
+SdoAbort Node::write(std::uint16_t index, std::uint8_t sub, std::span<const std::uint8_t> data,
+                     TimeUs now) {
+  SdoAbort why = SdoAbort::kNone;
+  const OdEntry* e = od().lookup(index, sub, why);
+  return e ? write(*e, data, now) : why;
+}
+
+void Node::reset_values(ResetKind kind) {
+  if (kind == ResetKind::kCommunication) {
+    values_.reset(node_id_, 0x1000, 0x1FFF);
+    store_.apply_stored(0x1000, 0x1FFF);
+  } else {
+    values_.reset(node_id_);
+    store_.apply_stored(0x0000, 0xFFFF);
+  }
+}
+
+void Node::reset_services(TimeUs now) {
+  for_each_service([&](auto& s) { s.reset(now); });
+  app_next_ = now;
+  rx_changed();
+}
+
+}  // namespace cansim

@@ -1,0 +1,142 @@
+// One CANopen slave: the object dictionary values plus every CiA 301 / 305
+// service, driven by frames and time passed in by the caller. No sockets, no
+// clock, no threads: the caller delivers frames (on_frame), advances time
+// (advance) and sleeps until next_deadline().
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "core/application.hpp"
+#include "core/can_frame.hpp"
+#include "core/emcy.hpp"
+#include "core/guarding.hpp"
+#include "core/heartbeat.hpp"
+#include "core/lss_slave.hpp"
+#include "core/nmt.hpp"
+#include "core/node_options.hpp"
+#include "core/od.hpp"
+#include "core/pdo.hpp"
+#include "core/sdo_server.hpp"
+#include "core/store.hpp"
+#include "core/sync.hpp"
+
+namespace cansim {
+
+struct NodeSetup {
+  std::shared_ptr<const OdLayout> layout;            // shared by all nodes of a profile
+  std::shared_ptr<const NodeOptions> options;        // shared by all nodes of a profile
+  std::uint8_t node_id = 1;                          // 1..127, 0xFF = LSS-unconfigured
+  std::uint8_t bit_rate_index = 3;                   // CiA 305 table index (3 = 250 kbit/s)
+};
+
+// Services gated by NMT state (CiA 301 Table 82).
+enum class Service : std::uint8_t { kSdo, kSync, kEmcy, kPdo, kTime };
+
+class Node {
+ public:
+  Node(NodeSetup setup, FrameSink& sink, Application* app = nullptr, NodeStorage* storage = nullptr);
+  Node(const Node&) = delete;
+  Node& operator=(const Node&) = delete;
+
+  // ---- lifecycle and I/O (called by the loop or a test)
+  void power_on(TimeUs now);
+  void power_off();                     // falls silent, as an unpowered sensor
+  bool powered() const { return powered_; }
+  void on_frame(const CanFrame& frame, TimeUs now);
+  void advance(TimeUs now);
+  TimeUs next_deadline() const;
+
+  // The bus the node is attached to runs at this CiA 305 bit-rate index. A node
+  // whose own rate differs neither hears nor speaks.
+  void set_bus_bit_rate(std::uint8_t index) { bus_bit_rate_ = index; }
+  std::uint8_t bit_rate_index() const { return bit_rate_; }
+  void set_bit_rate_index(std::uint8_t index) { bit_rate_ = index; }
+  bool on_bus() const { return powered_ && !silent_ && bit_rate_ == bus_bit_rate_; }
+  // Alive but sending nothing (fault injection, LSS bit-timing switch delay).
+  void set_silent(bool silent) { silent_ = silent; }
+
+  // Sends a frame if the node is on the bus.
+  void send(const CanFrame& frame);
+
+  // ---- identity and state
+  std::uint8_t node_id() const { return node_id_; }
+  // Sets the active node-ID (LSS / vendor objects); takes effect for COB-IDs
+  // at the next reset communication, as CiA 305 says.
+  void set_node_id(std::uint8_t id) { node_id_ = id; }
+  std::uint8_t configured_node_id() const { return setup_.node_id; }
+  NmtState state() const { return nmt_.state(); }
+  bool allowed(Service s) const;
+
+  const OdLayout& od() const { return *setup_.layout; }
+  OdValues& values() { return values_; }
+  const OdValues& values() const { return values_; }
+  const NodeOptions& options() const { return *setup_.options; }
+  Application* app() { return app_; }
+  NodeStorage* storage() { return storage_; }
+
+  // ---- OD access as a remote client (SDO, RPDO) sees it: access rights,
+  // type length, limits, owning service, application hooks.
+  SdoAbort read(const OdEntry& e, TimeUs now, std::span<const std::uint8_t>& out);
+  SdoAbort read(std::uint16_t index, std::uint8_t sub, TimeUs now, std::span<const std::uint8_t>& out);
+  SdoAbort write(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
+  SdoAbort write(std::uint16_t index, std::uint8_t sub, std::span<const std::uint8_t> data, TimeUs now);
+  // Refreshes a kHookRead entry (TPDO sampling) without access checks.
+  void refresh(const OdEntry& e, TimeUs now);
+
+  // ---- reset building blocks (used by NMT and LSS)
+  void reset_values(ResetKind kind);    // defaults, then stored values
+  void reset_services(TimeUs now);      // services re-read their OD configuration
+
+  // ---- dispatch support: the COB-IDs this node listens to. rx_epoch()
+  // changes whenever that set may have changed.
+  void collect_rx_ids(std::vector<std::uint32_t>& out) const;
+  std::uint32_t rx_epoch() const { return rx_epoch_; }
+  void rx_changed() { ++rx_epoch_; }
+
+  // ---- services
+  NmtSlave& nmt() { return nmt_; }
+  SdoServer& sdo() { return sdo_; }
+  Heartbeat& heartbeat() { return heartbeat_; }
+  NodeGuarding& guarding() { return guarding_; }
+  SyncConsumer& sync() { return sync_; }
+  PdoEngine& pdo() { return pdo_; }
+  Emcy& emcy() { return emcy_; }
+  StoreRestore& store() { return store_; }
+  LssSlave& lss() { return lss_; }
+
+  std::size_t memory_bytes() const { return sizeof(*this) + values_.memory_bytes(); }
+
+ private:
+  template <typename Fn>
+  void for_each_service(Fn&& fn);
+  template <typename Fn>
+  void for_each_service(Fn&& fn) const;
+
+  NodeSetup setup_;
+  FrameSink& sink_;
+  Application* app_;
+  NodeStorage* storage_;
+  OdValues values_;
+  std::uint8_t node_id_;
+  std::uint8_t bit_rate_;
+  std::uint8_t bus_bit_rate_;
+  bool powered_ = false;
+  bool silent_ = false;
+  std::uint32_t rx_epoch_ = 0;
+  TimeUs app_next_ = kNever;
+
+  NmtSlave nmt_{*this};
+  LssSlave lss_{*this};
+  SdoServer sdo_{*this};
+  Heartbeat heartbeat_{*this};
+  NodeGuarding guarding_{*this};
+  SyncConsumer sync_{*this};
+  PdoEngine pdo_{*this};
+  Emcy emcy_{*this};
+  StoreRestore store_{*this};
+};
+
+}  // namespace cansim
