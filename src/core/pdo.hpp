@@ -28,6 +28,14 @@ class PdoEngine {
   // A checked remote write of an owned entry: validate, store, react.
   SdoAbort write(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
 
+  // Called by the SYNC consumer on every SYNC received (counter 0 when the
+  // SYNC carries no counter, CiA 301 §7.2.5).
+  void on_sync(std::uint8_t counter, TimeUs now);
+  // Application events (CiA 301 §7.2.2.2, types 0/254/255): 1-based TPDO number.
+  void raise_event(unsigned tpdo_number);
+  // Raises an event on every valid event-driven/acyclic TPDO that maps `e`.
+  void raise_event_for(const OdEntry& e);
+
  private:
   Node& node_;
   TimeUs next_ = kNever;
