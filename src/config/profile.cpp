@@ -8,23 +8,34 @@ namespace {
 
 constexpr std::uint32_t kBitRates[] = {1000, 800, 500, 250, 125, 0, 50, 20, 10};
 
-// Integer default with optional $NODEID term: "0x180+$NODEID", "$NODEID + 0x200".
-bool parse_node_id_expr(std::string text, std::int64_t& value, bool& plus_node_id) {
+// Integer default as a sum of literals with an optional node-ID term:
+// "0x180+$NODEID", "$NODEID + 0x200", "0x80000000+0x280+$NODEID".
+bool parse_node_id_expr(const std::string& text, std::int64_t& value, bool& plus_node_id) {
   std::string s;
   for (char c : text)
     if (c != ' ') s += c;
   plus_node_id = false;
-  auto pos = s.find("$NODEID");
-  if (pos == std::string::npos) return parse_int_literal(s, value);
-  plus_node_id = true;
-  std::string rest = s.substr(0, pos) + s.substr(pos + 7);
-  if (rest.empty()) {
-    value = 0;
-    return true;
+  value = 0;
+  if (s.empty()) return false;
+  std::size_t start = 0;
+  while (start <= s.size()) {
+    std::size_t end = s.find('+', start == 0 && (s[0] == '+') ? 1 : start);
+    if (end == std::string::npos) end = s.size();
+    std::string term = s.substr(start, end - start);
+    std::string upper = term;
+    for (char& c : upper) c = char(std::toupper(static_cast<unsigned char>(c)));
+    if (upper == "$NODEID" || upper == "NODEID") {
+      if (plus_node_id) return false;
+      plus_node_id = true;
+    } else {
+      std::int64_t v = 0;
+      if (!parse_int_literal(term, v)) return false;
+      value += v;
+    }
+    if (end == s.size()) break;
+    start = end + 1;
   }
-  if (rest.front() == '+') rest.erase(0, 1);
-  if (!rest.empty() && rest.back() == '+') rest.pop_back();
-  return parse_int_literal(rest, value);
+  return true;
 }
 
 void parse_value(const Where& w, const YAML::Node& n, OdEntry& e, std::vector<std::uint8_t>& out,

@@ -89,3 +89,22 @@ TEST(Profile, GenericProfileLoads) {
 
 }  // namespace
 }  // namespace cansim
+
+namespace cansim {
+namespace {
+TEST(Profile, NodeIdExpressions) {
+  auto p = config::parse_profile(R"(
+node_id: 3
+objects:
+  - {index: 0x1800, sub: 1, type: UNSIGNED32, access: rw, default: 0x80000000+0x280+$NODEID}
+  - {index: 0x1801, sub: 1, type: UNSIGNED32, access: rw, default: "$NODEID + 0x200"}
+  - {index: 0x1802, sub: 1, type: UNSIGNED32, access: rw, default: 0x180+NodeID}
+)");
+  OdValues v(p.layout);
+  v.reset(3);
+  EXPECT_EQ(v.u(0x1800, 1), 0x80000283u);
+  EXPECT_EQ(v.u(0x1801, 1), 0x203u);
+  EXPECT_EQ(v.u(0x1802, 1), 0x183u);
+}
+}  // namespace
+}  // namespace cansim
