@@ -1,17 +1,588 @@
 #include "core/sdo_server.hpp"
 
+#include <algorithm>
+#include <cstdlib>
+#include <cstring>
+
+#include "core/crc16.hpp"
 #include "core/node.hpp"
 
 namespace cansim {
 
-void SdoServer::reset(TimeUs) { next_ = kNever; }
-bool SdoServer::on_frame(const CanFrame&, TimeUs) { return false; }
-void SdoServer::process(TimeUs) {}
-void SdoServer::collect_rx_ids(std::vector<std::uint32_t>&) const {}
-bool SdoServer::owns(std::uint16_t) const { return false; }
+namespace {
+
+// Command byte fields (CiA 301 §7.2.4.3).
+constexpr std::uint8_t ccs(const std::uint8_t* d) { return d[0] >> 5; }
+enum : std::uint8_t {
+  kCcsDownloadSegment = 0,
+  kCcsInitiateDownload = 1,
+  kCcsInitiateUpload = 2,
+  kCcsUploadSegment = 3,
+  kCcsAbort = 4,
+  kCcsBlockUpload = 5,
+  kCcsBlockDownload = 6,
+};
+constexpr std::uint8_t kExpedited = 0x02;   // e bit of an initiate
+constexpr std::uint8_t kSizeBit = 0x01;     // s bit of an initiate
+constexpr std::uint8_t kBlockCrc = 0x04;    // cc / sc bit of a block initiate
+constexpr std::uint8_t kBlockSize = 0x02;   // s bit of a block initiate
+constexpr std::uint8_t kLastSeg = 0x80;     // c bit of a block segment
+constexpr std::uint8_t kMaxBlkSize = 127;   // CiA 301: 0 < blksize < 128
+constexpr std::uint32_t kCobInvalid = 0x80000000u;
+constexpr std::uint32_t kCobExtended = 0x20000000u;
+
+const char* skip_spaces(const char* p) {
+  while (*p == ' ' || *p == ',' || *p == '\t') ++p;
+  return p;
+}
+
+}  // namespace
+
+// ------------------------------------------------------------ option parsers
+
+bool SdoServer::parse_abort_map(const char* text, AbortMap& out) {
+  out = AbortMap{};
+  for (const char* p = skip_spaces(text); *p; p = skip_spaces(p)) {
+    char* end = nullptr;
+    unsigned long from = std::strtoul(p, &end, 0);
+    if (end == p || *end != '=' || out.count == AbortMap::kMax) return false;
+    p = end + 1;
+    unsigned long to = std::strtoul(p, &end, 0);
+    if (end == p || from > 0xFFFFFFFFul || to > 0xFFFFFFFFul) return false;
+    out.from[out.count] = std::uint32_t(from);
+    out.to[out.count++] = std::uint32_t(to);
+    p = end;
+    if (*p && *p != ',' && *p != ' ') return false;
+  }
+  return true;
+}
+
+std::uint32_t SdoServer::AbortMap::apply(std::uint32_t code) const {
+  for (int i = 0; i < count; ++i)
+    if (from[i] == code) return to[i];
+  return code;
+}
+
+bool SdoServer::parse_index_ranges(const char* text, IndexRanges& out) {
+  out = IndexRanges{};
+  for (const char* p = skip_spaces(text); *p; p = skip_spaces(p)) {
+    char* end = nullptr;
+    unsigned long lo = std::strtoul(p, &end, 0);
+    if (end == p || lo > 0xFFFF || out.count == IndexRanges::kMax) return false;
+    unsigned long hi = lo;
+    p = end;
+    if (*p == '-') {
+      ++p;
+      hi = std::strtoul(p, &end, 0);
+      if (end == p || hi < lo || hi > 0xFFFF) return false;
+      p = end;
+    }
+    out.lo[out.count] = std::uint16_t(lo);
+    out.hi[out.count++] = std::uint16_t(hi);
+    if (*p && *p != ',' && *p != ' ') return false;
+  }
+  return true;
+}
+
+bool SdoServer::IndexRanges::contains(std::uint16_t index) const {
+  if (count == 0) return true;
+  for (int i = 0; i < count; ++i)
+    if (index >= lo[i] && index <= hi[i]) return true;
+  return false;
+}
+
+// ------------------------------------------------------------ configuration
+
+void SdoServer::reset(TimeUs) {
+  idle();
+  const NodeOptions& o = node_.options();
+  timeout_ = o.sdo_timeout_ms > 0 ? ms(o.sdo_timeout_ms) : 0;
+  if (!parse_abort_map(o.sdo_abort_map.c_str(), abort_map_)) abort_map_ = AbortMap{};
+  if (!parse_index_ranges(o.sdo_segmented_download_indices.c_str(), seg_dn_indices_))
+    seg_dn_indices_ = IndexRanges{};
+
+  // One buffer for the largest value plus a segment of slack (block download
+  // stores whole 7-byte segments before the end frame says how many count).
+  std::size_t need = 7;
+  for (const OdEntry& e : node_.od().entries()) need = std::max<std::size_t>(need, e.capacity + 7);
+  if (buf_.size() < need) buf_.resize(need);
+
+  load_cob_ids();
+}
+
+// CiA 301 §7.5.2.33: 0x1200:01/02, bit 31 = not valid, bit 29 = 29-bit ID.
+// An LSS-unconfigured node (node-ID 0xFF) has no SDO server.
+void SdoServer::load_cob_ids() {
+  std::uint8_t id = node_.node_id();
+  valid_ = id >= 1 && id <= 127;
+  if (!valid_) return;
+  std::uint32_t rx = 0x600u + id;
+  std::uint32_t tx = 0x580u + id;
+  if (const OdEntry* e = node_.od().find(0x1200, 1)) rx = std::uint32_t(node_.values().get_u(*e));
+  if (const OdEntry* e = node_.od().find(0x1200, 2)) tx = std::uint32_t(node_.values().get_u(*e));
+  valid_ = !(rx & kCobInvalid) && !(tx & kCobInvalid);
+  rx_ext_ = rx & kCobExtended;
+  tx_ext_ = tx & kCobExtended;
+  rx_id_ = rx & (rx_ext_ ? 0x1FFFFFFFu : 0x7FFu);
+  tx_id_ = tx & (tx_ext_ ? 0x1FFFFFFFu : 0x7FFu);
+}
+
+void SdoServer::collect_rx_ids(std::vector<std::uint32_t>& out) const {
+  if (valid_) out.push_back(rx_id_);
+}
+
+bool SdoServer::owns(std::uint16_t index) const { return index == 0x1200; }
+
+// 0x1200:01/02 when a profile makes them writable: the CAN-ID of a valid
+// channel may only change while it is invalid (bit 31 set), as for PDOs.
 SdoAbort SdoServer::write(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs) {
+  if (e.sub == 1 || e.sub == 2) {
+    std::uint32_t v = get_u32(data.data());
+    std::uint32_t old = std::uint32_t(node_.values().get_u(e));
+    bool ext = v & kCobExtended;
+    if (!ext && (v & 0x1FFFF800u)) return SdoAbort::kInvalidValue;
+    bool both_valid = !(v & kCobInvalid) && !(old & kCobInvalid);
+    if (both_valid && (v & 0x3FFFFFFFu) != (old & 0x3FFFFFFFu)) return SdoAbort::kInvalidValue;
+    node_.values().set_bytes(e, data);
+    reload_pending_ = true;  // applied after the confirmation went out
+    if (!in_frame_) apply_reload();
+    return SdoAbort::kNone;
+  }
   node_.values().set_bytes(e, data);
   return SdoAbort::kNone;
+}
+
+void SdoServer::apply_reload() {
+  reload_pending_ = false;
+  load_cob_ids();
+  node_.rx_changed();
+}
+
+// ------------------------------------------------------------ frame entry
+
+bool SdoServer::on_frame(const CanFrame& frame, TimeUs now) {
+  if (!valid_ || frame.id != rx_id_ || frame.extended() != rx_ext_) return false;
+  if (frame.rtr()) return true;
+  // CiA 301 Table 82: no SDO in STOPPED (nor while initialising).
+  if (!node_.allowed(Service::kSdo)) {
+    idle();
+    return true;
+  }
+  if (frame.dlc < node_.options().sdo_min_request_dlc) return true;
+  std::uint8_t d[8] = {};
+  std::memcpy(d, frame.data, std::min<std::size_t>(frame.dlc, 8));
+
+  in_frame_ = true;
+  dispatch(d, now);
+  in_frame_ = false;
+  if (reload_pending_) apply_reload();
+  return true;
+}
+
+void SdoServer::dispatch(Bytes d, TimeUs now) {
+  // A client abort ends any transfer silently. Inside a block-download
+  // sub-block byte 0 is c|seqno, where 0x80 (seqno 0) can only be an abort.
+  bool client_abort = state_ == State::kBlockDownloadSub ? d[0] == 0x80 : ccs(d) == kCcsAbort;
+  if (client_abort) {
+    idle();
+    return;
+  }
+  switch (state_) {
+    case State::kIdle: return on_idle(d, now);
+    case State::kDownloadSegment: return on_download_segment(d, now);
+    case State::kUploadSegment: return on_upload_segment(d, now);
+    case State::kBlockDownloadSub: return on_block_download_segment(d, now);
+    case State::kBlockDownloadEnd: return on_block_download_end(d, now);
+    case State::kBlockUploadStart: return on_block_upload_start(d, now);
+    case State::kBlockUploadAck: return on_block_upload_ack(d, now);
+    case State::kBlockUploadEnd: return on_block_upload_end(d, now);
+  }
+}
+
+void SdoServer::process(TimeUs now) {
+  if (state_ == State::kIdle || now < deadline_) return;
+  if (node_.allowed(Service::kSdo))
+    abort(SdoAbort::kTimeout);
+  else
+    idle();
+}
+
+// ------------------------------------------------------------ idle: initiates
+
+void SdoServer::on_idle(Bytes d, TimeUs now) {
+  index_ = get_u16(d + 1);
+  sub_ = d[3];
+  switch (ccs(d)) {
+    case kCcsInitiateDownload: return initiate_download(d, now);
+    case kCcsInitiateUpload: return initiate_upload(d, now);
+    case kCcsBlockUpload:
+      if ((d[0] & 0x03) == 0) return initiate_block_upload(d, now);
+      break;
+    case kCcsBlockDownload:
+      if ((d[0] & 0x01) == 0) return initiate_block_download(d, now);
+      break;
+    default:
+      break;
+  }
+  // Not an initiate: bytes 1..3 are no multiplexer, answer with 0000:00.
+  index_ = 0;
+  sub_ = 0;
+  abort(SdoAbort::kCommandSpecifier);
+}
+
+const OdEntry* SdoServer::find_entry() {
+  SdoAbort why = SdoAbort::kNone;
+  const OdEntry* e = node_.od().lookup(index_, sub_, why);
+  if (!e) abort(why);
+  return e;
+}
+
+bool SdoServer::refuse(bool allowed) {
+  if (allowed) return false;
+  abort(std::uint32_t(node_.options().sdo_refusal_abort), index_, sub_);
+  return true;
+}
+
+bool SdoServer::segmented_download_allowed() const {
+  const NodeOptions& o = node_.options();
+  return o.sdo_segmented_download && !o.sdo_expedited_only;
+}
+
+bool SdoServer::block_allowed() const {
+  const NodeOptions& o = node_.options();
+  return o.sdo_block_transfer && !o.sdo_expedited_only;
+}
+
+// Checks before a segmented or block download is accepted.
+const OdEntry* SdoServer::download_target() {
+  const OdEntry* e = find_entry();
+  if (!e) return nullptr;
+  if (!writable(e->access)) {
+    abort(SdoAbort::kReadOnly);
+    return nullptr;
+  }
+  // Vendor quirk: multi-frame writes only to some objects (0x06010000).
+  if (!seg_dn_indices_.contains(index_)) {
+    abort(SdoAbort::kUnsupportedAccess);
+    return nullptr;
+  }
+  return e;
+}
+
+SdoAbort SdoServer::check_download_size(const OdEntry& e, std::uint32_t size) {
+  std::size_t fixed = type_size(e.type);
+  std::size_t limit = fixed ? fixed : e.capacity;
+  if (size > limit) return SdoAbort::kLengthTooHigh;
+  if (fixed && size < fixed) return SdoAbort::kLengthTooLow;
+  return SdoAbort::kNone;
+}
+
+// Expedited download without size indication: how many of the 4 bytes count.
+static std::size_t unspecified_length(const OdEntry& e, const std::uint8_t* data) {
+  std::size_t fixed = type_size(e.type);
+  if (fixed) return std::min<std::size_t>(fixed, 4);
+  if (e.type == DataType::kVisibleString) {
+    std::size_t n = 0;
+    while (n < 4 && data[n]) ++n;
+    return std::min<std::size_t>(n, e.capacity);
+  }
+  return std::min<std::size_t>(4, e.capacity);
+}
+
+void SdoServer::initiate_download(Bytes d, TimeUs now) {
+  if (!(d[0] & kExpedited) && refuse(segmented_download_allowed())) return;
+  const OdEntry* e = (d[0] & kExpedited) ? find_entry() : download_target();
+  if (!e) return;
+  if (d[0] & kExpedited) {
+    std::size_t n = (d[0] & kSizeBit) ? 4u - ((d[0] >> 2) & 0x03u) : unspecified_length(*e, d + 4);
+    SdoAbort result = node_.write(*e, {d + 4, n}, now);
+    if (!ok(result)) return abort(result);
+    return send_initiate_response(0x60);
+  }
+  entry_ = e;
+  size_indicated_ = d[0] & kSizeBit;
+  indicated_ = size_indicated_ ? get_u32(d + 4) : 0;
+  if (size_indicated_) {
+    if (SdoAbort a = check_download_size(*e, indicated_); !ok(a)) return abort(a);
+  }
+  size_ = 0;
+  toggle_ = 0;
+  start(State::kDownloadSegment, now);
+  send_initiate_response(0x60);
+}
+
+void SdoServer::initiate_upload(Bytes, TimeUs now) {
+  const OdEntry* e = find_entry();
+  if (!e || !snapshot(*e, now)) return;
+  answer_upload(now);
+}
+
+bool SdoServer::snapshot(const OdEntry& e, TimeUs now) {
+  std::span<const std::uint8_t> value;
+  SdoAbort result = node_.read(e, now, value);
+  if (!ok(result)) {
+    abort(result);
+    return false;
+  }
+  size_ = std::uint32_t(std::min(value.size(), buf_.size()));
+  if (size_) std::memcpy(buf_.data(), value.data(), size_);
+  entry_ = &e;
+  return true;
+}
+
+// First answer to an upload: the value itself when it fits in 4 bytes
+// (expedited), else the segmented initiate response with the size.
+void SdoServer::answer_upload(TimeUs now) {
+  const NodeOptions& o = node_.options();
+  if (size_ <= 4) {
+    std::uint8_t cs = 0x42;
+    if (size_ > 0 && o.sdo_upload_size_indicated) cs |= kSizeBit | std::uint8_t((4 - size_) << 2);
+    if (o.sdo_upload_response_0x60) cs = 0x60;  // vendor quirk (not CiA 301)
+    send_initiate_response(cs, buf_.data(), int(size_));
+    return idle();
+  }
+  if (!o.sdo_segmented_upload || o.sdo_expedited_only)
+    return abort(std::uint32_t(o.sdo_long_upload_abort), index_, sub_);
+  std::uint8_t size[4] = {};
+  std::uint8_t cs = 0x40;
+  if (o.sdo_upload_size_indicated) {
+    cs |= kSizeBit;
+    put_u32(size, size_);
+  }
+  offset_ = 0;
+  toggle_ = 0;
+  start(State::kUploadSegment, now);
+  send_initiate_response(cs, size, 4);
+}
+
+void SdoServer::initiate_block_download(Bytes d, TimeUs now) {
+  if (refuse(block_allowed())) return;
+  const OdEntry* e = download_target();
+  if (!e) return;
+  entry_ = e;
+  size_indicated_ = d[0] & kBlockSize;
+  indicated_ = size_indicated_ ? get_u32(d + 4) : 0;
+  if (size_indicated_) {
+    if (SdoAbort a = check_download_size(*e, indicated_); !ok(a)) return abort(a);
+  }
+  crc_ = d[0] & kBlockCrc;
+  blksize_ = kMaxBlkSize;
+  seqno_ = 0;
+  size_ = 0;
+  last_segment_ = false;
+  start(State::kBlockDownloadSub, now);
+  std::uint8_t blk = blksize_;
+  send_initiate_response(0xA0 | kBlockCrc, &blk, 1);
+}
+
+void SdoServer::initiate_block_upload(Bytes d, TimeUs now) {
+  if (refuse(block_allowed())) return;
+  const OdEntry* e = find_entry();
+  if (!e) return;
+  std::uint8_t blk = d[4];
+  std::uint8_t pst = d[5];
+  if (blk == 0 || blk > kMaxBlkSize) return abort(SdoAbort::kBlockSize);
+  if (!snapshot(*e, now)) return;
+  // CiA 301 §7.2.4.3.13: protocol switch threshold, the server may answer
+  // with a normal (expedited / segmented) upload instead.
+  if (pst != 0 && size_ <= pst) return answer_upload(now);
+  crc_ = d[0] & kBlockCrc;
+  blksize_ = blk;
+  offset_ = 0;
+  std::uint8_t size[4] = {};
+  std::uint8_t cs = 0xC0 | kBlockCrc;
+  if (node_.options().sdo_upload_size_indicated) {
+    cs |= kBlockSize;
+    put_u32(size, size_);
+  }
+  start(State::kBlockUploadStart, now);
+  send_initiate_response(cs, size, 4);
+}
+
+// ------------------------------------------------------------ segmented
+
+void SdoServer::on_download_segment(Bytes d, TimeUs now) {
+  if (ccs(d) != kCcsDownloadSegment) return abort(SdoAbort::kCommandSpecifier);
+  if ((d[0] & 0x10) != toggle_) return abort(SdoAbort::kToggleBit);
+  std::uint32_t n = 7u - ((d[0] >> 1) & 0x07u);
+  std::uint32_t limit = size_indicated_ ? indicated_ : entry_->capacity;
+  if (size_ + n > limit) return abort(SdoAbort::kLengthTooHigh);
+  std::memcpy(buf_.data() + size_, d + 1, n);
+  size_ += n;
+  std::uint8_t confirm = 0x20 | toggle_;
+  toggle_ ^= 0x10;
+  if (d[0] & 0x01) return finish_download(now, confirm);
+  touch(now);
+  send_command(confirm);
+}
+
+void SdoServer::on_upload_segment(Bytes d, TimeUs now) {
+  if (ccs(d) != kCcsUploadSegment) return abort(SdoAbort::kCommandSpecifier);
+  if ((d[0] & 0x10) != toggle_) return abort(SdoAbort::kToggleBit);
+  std::uint32_t n = std::min<std::uint32_t>(7, size_ - offset_);
+  bool last = offset_ + n == size_;
+  std::uint8_t cs = std::uint8_t(toggle_ | ((7 - n) << 1) | (last ? 1 : 0));
+  send_segment(cs, buf_.data() + offset_, int(n));
+  offset_ += n;
+  toggle_ ^= 0x10;
+  if (last) return idle();
+  touch(now);
+}
+
+// The assembled value is written once, then confirmed with `confirm`.
+void SdoServer::finish_download(TimeUs now, std::uint8_t confirm) {
+  if (size_indicated_ && size_ != indicated_)
+    return abort(size_ < indicated_ ? SdoAbort::kLengthTooLow : SdoAbort::kLengthTooHigh);
+  SdoAbort result = node_.write(*entry_, {buf_.data(), size_}, now);
+  if (!ok(result)) return abort(result);
+  idle();
+  send_command(confirm);
+}
+
+// ------------------------------------------------------------ block download
+
+void SdoServer::on_block_download_segment(Bytes d, TimeUs now) {
+  std::uint8_t seq = d[0] & 0x7F;
+  if (seq == 0) return abort(SdoAbort::kSequenceNumber);
+  touch(now);
+  if (seq == seqno_ + 1 && seq <= blksize_) {
+    std::uint32_t limit = size_indicated_ ? indicated_ : entry_->capacity;
+    if (size_ >= limit) return abort(SdoAbort::kLengthTooHigh);  // no room for >= 1 byte
+    std::memcpy(buf_.data() + size_, d + 1, 7);
+    size_ += 7;
+    seqno_ = seq;
+    if (d[0] & kLastSeg) {
+      last_segment_ = true;
+      return send_block_download_ack();
+    }
+    if (seq == blksize_) send_block_download_ack();
+    return;
+  }
+  // Duplicate, or a frame before the (re)started sequence: ignore. A gap:
+  // break the sub-block and acknowledge the last good segment; the client
+  // resends from there, numbered from 1 again.
+  if (seq == seqno_ || seqno_ == 0) return;
+  send_block_download_ack();
+}
+
+void SdoServer::send_block_download_ack() {
+  std::uint8_t d[8] = {0xA2, seqno_, blksize_};
+  send_raw(d);
+  seqno_ = 0;
+  if (last_segment_) state_ = State::kBlockDownloadEnd;
+}
+
+void SdoServer::on_block_download_end(Bytes d, TimeUs now) {
+  if ((d[0] & 0xE3) != 0xC1) return abort(SdoAbort::kCommandSpecifier);
+  std::uint32_t unused = (d[0] >> 2) & 0x07u;
+  if (unused == 7 || unused > size_) return abort(SdoAbort::kCommandSpecifier);
+  size_ -= unused;
+  if (crc_ && crc16_ccitt({buf_.data(), size_}) != get_u16(d + 1)) return abort(SdoAbort::kCrc);
+  finish_download(now, 0xA1);
+}
+
+// ------------------------------------------------------------ block upload
+
+void SdoServer::on_block_upload_start(Bytes d, TimeUs now) {
+  if ((d[0] & 0xE3) != 0xA3) return abort(SdoAbort::kCommandSpecifier);
+  send_block_upload_sub(now);
+}
+
+// Sends up to blksize_ segments from offset_; seqno_ counts them.
+void SdoServer::send_block_upload_sub(TimeUs now) {
+  seqno_ = 0;
+  last_segment_ = false;
+  std::uint32_t pos = offset_;
+  while (seqno_ < blksize_ && !last_segment_) {
+    std::uint32_t n = std::min<std::uint32_t>(7, size_ - pos);
+    last_segment_ = pos + n >= size_;
+    ++seqno_;
+    send_segment(std::uint8_t((last_segment_ ? kLastSeg : 0) | seqno_), buf_.data() + pos, int(n));
+    pos += n;
+  }
+  state_ = State::kBlockUploadAck;
+  touch(now);
+}
+
+void SdoServer::on_block_upload_ack(Bytes d, TimeUs now) {
+  if ((d[0] & 0xE3) != 0xA2) return abort(SdoAbort::kCommandSpecifier);
+  std::uint8_t ackseq = d[1];
+  std::uint8_t blk = d[2];
+  if (ackseq > seqno_) return abort(SdoAbort::kSequenceNumber);
+  if (blk == 0 || blk > kMaxBlkSize) return abort(SdoAbort::kBlockSize);
+  offset_ = std::min<std::uint32_t>(size_, offset_ + 7u * ackseq);
+  blksize_ = blk;
+  if (last_segment_ && ackseq == seqno_) return send_block_upload_end(now);
+  send_block_upload_sub(now);  // the rest, or a resend after ackseq
+}
+
+void SdoServer::send_block_upload_end(TimeUs now) {
+  // n = bytes of the last segment that carry no data (CiA 301 §7.2.4.3.15).
+  std::uint32_t unused = size_ == 0 ? 7 : (7 - size_ % 7) % 7;
+  std::uint8_t d[8] = {std::uint8_t(0xC1 | (unused << 2))};
+  if (crc_) put_u16(d + 1, crc16_ccitt({buf_.data(), size_}));
+  send_raw(d);
+  state_ = State::kBlockUploadEnd;
+  touch(now);
+}
+
+void SdoServer::on_block_upload_end(Bytes d, TimeUs) {
+  if ((d[0] & 0xE3) != 0xA1) return abort(SdoAbort::kCommandSpecifier);
+  idle();
+}
+
+// ------------------------------------------------------------ state, frames
+
+void SdoServer::start(State s, TimeUs now) {
+  state_ = s;
+  touch(now);
+}
+
+void SdoServer::touch(TimeUs now) { deadline_ = timeout_ > 0 ? now + timeout_ : kNever; }
+
+void SdoServer::idle() {
+  state_ = State::kIdle;
+  deadline_ = kNever;
+  entry_ = nullptr;
+}
+
+void SdoServer::abort(SdoAbort code) { abort(std::uint32_t(code), index_, sub_); }
+
+void SdoServer::abort(std::uint32_t code, std::uint16_t index, std::uint8_t sub) {
+  idle();
+  std::uint8_t d[8] = {0x80};
+  put_u16(d + 1, index);
+  d[3] = sub;
+  put_u32(d + 4, abort_map_.apply(code));
+  send_raw(d);
+}
+
+void SdoServer::send_initiate_response(std::uint8_t cs, const std::uint8_t* payload, int n) {
+  std::uint8_t d[8] = {cs};
+  put_u16(d + 1, index_);
+  d[3] = sub_;
+  if (n > 0) std::memcpy(d + 4, payload, std::size_t(std::min(n, 4)));
+  send_raw(d);
+}
+
+void SdoServer::send_segment(std::uint8_t cs, const std::uint8_t* payload, int n) {
+  std::uint8_t d[8] = {cs};
+  if (n > 0) std::memcpy(d + 1, payload, std::size_t(std::min(n, 7)));
+  send_raw(d);
+}
+
+void SdoServer::send_command(std::uint8_t cs) {
+  std::uint8_t d[8] = {cs};
+  send_raw(d);
+}
+
+void SdoServer::send_raw(const std::uint8_t* d) {
+  CanFrame f;
+  f.id = tx_id_;
+  f.dlc = 8;
+  f.flags = tx_ext_ ? CanFrame::kExtended : 0;
+  std::memcpy(f.data, d, 8);
+  node_.send(f);
 }
 
 }  // namespace cansim

@@ -1,6 +1,38 @@
-// SDO server (CiA 301 §7.2.4): expedited, segmented and block transfers on 0x1200.
+// SDO server (CiA 301 §7.2.4): expedited, segmented and block transfers on the
+// default server channel 0x1200.
+//
+// Decisions where CiA 301 leaves room (documented here once):
+// - Requests must have DLC 8 (CiA 301 §7.2.4.3: every SDO frame carries 8
+//   bytes); shorter ones are ignored without answer, like CANopenNode.
+//   Option sdo_min_request_dlc lowers the limit for vendors that accept short
+//   frames (missing bytes read as 0). RTR frames are ignored.
+// - Expedited download without size indication (e=1, s=0): the 4 data bytes
+//   carry "an unspecified number of bytes"; the server takes the object's own
+//   length when it is 1..4 bytes (low bytes, rest ignored), the text up to the
+//   first NUL (at most 4 bytes) for VISIBLE_STRING, and 4 bytes otherwise (so an
+//   8-byte object answers 0x06070013). With size indication, the indicated size
+//   is compared: longer 0x06070012, shorter 0x06070013 (strings/DOMAIN may be
+//   shorter than their capacity).
+// - A frame that does not fit the running transfer (e.g. a new initiate while
+//   a segmented transfer runs) aborts the running transfer with 0x05040001
+//   (command specifier not valid in this state) and the server returns to
+//   idle; the new request is not started (the client retries). This is the
+//   CiA 301 state-machine reading (Lely, CANopenNode v4); old CANopenNode
+//   started a new transfer instead.
+// - An abort from the client ends the transfer silently (no reply).
+// - Uploads are snapshotted at initiate into a per-node buffer sized at reset
+//   from the largest entry of the layout; downloads are assembled there and
+//   written once complete (one Node::write). No allocation after reset.
+// - An empty value is uploaded expedited without size indication (0x42, data 0).
+// - Block transfer: the server always supports CRC; CRC is used only when the
+//   client sets its CRC bit too. Server block size is 127. In a sub-block,
+//   duplicates and frames before the sequence start are ignored, a gap breaks
+//   the sub-block and the last good segment is acknowledged; seqno 0 aborts
+//   with 0x05040003, as does an upload ackseq above the segments sent.
+// - sdo_timeout_ms <= 0 disables the protocol timeout.
 #pragma once
 
+#include <cstdint>
 #include <span>
 #include <vector>
 
@@ -18,19 +50,130 @@ class SdoServer {
   void reset(TimeUs now);
   // Returns true when the frame was addressed to this service.
   bool on_frame(const CanFrame& frame, TimeUs now);
-  // Runs the work due at or before now.
+  // Runs the work due at or before now (the protocol timeout).
   void process(TimeUs now);
-  TimeUs next_deadline() const { return next_; }
+  TimeUs next_deadline() const { return deadline_; }
   // COB-IDs this service wants to receive (for the bus dispatcher).
   void collect_rx_ids(std::vector<std::uint32_t>& out) const;
-  // True for OD indices whose remote writes this service handles itself.
+  // True for OD indices whose remote writes this service handles itself (0x1200).
   bool owns(std::uint16_t index) const;
   // A checked remote write of an owned entry: validate, store, react.
   SdoAbort write(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
 
+  // ---- inspection (tests, daemon statistics)
+  bool enabled() const { return valid_; }
+  bool busy() const { return state_ != State::kIdle; }
+  std::uint32_t rx_cob_id() const { return rx_id_; }
+  std::uint32_t tx_cob_id() const { return tx_id_; }
+  std::size_t buffer_bytes() const { return buf_.size(); }
+
+  // Parsers for the string options (also usable by the profile loader to
+  // validate them). Return false on a syntax error.
+  struct AbortMap {
+    static constexpr int kMax = 16;
+    std::uint32_t from[kMax] = {};
+    std::uint32_t to[kMax] = {};
+    int count = 0;
+    std::uint32_t apply(std::uint32_t code) const;
+  };
+  struct IndexRanges {
+    static constexpr int kMax = 16;
+    std::uint16_t lo[kMax] = {};
+    std::uint16_t hi[kMax] = {};
+    int count = 0;  // 0 = every index
+    bool contains(std::uint16_t index) const;
+  };
+  static bool parse_abort_map(const char* text, AbortMap& out);
+  static bool parse_index_ranges(const char* text, IndexRanges& out);
+
  private:
+  enum class State : std::uint8_t {
+    kIdle,
+    kDownloadSegment,    // segmented download: waiting for the next segment
+    kUploadSegment,      // segmented upload: waiting for the next segment request
+    kBlockDownloadSub,   // block download: receiving a sub-block
+    kBlockDownloadEnd,   // block download: waiting for the end request
+    kBlockUploadStart,   // block upload: waiting for the client's start (0xA3)
+    kBlockUploadAck,     // block upload: sub-block sent, waiting for its ack
+    kBlockUploadEnd,     // block upload: end sent, waiting for the end response
+  };
+
+  using Bytes = const std::uint8_t*;  // an 8-byte request, zero-padded
+
+  // Dispatch per state (small handlers, one per protocol step).
+  void on_idle(Bytes d, TimeUs now);
+  void on_download_segment(Bytes d, TimeUs now);
+  void on_upload_segment(Bytes d, TimeUs now);
+  void on_block_download_segment(Bytes d, TimeUs now);
+  void on_block_download_end(Bytes d, TimeUs now);
+  void on_block_upload_start(Bytes d, TimeUs now);
+  void on_block_upload_ack(Bytes d, TimeUs now);
+  void on_block_upload_end(Bytes d, TimeUs now);
+
+  void dispatch(Bytes d, TimeUs now);
+  void initiate_download(Bytes d, TimeUs now);
+  void initiate_upload(Bytes d, TimeUs now);
+  void initiate_block_download(Bytes d, TimeUs now);
+  void initiate_block_upload(Bytes d, TimeUs now);
+
+  void load_cob_ids();
+  void apply_reload();
+  // Looks up index_/sub_; sends the abort and returns null on failure.
+  const OdEntry* find_entry();
+  // Entry checks before a segmented / block download is accepted.
+  const OdEntry* download_target();
+  // Sends the option's refusal abort when `allowed` is false.
+  bool refuse(bool allowed);
+  bool segmented_download_allowed() const;
+  bool block_allowed() const;
+  static SdoAbort check_download_size(const OdEntry& e, std::uint32_t size);
+  // Snapshots the entry's value into buf_ (size_); false after an abort.
+  bool snapshot(const OdEntry& e, TimeUs now);
+  // First answer to an upload (expedited value, or segmented initiate).
+  void answer_upload(TimeUs now);
+  void finish_download(TimeUs now, std::uint8_t confirm);
+  void send_block_download_ack();
+  void send_block_upload_sub(TimeUs now);
+  void send_block_upload_end(TimeUs now);
+
+  void send_initiate_response(std::uint8_t cs, const std::uint8_t* payload = nullptr, int n = 0);
+  void send_segment(std::uint8_t cs, const std::uint8_t* payload, int n);
+  void send_command(std::uint8_t cs);
+  void send_raw(const std::uint8_t* d);
+  void abort(SdoAbort code);
+  void abort(std::uint32_t code, std::uint16_t index, std::uint8_t sub);
+  void start(State s, TimeUs now);
+  void touch(TimeUs now);
+  void idle();
+
   Node& node_;
-  TimeUs next_ = kNever;
+  // configuration (reset)
+  bool valid_ = false;
+  bool rx_ext_ = false;
+  bool tx_ext_ = false;
+  bool in_frame_ = false;
+  bool reload_pending_ = false;  // 0x1200 changed: reload after the reply
+  std::uint32_t rx_id_ = 0;
+  std::uint32_t tx_id_ = 0;
+  TimeUs timeout_ = 0;
+  AbortMap abort_map_;
+  IndexRanges seg_dn_indices_;
+  // transfer
+  State state_ = State::kIdle;
+  TimeUs deadline_ = kNever;
+  const OdEntry* entry_ = nullptr;
+  std::uint16_t index_ = 0;
+  std::uint8_t sub_ = 0;
+  std::uint8_t toggle_ = 0;        // 0x00 / 0x10, as in the command byte
+  bool size_indicated_ = false;
+  bool crc_ = false;               // block: both sides use the CRC
+  std::uint8_t blksize_ = 0;       // block: current sub-block size
+  std::uint8_t seqno_ = 0;         // block download: last good seqno; upload: segments sent
+  bool last_segment_ = false;      // block: the final segment was received / sent
+  std::uint32_t indicated_ = 0;    // download: size the client indicated
+  std::uint32_t size_ = 0;         // bytes in buf_ (upload: total; download: received)
+  std::uint32_t offset_ = 0;       // upload: bytes confirmed by the client
+  std::vector<std::uint8_t> buf_;  // sized at reset: largest entry + one segment
 };
 
 }  // namespace cansim
