@@ -1,0 +1,470 @@
+#include "physics/process.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "physics/random.hpp"
+
+namespace cansim::physics {
+
+namespace {
+constexpr double kTwoPi = 6.283185307179586476925286766559;
+constexpr double kSettleDecades = 40.0;    // e^-40 ~ 4e-18: older events have settled
+constexpr std::size_t kMaxEvents = 4096;   // bound on superposed events per evaluation
+
+double frac(double x) noexcept { return x - std::floor(x); }
+}  // namespace
+
+// ------------------------------------------------------------------ closed forms
+
+namespace response {
+
+double first_order_free(double tau, double T) noexcept { return std::exp(-tau / T); }
+
+double first_order_integral(double tau, double T) noexcept { return -T * std::expm1(-tau / T); }
+
+double second_order_free(double tau, double w, double zeta) noexcept {
+  if (std::abs(zeta - 1.0) < 1e-9) return std::exp(-w * tau) * (1.0 + w * tau);
+  if (zeta < 1.0) {
+    const double a = zeta * w;
+    const double b = w * std::sqrt(1.0 - zeta * zeta);
+    return std::exp(-a * tau) * (std::cos(b * tau) + (a / b) * std::sin(b * tau));
+  }
+  const double r = std::sqrt(zeta * zeta - 1.0);
+  const double p2 = w * (zeta + r);
+  const double p1 = w * w / p2;
+  return (p2 * std::exp(-p1 * tau) - p1 * std::exp(-p2 * tau)) / (p2 - p1);
+}
+
+double second_order_integral(double tau, double w, double zeta) noexcept {
+  if (std::abs(zeta - 1.0) < 1e-9) {
+    const double e = std::exp(-w * tau);
+    return (2.0 / w) * (-std::expm1(-w * tau)) - tau * e;
+  }
+  if (zeta < 1.0) {
+    const double a = zeta * w;
+    const double b = w * std::sqrt(1.0 - zeta * zeta);
+    const double e = std::exp(-a * tau);
+    const double c = std::cos(b * tau);
+    const double s = std::sin(b * tau);
+    const double w2 = w * w;
+    const double ic = (a - e * (a * c - b * s)) / w2;
+    const double is = (b - e * (a * s + b * c)) / w2;
+    return ic + (a / b) * is;
+  }
+  const double r = std::sqrt(zeta * zeta - 1.0);
+  const double p2 = w * (zeta + r);
+  const double p1 = w * w / p2;
+  return (p2 * (-std::expm1(-p1 * tau)) / p1 - p1 * (-std::expm1(-p2 * tau)) / p2) / (p2 - p1);
+}
+
+}  // namespace response
+
+// ------------------------------------------------------------------ compiled terms
+
+namespace {
+
+struct CConst {
+  double v;
+  double eval(double) const noexcept { return v; }
+};
+
+struct CRamp {
+  RampSpec s;
+  double eval(double t) const noexcept {
+    if (t < s.start_s) return s.from;
+    if (s.duration_s <= 0 || t >= s.start_s + s.duration_s) return s.to;
+    return s.from + (s.to - s.from) * (t - s.start_s) / s.duration_s;
+  }
+};
+
+struct CTable {
+  Table table;
+  double eval(double t) const noexcept { return table.value(t); }
+};
+
+struct CSine {
+  double amplitude, freq, phase_cycles;
+  double eval(double t) const noexcept {
+    return amplitude * std::sin(kTwoPi * frac(freq * t + phase_cycles));
+  }
+};
+
+struct CPulse {
+  PulseSpec s;
+  double eval(double t) const noexcept {
+    if (t < s.delay_s) return s.low;
+    const double tau = std::fmod(t - s.delay_s, s.period_s);
+    const double high_end = s.duty * s.period_s;  // start of the falling edge
+    if (tau < s.rise_s) return s.low + (s.high - s.low) * tau / s.rise_s;
+    if (tau < high_end) return s.high;
+    if (tau < high_end + s.fall_s) return s.high + (s.low - s.high) * (tau - high_end) / s.fall_s;
+    return s.low;
+  }
+};
+
+struct CPulsation {
+  struct H {
+    double order;
+    double a_cos_phi;  // amplitude * cos(phase): coefficient of sin(k theta)
+    double a_sin_phi;  // amplitude * sin(phase): coefficient of cos(k theta)
+    int int_order;     // > 0 if order is a small positive integer
+  };
+  double shaft_hz;
+  std::vector<H> h;
+  int max_int_order = 0;
+  double eval(double t) const noexcept {
+    double sum = 0.0;
+    const double cyc = shaft_hz * t;
+    if (max_int_order > 0) {
+      const double th = kTwoPi * frac(cyc);
+      const double s1 = std::sin(th);
+      const double c1 = std::cos(th);
+      // sin(k th), cos(k th) by the angle-addition recurrence; harmonics sorted by order.
+      double sk = s1, ck = c1;
+      int k = 1;
+      for (const auto& x : h) {
+        if (x.int_order <= 0) continue;
+        while (k < x.int_order) {
+          const double sn = sk * c1 + ck * s1;
+          ck = ck * c1 - sk * s1;
+          sk = sn;
+          ++k;
+        }
+        sum += x.a_cos_phi * sk + x.a_sin_phi * ck;
+      }
+    }
+    for (const auto& x : h) {
+      if (x.int_order > 0) continue;
+      const double th = kTwoPi * frac(cyc * x.order);
+      sum += x.a_cos_phi * std::sin(th) + x.a_sin_phi * std::cos(th);
+    }
+    return sum;
+  }
+};
+
+struct CResponse {
+  Table sp;
+  bool second;
+  double T = 1, w = 1, zeta = 1;
+  double window = 1;
+  double e_inf = 0;
+  double initial = kNaN;
+  double init_delta = 0;  // initial - base(0)
+
+  double free(double tau) const noexcept {
+    return second ? response::second_order_free(tau, w, zeta) : response::first_order_free(tau, T);
+  }
+  double integral(double tau) const noexcept {
+    return second ? response::second_order_integral(tau, w, zeta)
+                  : response::first_order_integral(tau, T);
+  }
+  double base(double t) const noexcept {
+    double y = sp.value(t) - e_inf * sp.slope(t - window);
+    sp.for_each_event_back(t, window, kMaxEvents, [&](const TableEvent& ev) {
+      const double age = t - ev.t_s;
+      if (ev.step != 0.0) y -= ev.step * free(age);
+      if (ev.slope != 0.0) y -= ev.slope * integral(age);
+    });
+    return y;
+  }
+  double eval(double t) const noexcept {
+    if (std::isnan(initial)) return base(t);
+    if (t <= 0) return initial;
+    return base(t) + init_delta * free(t);
+  }
+};
+
+struct CRandomWalk {
+  RandomWalkSpec s;
+  std::uint64_t key;
+  double x, t_last;
+  std::uint64_t counter;
+  void reset() noexcept { x = s.initial; t_last = 0; counter = 0; }
+  double eval(double t) noexcept {
+    if (t > t_last) {
+      const double dt = t - t_last;
+      x += s.drift_per_s * dt + s.sigma_per_sqrt_s * std::sqrt(dt) * counter_normal(key, counter++);
+      x = std::clamp(x, s.min, s.max);
+      t_last = t;
+    }
+    return x;
+  }
+};
+
+struct COU {
+  OrnsteinUhlenbeckSpec s;
+  std::uint64_t key;
+  double x, t_last;
+  std::uint64_t counter;
+  void reset() noexcept { x = std::isnan(s.initial) ? s.mean : s.initial; t_last = 0; counter = 0; }
+  double eval(double t) noexcept {
+    if (t > t_last) {
+      const double dt = t - t_last;
+      const double e = std::exp(-dt / s.tau_s);
+      const double sd = s.sigma * std::sqrt(-std::expm1(-2.0 * dt / s.tau_s));
+      x = s.mean + (x - s.mean) * e + sd * counter_normal(key, counter++);
+      t_last = t;
+    }
+    return x;
+  }
+};
+
+struct CGasLaw {
+  double ratio;  // p_ref / T_ref
+};
+
+using Compiled = std::variant<CConst, CRamp, CTable, CSine, CPulse, CPulsation, CResponse, CRandomWalk, COU,
+                              CGasLaw>;
+
+}  // namespace
+
+struct ProcessModel::Term {
+  Compiled c;
+};
+
+namespace {
+
+template <class... Ts>
+struct overloaded : Ts... {
+  using Ts::operator()...;
+};
+template <class... Ts>
+overloaded(Ts...) -> overloaded<Ts...>;
+
+CResponse make_response(const TableSpec& sp, bool second, double T, double fn, double zeta, double initial) {
+  CResponse r{Table(sp), second};
+  if (second) {
+    r.w = kTwoPi * fn;
+    r.zeta = zeta;
+    double rate;
+    if (zeta < 1.0) rate = zeta * r.w;
+    else rate = r.w * r.w / (r.w * (zeta + std::sqrt(zeta * zeta - 1.0)));  // slowest pole
+    r.window = kSettleDecades / rate;
+    r.e_inf = 2.0 * zeta / r.w;
+  } else {
+    r.T = T;
+    r.window = kSettleDecades * T;
+    r.e_inf = T;
+  }
+  r.initial = initial;
+  if (!std::isnan(initial)) r.init_delta = initial - r.base(0.0);
+  return r;
+}
+
+Compiled compile(const TermSpec& ts, std::uint64_t key) {
+  return std::visit(
+      overloaded{
+          [](const ConstantSpec& s) -> Compiled { return CConst{s.value}; },
+          [](const RampSpec& s) -> Compiled { return CRamp{s}; },
+          [](const TableTermSpec& s) -> Compiled { return CTable{Table(s.table)}; },
+          [](const SineSpec& s) -> Compiled {
+            return CSine{s.amplitude, s.frequency_hz, s.phase_rad / kTwoPi};
+          },
+          [](const PulseSpec& s) -> Compiled { return CPulse{s}; },
+          [](const PulsationSpec& s) -> Compiled {
+            CPulsation p{s.shaft_hz, {}};
+            for (const auto& h : s.harmonics) {
+              const double r = std::round(h.order);
+              const int io = (r == h.order && r >= 1 && r <= 256) ? static_cast<int>(r) : 0;
+              p.h.push_back({h.order, h.amplitude * std::cos(h.phase_rad), h.amplitude * std::sin(h.phase_rad), io});
+              p.max_int_order = std::max(p.max_int_order, io);
+            }
+            std::stable_sort(p.h.begin(), p.h.end(), [](const auto& a, const auto& b) { return a.int_order < b.int_order; });
+            return p;
+          },
+          [](const FirstOrderSpec& s) -> Compiled {
+            return make_response(s.setpoint, false, s.time_constant_s, 0, 0, s.initial);
+          },
+          [](const SecondOrderSpec& s) -> Compiled {
+            return make_response(s.setpoint, true, 0, s.natural_frequency_hz, s.damping, s.initial);
+          },
+          [key](const RandomWalkSpec& s) -> Compiled {
+            CRandomWalk r{s, key, 0, 0, 0};
+            r.reset();
+            return r;
+          },
+          [key](const OrnsteinUhlenbeckSpec& s) -> Compiled {
+            COU r{s, key, 0, 0, 0};
+            r.reset();
+            return r;
+          },
+          [](const GasLawSpec& s) -> Compiled {
+            return CGasLaw{s.reference_pressure_pa / s.reference_temperature_k};
+          },
+      },
+      ts);
+}
+
+double eval_term(ProcessModel::Term& term, double t, double temperature) noexcept {
+  return std::visit(overloaded{
+                        [&](CRandomWalk& c) { return c.eval(t); },
+                        [&](COU& c) { return c.eval(t); },
+                        [&](CGasLaw& c) { return c.ratio * temperature; },
+                        [&](const auto& c) { return c.eval(t); },
+                    },
+                    term.c);
+}
+
+// ------------------------------------------------------------------ validation
+
+bool finite(double v) { return std::isfinite(v); }
+
+std::string check_table(const TableSpec& t) {
+  if (t.points.empty()) return "table has no points";
+  for (std::size_t i = 0; i < t.points.size(); ++i) {
+    if (!finite(t.points[i].t_s) || !finite(t.points[i].value)) return "table point not finite";
+    if (i > 0 && t.points[i].t_s < t.points[i - 1].t_s) return "table times must be non-decreasing";
+  }
+  if (t.loop) {
+    const double span = t.points.back().t_s - t.points.front().t_s;
+    const double period = t.period_s > 0 ? t.period_s : span;
+    if (!(period > 0)) return "looped table needs a positive period";
+    if (period < span) return "table period shorter than the table";
+  }
+  return {};
+}
+
+std::string check_term(const TermSpec& ts, bool pressure_channel) {
+  return std::visit(
+      overloaded{
+          [](const ConstantSpec& s) -> std::string { return finite(s.value) ? "" : "constant: not finite"; },
+          [](const RampSpec& s) -> std::string {
+            if (!finite(s.from) || !finite(s.to) || !finite(s.start_s) || !finite(s.duration_s))
+              return "ramp: not finite";
+            return s.duration_s < 0 ? "ramp: negative duration" : "";
+          },
+          [](const TableTermSpec& s) -> std::string {
+            auto e = check_table(s.table);
+            return e.empty() ? e : "table: " + e;
+          },
+          [](const SineSpec& s) -> std::string {
+            if (!finite(s.amplitude) || !finite(s.frequency_hz) || !finite(s.phase_rad)) return "sine: not finite";
+            return s.frequency_hz < 0 ? "sine: negative frequency" : "";
+          },
+          [](const PulseSpec& s) -> std::string {
+            if (!(s.period_s > 0) || !finite(s.period_s)) return "pulse: period must be > 0";
+            if (!(s.duty > 0 && s.duty < 1)) return "pulse: duty must be in (0, 1)";
+            if (s.rise_s < 0 || s.fall_s < 0) return "pulse: negative edge time";
+            if (s.rise_s > s.duty * s.period_s) return "pulse: rise longer than the high phase";
+            if (s.duty * s.period_s + s.fall_s > s.period_s) return "pulse: fall does not fit in the period";
+            if (!finite(s.low) || !finite(s.high) || !finite(s.delay_s)) return "pulse: not finite";
+            return "";
+          },
+          [](const PulsationSpec& s) -> std::string {
+            if (!(s.shaft_hz >= 0) || !finite(s.shaft_hz)) return "pulsation: shaft speed must be >= 0";
+            for (const auto& h : s.harmonics)
+              if (!finite(h.order) || h.order <= 0 || !finite(h.amplitude) || !finite(h.phase_rad))
+                return "pulsation: bad harmonic (order must be > 0)";
+            return "";
+          },
+          [](const FirstOrderSpec& s) -> std::string {
+            if (!(s.time_constant_s > 0) || !finite(s.time_constant_s)) return "first_order: time constant must be > 0";
+            auto e = check_table(s.setpoint);
+            return e.empty() ? e : "first_order setpoint: " + e;
+          },
+          [](const SecondOrderSpec& s) -> std::string {
+            if (!(s.natural_frequency_hz > 0) || !finite(s.natural_frequency_hz))
+              return "second_order: natural frequency must be > 0";
+            if (!(s.damping > 0) || !finite(s.damping)) return "second_order: damping must be > 0";
+            auto e = check_table(s.setpoint);
+            return e.empty() ? e : "second_order setpoint: " + e;
+          },
+          [](const RandomWalkSpec& s) -> std::string {
+            if (!(s.sigma_per_sqrt_s >= 0) || !finite(s.initial) || !finite(s.drift_per_s))
+              return "random_walk: bad parameters";
+            return s.min > s.max ? "random_walk: min > max" : "";
+          },
+          [](const OrnsteinUhlenbeckSpec& s) -> std::string {
+            if (!(s.tau_s > 0) || !finite(s.tau_s)) return "ornstein_uhlenbeck: tau must be > 0";
+            if (!(s.sigma >= 0) || !finite(s.mean)) return "ornstein_uhlenbeck: bad sigma/mean";
+            return "";
+          },
+          [pressure_channel](const GasLawSpec& s) -> std::string {
+            if (!pressure_channel) return "gas_law is a pressure term";
+            if (!(s.reference_temperature_k > 0)) return "gas_law: reference temperature must be > 0 K";
+            return finite(s.reference_pressure_pa) ? "" : "gas_law: not finite";
+          },
+      },
+      ts);
+}
+
+}  // namespace
+
+PulsationSpec PulsationSpec::piston_pump(double rpm, int pistons, double amplitude, int n_harmonics) {
+  PulsationSpec p;
+  p.shaft_hz = rpm / 60.0;
+  for (int k = 1; k <= n_harmonics; ++k)
+    p.harmonics.push_back({static_cast<double>(k * pistons), amplitude / k, 0.0});
+  return p;
+}
+
+void add_gas_volume(ProcessSpec& spec, const GasVolumeSpec& gas) {
+  FirstOrderSpec t;
+  t.setpoint = gas.ambient_k;
+  t.time_constant_s = gas.time_constant_s;
+  t.initial = gas.initial_temperature_k;
+  spec.temperature.emplace_back(std::move(t));
+  spec.pressure.emplace_back(GasLawSpec{gas.initial_pressure_pa, gas.initial_temperature_k});
+}
+
+std::string validate(const ProcessSpec& spec) {
+  for (std::size_t i = 0; i < spec.pressure.size(); ++i) {
+    auto e = check_term(spec.pressure[i], true);
+    if (!e.empty()) return "pressure[" + std::to_string(i) + "]: " + e;
+  }
+  for (std::size_t i = 0; i < spec.temperature.size(); ++i) {
+    auto e = check_term(spec.temperature[i], false);
+    if (!e.empty()) return "temperature[" + std::to_string(i) + "]: " + e;
+  }
+  return {};
+}
+
+ProcessModel::ProcessModel() {
+  pressure_.push_back(Term{CConst{1.0e5}});
+  temperature_.push_back(Term{CConst{293.15}});
+}
+
+ProcessModel::ProcessModel(const ProcessSpec& spec, std::uint64_t seed) {
+  if (auto e = validate(spec); !e.empty()) throw std::invalid_argument("process: " + e);
+  pressure_.reserve(spec.pressure.size());
+  temperature_.reserve(spec.temperature.size());
+  for (std::size_t i = 0; i < spec.pressure.size(); ++i)
+    pressure_.push_back(Term{compile(spec.pressure[i], derive_seed(seed, 0x1000 + i))});
+  for (std::size_t i = 0; i < spec.temperature.size(); ++i)
+    temperature_.push_back(Term{compile(spec.temperature[i], derive_seed(seed, 0x2000 + i))});
+}
+
+ProcessModel::ProcessModel(ProcessModel&&) noexcept = default;
+ProcessModel& ProcessModel::operator=(ProcessModel&&) noexcept = default;
+ProcessModel::ProcessModel(const ProcessModel&) = default;
+ProcessModel& ProcessModel::operator=(const ProcessModel&) = default;
+ProcessModel::~ProcessModel() = default;
+
+Quantity ProcessModel::at(double t) noexcept {
+  double temp = 0.0;
+  for (auto& term : temperature_) temp += eval_term(term, t, 0.0);
+  double p = 0.0;
+  for (auto& term : pressure_) p += eval_term(term, t, temp);
+  return {p, temp};
+}
+
+void ProcessModel::reset() noexcept {
+  auto r = [](Term& term) {
+    if (auto* a = std::get_if<CRandomWalk>(&term.c)) a->reset();
+    if (auto* b = std::get_if<COU>(&term.c)) b->reset();
+  };
+  for (auto& t : pressure_) r(t);
+  for (auto& t : temperature_) r(t);
+}
+
+bool ProcessModel::has_stochastic_terms() const noexcept {
+  auto s = [](const Term& term) {
+    return std::holds_alternative<CRandomWalk>(term.c) || std::holds_alternative<COU>(term.c);
+  };
+  return std::any_of(pressure_.begin(), pressure_.end(), s) ||
+         std::any_of(temperature_.begin(), temperature_.end(), s);
+}
+
+}  // namespace cansim::physics

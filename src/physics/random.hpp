@@ -1,0 +1,112 @@
+// Deterministic randomness for the physics layer (written for this project).
+//
+//  * SplitMix64         - seed expander / 64-bit mixer.
+//  * Xoshiro256ss       - fast sequential generator (xoshiro256** algorithm),
+//                         seeded through SplitMix64.
+//  * counter_hash()     - counter-based generator: a pure function of
+//                         (key, counter). Used for per-sample noise so that a
+//                         lazily evaluated sensor that "catches up" missed
+//                         samples regenerates exactly the same values.
+//  * normal_from_bits() - standard normal deviate via Box-Muller from 64 bits.
+//
+// Seeds: derive_seed(fleet_seed, node_key) gives the node seed; derive_seed(node_seed,
+// stream_tag) gives independent streams (process terms, channel noise, faults...).
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <string_view>
+
+namespace cansim::physics {
+
+/// One SplitMix64 output step for state `x` (state advanced by the caller).
+constexpr std::uint64_t mix64(std::uint64_t z) noexcept {
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+  return z ^ (z >> 31);
+}
+
+class SplitMix64 {
+ public:
+  explicit constexpr SplitMix64(std::uint64_t seed) noexcept : state_(seed) {}
+  constexpr std::uint64_t next() noexcept {
+    state_ += 0x9E3779B97F4A7C15ULL;
+    return mix64(state_);
+  }
+
+ private:
+  std::uint64_t state_;
+};
+
+/// Counter-based 64-bit random value: pure function of (key, counter).
+/// Two mixing rounds so that neighbouring keys and counters decorrelate.
+constexpr std::uint64_t counter_hash(std::uint64_t key, std::uint64_t counter) noexcept {
+  return mix64(mix64(key ^ 0x6A09E667F3BCC909ULL) + counter * 0x9E3779B97F4A7C15ULL);
+}
+
+/// Combine a seed with a stream tag / node key into an independent seed.
+constexpr std::uint64_t derive_seed(std::uint64_t seed, std::uint64_t key) noexcept {
+  return mix64(seed + 0x9E3779B97F4A7C15ULL * (mix64(key) | 1ULL));
+}
+
+/// FNV-1a hash of a string, for textual node keys ("can0/12") and stream tags.
+constexpr std::uint64_t hash_string(std::string_view s) noexcept {
+  std::uint64_t h = 0xCBF29CE484222325ULL;
+  for (char c : s) {
+    h ^= static_cast<unsigned char>(c);
+    h *= 0x100000001B3ULL;
+  }
+  return h;
+}
+
+/// Uniform double in [0, 1) from the top 53 bits.
+constexpr double uniform01(std::uint64_t bits) noexcept {
+  return static_cast<double>(bits >> 11) * 0x1.0p-53;
+}
+
+/// Standard normal deviate from 64 random bits (Box-Muller, cosine branch).
+/// u1 in (0, 1] from the upper 32 bits, u2 in [0, 1) from the lower 32 bits;
+/// the largest magnitude is sqrt(-2 ln 2^-32) ~ 6.66 sigma.
+inline double normal_from_bits(std::uint64_t bits) noexcept {
+  constexpr double kTwoPi = 6.283185307179586476925286766559;
+  const double u1 = (static_cast<double>(bits >> 32) + 1.0) * 0x1.0p-32;         // (0, 1]
+  const double u2 = static_cast<double>(bits & 0xFFFFFFFFULL) * 0x1.0p-32;       // [0, 1)
+  return std::sqrt(-2.0 * std::log(u1)) * std::cos(kTwoPi * u2);
+}
+
+/// Standard normal deviate, pure function of (key, counter).
+inline double counter_normal(std::uint64_t key, std::uint64_t counter) noexcept {
+  return normal_from_bits(counter_hash(key, counter));
+}
+
+/// xoshiro256** sequential generator.
+class Xoshiro256ss {
+ public:
+  explicit constexpr Xoshiro256ss(std::uint64_t seed) noexcept : s_{} {
+    SplitMix64 sm(seed);
+    for (auto& w : s_) w = sm.next();
+  }
+  constexpr std::uint64_t next() noexcept {
+    const std::uint64_t result = rotl(s_[1] * 5, 7) * 9;
+    const std::uint64_t t = s_[1] << 17;
+    s_[2] ^= s_[0];
+    s_[3] ^= s_[1];
+    s_[1] ^= s_[2];
+    s_[0] ^= s_[3];
+    s_[2] ^= t;
+    s_[3] = rotl(s_[3], 45);
+    return result;
+  }
+  constexpr double uniform() noexcept { return uniform01(next()); }
+  /// Uniform in [lo, hi).
+  constexpr double uniform(double lo, double hi) noexcept { return lo + (hi - lo) * uniform(); }
+  double normal() noexcept { return normal_from_bits(next()); }
+
+ private:
+  static constexpr std::uint64_t rotl(std::uint64_t x, int k) noexcept {
+    return (x << k) | (x >> (64 - k));
+  }
+  std::uint64_t s_[4];
+};
+
+}  // namespace cansim::physics
