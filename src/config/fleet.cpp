@@ -1,0 +1,298 @@
+#include "config/fleet.hpp"
+
+#include "core/can_frame.hpp"
+
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+namespace cansim::config {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+bool is_file(const fs::path& p) {
+  std::error_code ec;
+  return fs::is_regular_file(p, ec);
+}
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream os;
+  os << in.rdbuf();
+  return os.str();
+}
+
+bool valid_name(const std::string& s) {
+  if (s.empty() || s.size() > 64) return false;
+  for (char c : s)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.')) return false;
+  return true;
+}
+
+std::string hex2(unsigned v) {
+  char buf[8];
+  std::snprintf(buf, sizeof buf, "0x%02X", v);
+  return buf;
+}
+
+// Loads each profile file once per configuration; variants are copies.
+class ProfileCache {
+ public:
+  ProfileCache(const ProfileSearch& search, std::string config_dir, FleetConfig& out)
+      : search_(search), config_dir_(std::move(config_dir)), out_(out) {}
+
+  // The base profile for a reference, loaded on first use.
+  std::shared_ptr<Profile> base(const Where& w, const YAML::Node& ref_node, std::string& path) {
+    std::string ref = get_string(w, ref_node);
+    path = find_profile(ref, config_dir_, search_);
+    if (path.empty()) {
+      std::string dirs;
+      for (const auto& d : search_.dirs) dirs += (dirs.empty() ? "" : ", ") + d;
+      fail(w, ref_node, "expected a profile file or a profile name found in: " + dirs);
+    }
+    auto it = by_path_.find(path);
+    if (it != by_path_.end()) return it->second;
+    auto p = std::make_shared<Profile>(load_profile(path));
+    by_path_[path] = p;
+    text_[path] = read_text(path);
+    out_.profiles.push_back(p);
+    return p;
+  }
+  const std::string& text(const std::string& path) { return text_[path]; }
+  void add_variant(std::shared_ptr<Profile> p) { out_.profiles.push_back(std::move(p)); }
+
+ private:
+  const ProfileSearch& search_;
+  std::string config_dir_;
+  FleetConfig& out_;
+  std::map<std::string, std::shared_ptr<Profile>> by_path_;
+  std::map<std::string, std::string> text_;
+};
+
+void parse_interfaces(const Where& w, const YAML::Node& map, FleetConfig& out) {
+  if (!map.IsMap()) fail(w, map, "expected a mapping of interface names to settings, e.g. vcan0: {bit_rate: 250}");
+  for (const auto& kv : map) {
+    InterfaceConfig ic;
+    ic.name = get_string(w, kv.first);
+    Where wi = w.child(ic.name);
+    if (ic.name.size() >= 16 || !valid_name(ic.name))
+      fail(wi, kv.first, "expected a network interface name (at most 15 characters)");
+    const YAML::Node& v = kv.second;
+    if (v.IsDefined() && !v.IsNull()) {
+      check_keys(wi, v, {"bit_rate"});
+      if (v["bit_rate"]) {
+        ic.bit_rate_kbit = std::uint32_t(get_int(wi.child("bit_rate"), v["bit_rate"], 1, 1000));
+        if (bit_rate_index(ic.bit_rate_kbit) < 0)
+          fail(wi.child("bit_rate"), v["bit_rate"],
+               "expected a CiA bit rate in kbit/s: 1000, 800, 500, 250, 125, 50, 20 or 10");
+      }
+    }
+    out.interfaces.push_back(ic);
+  }
+}
+
+// Applies per-entry overrides to a private copy of the profile.
+std::shared_ptr<Profile> make_variant(const Where& w, const YAML::Node& entry, const Profile& base) {
+  auto p = std::make_shared<Profile>(base);
+  p->layout = std::make_shared<OdLayout>(*base.layout);
+  p->options = std::make_shared<NodeOptions>(*base.options);
+  if (entry["options"]) parse_options(w.child("options"), entry["options"], *p->options);
+  if (entry["vendor"]) {
+    const YAML::Node& v = entry["vendor"];
+    if (!v.IsMap()) fail(w.child("vendor"), v, "expected a mapping of vendor parameters");
+    YAML::Node merged = base.personality_params ? YAML::Clone(base.personality_params) : YAML::Node(YAML::NodeType::Map);
+    for (const auto& kv : v) merged[kv.first.Scalar()] = YAML::Clone(kv.second);
+    p->personality_params = merged;
+  }
+  return p;
+}
+
+void parse_node_entry(const Where& w, const YAML::Node& entry, ProfileCache& cache, FleetConfig& out) {
+  check_keys(w, entry,
+             {"profile", "interface", "node_id", "count", "name", "serial", "bit_rate", "options", "vendor"});
+  if (!entry["profile"]) fail(w.child("profile"), entry, "missing required key 'profile'");
+  if (!entry["interface"]) fail(w.child("interface"), entry, "missing required key 'interface'");
+  std::string path;
+  auto profile = cache.base(w.child("profile"), entry["profile"], path);
+  std::string iface = get_string(w.child("interface"), entry["interface"]);
+  if (!out.interface(iface)) {
+    std::string names;
+    for (const auto& i : out.interfaces) names += (names.empty() ? "" : ", ") + i.name;
+    fail(w.child("interface"), entry["interface"],
+         "expected an interface declared under 'interfaces:' (" + (names.empty() ? "none declared" : names) + ")");
+  }
+  int first_id = profile->node_id;
+  if (entry["node_id"]) {
+    first_id = int(get_int(w.child("node_id"), entry["node_id"], 1, 255));
+    if (first_id > 127 && first_id != 255)
+      fail(w.child("node_id"), entry["node_id"], "expected a node-ID 1..127 or 255 (LSS-unconfigured)");
+  }
+  int count = entry["count"] ? int(get_int(w.child("count"), entry["count"], 1, 127)) : 1;
+  if (first_id != 255 && first_id + count - 1 > 127)
+    fail(w.child("count"), entry["count"],
+         "expected a count that keeps node-IDs within 1..127 (first node-ID " + std::to_string(first_id) + ")");
+  std::string name = profile->name.empty() ? fs::path(path).stem().string() : profile->name;
+  name += "-" + std::to_string(first_id);
+  if (entry["name"]) {
+    name = get_string(w.child("name"), entry["name"]);
+    if (!valid_name(name)) fail(w.child("name"), entry["name"], "expected a name of letters, digits, '-', '_' or '.'");
+  }
+  std::uint32_t bit_rate = profile->bit_rate_kbit;
+  if (entry["bit_rate"]) {
+    bit_rate = std::uint32_t(get_int(w.child("bit_rate"), entry["bit_rate"], 1, 1000));
+    if (bit_rate_index(bit_rate) < 0)
+      fail(w.child("bit_rate"), entry["bit_rate"],
+           "expected a CiA bit rate in kbit/s: 1000, 800, 500, 250, 125, 50, 20 or 10");
+  }
+  std::optional<std::uint32_t> serial;
+  if (entry["serial"]) serial = std::uint32_t(get_int(w.child("serial"), entry["serial"], 0, 0xFFFFFFFF));
+  else if (count > 1) {
+    const OdEntry* e = profile->layout->find(0x1018, 4);
+    std::uint32_t base_serial = e && e->default_bytes.size() >= 4 ? get_u32(e->default_bytes.data()) : 0;
+    serial = base_serial;
+  }
+  if (entry["options"] || entry["vendor"]) {
+    profile = make_variant(w, entry, *profile);
+    cache.add_variant(profile);
+  }
+  const std::string fingerprint_base = cache.text(path) + "\n---\n" + YAML::Dump(entry);
+  for (int i = 0; i < count; ++i) {
+    NodeConfig n;
+    n.name = name;
+    n.index = std::uint32_t(i);
+    n.key = iface + "/" + name + "/" + std::to_string(i);
+    n.interface = iface;
+    n.node_id = std::uint8_t(first_id == 255 ? 255 : first_id + i);
+    n.bit_rate_kbit = bit_rate;
+    if (serial) n.serial = *serial + std::uint32_t(i);
+    n.profile = profile;
+    n.fingerprint = fingerprint_base + "\nindex " + std::to_string(i);
+    out.nodes.push_back(std::move(n));
+  }
+}
+
+// Node-ID collisions on one interface and duplicate keys are configuration errors.
+void check_collisions(const Where& w, const YAML::Node& list, const FleetConfig& out,
+                      const std::vector<std::size_t>& entry_of) {
+  std::map<std::pair<std::string, int>, std::size_t> ids;
+  std::set<std::string> keys;
+  for (std::size_t i = 0; i < out.nodes.size(); ++i) {
+    const NodeConfig& n = out.nodes[i];
+    std::size_t e = entry_of[i];
+    if (!keys.insert(n.key).second)
+      fail(w.item(e).child("name"), list[e],
+           "expected a name unique on interface " + n.interface + " ('" + n.name + "' is used twice)");
+    if (n.node_id == 255) continue;
+    auto [it, fresh] = ids.emplace(std::make_pair(n.interface, int(n.node_id)), e);
+    if (!fresh)
+      fail(w.item(e).child("node_id"), list[e],
+           "node-ID " + std::to_string(n.node_id) + " (" + hex2(n.node_id) + ") is already used on " + n.interface +
+               " by nodes[" + std::to_string(it->second) + "]; expected a free node-ID");
+  }
+}
+
+FleetConfig parse_root(const YAML::Node& root, const std::string& file, const ProfileSearch& search) {
+  Where w{file, ""};
+  if (!root.IsMap()) fail(w, root, "expected a mapping with 'interfaces:' and 'nodes:'");
+  check_keys(w, root, {"seed", "interfaces", "nodes"});
+  FleetConfig out;
+  out.file = file;
+  if (root["seed"]) out.seed = get_uint(w.child("seed"), root["seed"]);
+  if (!root["interfaces"]) fail(w.child("interfaces"), root, "missing required key 'interfaces'");
+  parse_interfaces(w.child("interfaces"), root["interfaces"], out);
+  if (!root["nodes"]) fail(w.child("nodes"), root, "missing required key 'nodes'");
+  const YAML::Node& list = root["nodes"];
+  Where wn = w.child("nodes");
+  if (!list.IsSequence()) fail(wn, list, "expected a list of node entries");
+  std::string dir = fs::path(file).parent_path().string();
+  ProfileCache cache(search, dir.empty() ? "." : dir, out);
+  std::vector<std::size_t> entry_of;
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    parse_node_entry(wn.item(i), list[i], cache, out);
+    entry_of.resize(out.nodes.size(), i);
+  }
+  check_collisions(wn, list, out, entry_of);
+  return out;
+}
+
+}  // namespace
+
+const InterfaceConfig* FleetConfig::interface(const std::string& name) const {
+  for (const auto& i : interfaces)
+    if (i.name == name) return &i;
+  return nullptr;
+}
+
+ProfileSearch default_search(const std::string& config_file, const std::string& installed_dir) {
+  ProfileSearch s;
+  if (!config_file.empty()) {
+    fs::path dir = fs::path(config_file).parent_path();
+    s.dirs.push_back((dir.empty() ? fs::path("profiles") : dir / "profiles").string());
+    // config/cansimd.yaml in the source tree sits next to profiles/.
+    s.dirs.push_back(((dir.empty() ? fs::path("..") : dir / "..") / "profiles").lexically_normal().string());
+  }
+  s.dirs.push_back("profiles");
+  if (!installed_dir.empty()) s.dirs.push_back(installed_dir);
+  return s;
+}
+
+std::string find_profile(const std::string& ref, const std::string& config_dir, const ProfileSearch& search) {
+  if (ref.empty()) return {};
+  fs::path p(ref);
+  if (p.is_absolute()) return is_file(p) ? p.string() : std::string();
+  bool looks_like_path = ref.find('/') != std::string::npos || p.extension() == ".yaml" || p.extension() == ".yml";
+  if (looks_like_path) {
+    if (!config_dir.empty() && is_file(fs::path(config_dir) / p)) return (fs::path(config_dir) / p).string();
+    if (is_file(p)) return p.string();
+  }
+  for (const auto& dir : search.dirs) {
+    fs::path candidate = fs::path(dir) / (p.extension().empty() ? ref + ".yaml" : ref);
+    if (is_file(candidate)) return candidate.string();
+  }
+  return {};
+}
+
+FleetConfig parse_fleet(const std::string& text, const std::string& file, const ProfileSearch& search) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::ParserException& e) {
+    throw ConfigError(file + ":" + std::to_string(e.mark.line + 1) + ":" + std::to_string(e.mark.column + 1) +
+                      ": YAML syntax error: " + e.msg);
+  }
+  return parse_root(root, file, search);
+}
+
+FleetConfig load_fleet(const std::string& path, const ProfileSearch& search) {
+  return parse_root(load_yaml_file(path), path, search);
+}
+
+FleetConfig single_node_fleet(const std::string& profile_ref, const std::string& interface,
+                              std::optional<int> node_id, const ProfileSearch& search) {
+  std::string path = find_profile(profile_ref, ".", search);
+  if (path.empty()) throw ConfigError(profile_ref + ": profile not found (expected a file or a profile name)");
+  FleetConfig out;
+  out.file = path;
+  auto profile = std::make_shared<Profile>(load_profile(path));
+  out.profiles.push_back(profile);
+  InterfaceConfig ic;
+  ic.name = interface;
+  ic.bit_rate_kbit = profile->bit_rate_kbit;
+  out.interfaces.push_back(ic);
+  NodeConfig n;
+  n.name = profile->name.empty() ? fs::path(path).stem().string() : profile->name;
+  n.key = interface + "/" + n.name + "/0";
+  n.interface = interface;
+  n.node_id = std::uint8_t(node_id ? *node_id : profile->node_id);
+  n.bit_rate_kbit = profile->bit_rate_kbit;
+  n.profile = profile;
+  n.fingerprint = read_text(path);
+  out.nodes.push_back(std::move(n));
+  return out;
+}
+
+}  // namespace cansim::config

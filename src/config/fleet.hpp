@@ -1,0 +1,64 @@
+// Fleet configuration (config/cansimd.yaml): the CAN interfaces with their
+// bit rates and the nodes on them, each a profile plus overrides. See
+// config/cansimd.yaml for the format. Every error names file, line, key and
+// what was expected (ConfigError).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "config/profile.hpp"
+
+namespace cansim::config {
+
+struct InterfaceConfig {
+  std::string name;                 // "vcan0", "can0"
+  std::uint32_t bit_rate_kbit = 0;  // 0: ask the kernel, else 250
+};
+
+struct NodeConfig {
+  std::string key;        // stable identity: "<interface>/<name>/<index>" (storage, reload)
+  std::string name;       // the entry's name (default "<profile>-<first node-ID>")
+  std::uint32_t index = 0;  // position in a `count:` group
+  std::string interface;
+  std::uint8_t node_id = 1;             // 1..127 or 0xFF (LSS-unconfigured)
+  std::uint32_t bit_rate_kbit = 250;    // the node's own rate
+  std::optional<std::uint32_t> serial;  // 0x1018:04; set for count groups and `serial:`
+  // Shared by the nodes of one entry; a private copy (own layout) when the
+  // entry overrides options or vendor parameters.
+  std::shared_ptr<Profile> profile;
+  std::string fingerprint;  // changes when anything that defines the node changes
+};
+
+struct FleetConfig {
+  std::string file;
+  std::uint64_t seed = 1;
+  std::vector<InterfaceConfig> interfaces;
+  std::vector<NodeConfig> nodes;
+  // Distinct profiles (base and variants) in first-use order, for
+  // personalities::prepare_profile().
+  std::vector<std::shared_ptr<Profile>> profiles;
+
+  const InterfaceConfig* interface(const std::string& name) const;
+};
+
+// Where profile names are looked up, in order: as a path (relative to the
+// config file's folder, then the cwd), then <dir>/<name>.yaml for each dir.
+struct ProfileSearch {
+  std::vector<std::string> dirs;
+};
+// The default search: <config dir>/profiles, ./profiles, the installed folder.
+ProfileSearch default_search(const std::string& config_file, const std::string& installed_dir);
+// Resolves a profile reference; empty when not found.
+std::string find_profile(const std::string& ref, const std::string& config_dir, const ProfileSearch& search);
+
+FleetConfig load_fleet(const std::string& path, const ProfileSearch& search);
+FleetConfig parse_fleet(const std::string& text, const std::string& file, const ProfileSearch& search);
+// `cansimd --profile P [--interface IF] [--node-id N]`: one node.
+FleetConfig single_node_fleet(const std::string& profile_ref, const std::string& interface,
+                              std::optional<int> node_id, const ProfileSearch& search);
+
+}  // namespace cansim::config

@@ -1,0 +1,238 @@
+#include "io/can_interface.hpp"
+
+#include <linux/can.h>
+#include <linux/can/netlink.h>
+#include <linux/can/raw.h>
+#include <linux/if_link.h>
+#include <linux/netlink.h>
+#include <linux/rtnetlink.h>
+#include <net/if.h>
+#include <sys/ioctl.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+
+namespace cansim::io {
+
+bool from_socketcan(const ::can_frame& in, CanFrame& out) {
+  if (in.can_id & CAN_ERR_FLAG) return false;
+  out = CanFrame{};
+  if (in.can_id & CAN_EFF_FLAG) {
+    out.id = in.can_id & CAN_EFF_MASK;
+    out.flags |= CanFrame::kExtended;
+  } else {
+    out.id = in.can_id & CAN_SFF_MASK;
+  }
+  out.dlc = in.len > 8 ? 8 : in.len;
+  if (in.can_id & CAN_RTR_FLAG) out.flags |= CanFrame::kRtr;
+  else std::memcpy(out.data, in.data, out.dlc);
+  return true;
+}
+
+void to_socketcan(const CanFrame& in, ::can_frame& out) {
+  std::memset(&out, 0, sizeof out);
+  out.can_id = in.extended() ? ((in.id & CAN_EFF_MASK) | CAN_EFF_FLAG) : (in.id & CAN_SFF_MASK);
+  if (in.rtr()) out.can_id |= CAN_RTR_FLAG;
+  out.len = in.dlc > 8 ? 8 : in.dlc;
+  if (!in.rtr()) std::memcpy(out.data, in.data, out.len);
+}
+
+CanInterface::CanInterface(std::string name, std::size_t tx_queue_frames)
+    : name_(std::move(name)), queue_(tx_queue_frames ? tx_queue_frames : 1) {}
+
+CanInterface::~CanInterface() { close(); }
+
+bool CanInterface::fail(const char* what, int err) {
+  error_ = std::string(what) + ": " + std::strerror(err);
+  ++stats_.errors;
+  close();
+  return false;
+}
+
+bool CanInterface::open() {
+  close();
+  if (name_.size() >= IFNAMSIZ) return fail("interface name too long", EINVAL);
+  unsigned index = if_nametoindex(name_.c_str());
+  if (index == 0) return fail("no such interface", errno);
+  fd_ = ::socket(PF_CAN, SOCK_RAW | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_RAW);
+  if (fd_ < 0) return fail("socket(PF_CAN)", errno);
+  ifreq ifr{};
+  std::memcpy(ifr.ifr_name, name_.c_str(), name_.size());
+  if (::ioctl(fd_, SIOCGIFFLAGS, &ifr) < 0) return fail("SIOCGIFFLAGS", errno);
+  if (!(ifr.ifr_flags & IFF_UP)) return fail("interface is down", ENETDOWN);
+  // A larger receive buffer absorbs bursts (best effort).
+  int rcvbuf = 1 << 20;
+  ::setsockopt(fd_, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf);
+  sockaddr_can addr{};
+  addr.can_family = AF_CAN;
+  addr.can_ifindex = int(index);
+  if (::bind(fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr) < 0) return fail("bind", errno);
+  error_.clear();
+  interest_changed_ = true;
+  return true;
+}
+
+void CanInterface::close() {
+  if (fd_ >= 0) ::close(fd_);
+  fd_ = -1;
+  // Frames waiting for a dead socket are lost, as on a bus that went away.
+  stats_.tx_dropped += queued_;
+  queued_ = 0;
+  head_ = 0;
+}
+
+void CanInterface::enqueue(const CanFrame& frame) {
+  if (queued_ == queue_.size()) {
+    ++stats_.tx_dropped;
+    return;
+  }
+  if (queued_ == 0) interest_changed_ = true;
+  queue_[(head_ + queued_) % queue_.size()] = frame;
+  ++queued_;
+  ++stats_.tx_queued;
+}
+
+bool CanInterface::send_now(const CanFrame& frame, bool& again) {
+  ::can_frame cf;
+  to_socketcan(frame, cf);
+  again = false;
+  ssize_t n = ::write(fd_, &cf, sizeof cf);
+  if (n == ssize_t(sizeof cf)) {
+    ++stats_.tx;
+    return true;
+  }
+  if (n < 0 && (errno == EAGAIN || errno == ENOBUFS)) {
+    again = true;
+    return false;
+  }
+  fail("write", n < 0 ? errno : EIO);
+  return false;
+}
+
+void CanInterface::transmit(const CanFrame& frame) {
+  if (fd_ < 0) {
+    ++stats_.tx_dropped;  // interface down: the frame goes nowhere
+    return;
+  }
+  if (queued_ > 0) {  // keep the order: behind what already waits
+    enqueue(frame);
+    return;
+  }
+  bool again = false;
+  if (send_now(frame, again)) return;
+  if (again) enqueue(frame);
+  else ++stats_.tx_dropped;
+}
+
+bool CanInterface::drain() {
+  while (queued_ > 0 && fd_ >= 0) {
+    ::can_frame frames[kBatch];
+    mmsghdr msgs[kBatch];
+    iovec iov[kBatch];
+    std::size_t n = std::min(queued_, kBatch);
+    for (std::size_t i = 0; i < n; ++i) {
+      to_socketcan(queue_[(head_ + i) % queue_.size()], frames[i]);
+      iov[i] = {&frames[i], sizeof frames[i]};
+      msgs[i] = {};
+      msgs[i].msg_hdr.msg_iov = &iov[i];
+      msgs[i].msg_hdr.msg_iovlen = 1;
+    }
+    int sent = ::sendmmsg(fd_, msgs, unsigned(n), MSG_DONTWAIT);
+    if (sent < 0) {
+      if (errno == EAGAIN || errno == ENOBUFS) return true;  // wait for the next EPOLLOUT
+      return fail("sendmmsg", errno);
+    }
+    head_ = (head_ + std::size_t(sent)) % queue_.size();
+    queued_ -= std::size_t(sent);
+    stats_.tx += std::uint64_t(sent);
+    if (std::size_t(sent) < n) return true;
+  }
+  if (queued_ == 0) interest_changed_ = true;
+  return fd_ >= 0;
+}
+
+int CanInterface::read_batch(CanFrame* out, std::size_t max) {
+  if (fd_ < 0) return -1;
+  ::can_frame frames[kBatch];
+  mmsghdr msgs[kBatch];
+  iovec iov[kBatch];
+  std::size_t n = std::min(max, kBatch);
+  for (std::size_t i = 0; i < n; ++i) {
+    iov[i] = {&frames[i], sizeof frames[i]};
+    msgs[i] = {};
+    msgs[i].msg_hdr.msg_iov = &iov[i];
+    msgs[i].msg_hdr.msg_iovlen = 1;
+  }
+  int got = ::recvmmsg(fd_, msgs, unsigned(n), MSG_DONTWAIT, nullptr);
+  if (got < 0) {
+    if (errno == EAGAIN || errno == EINTR) return 0;
+    fail("recvmmsg", errno);
+    return -1;
+  }
+  int kept = 0;
+  for (int i = 0; i < got; ++i) {
+    if (msgs[i].msg_len < CAN_MTU) continue;  // not a classic CAN frame
+    if (from_socketcan(frames[i], out[kept])) ++kept;
+  }
+  stats_.rx += std::uint64_t(kept);
+  return kept;
+}
+
+// ---- netlink: IFLA_LINKINFO / IFLA_INFO_DATA / IFLA_CAN_BITTIMING
+
+namespace {
+
+const rtattr* find_attr(const rtattr* a, int len, unsigned short type) {
+  for (; RTA_OK(a, len); a = RTA_NEXT(a, len))
+    if ((a->rta_type & NLA_TYPE_MASK) == type) return a;
+  return nullptr;
+}
+
+std::uint32_t bit_rate_from_link(const nlmsghdr* h) {
+  const auto* ifi = static_cast<const ifinfomsg*>(NLMSG_DATA(h));
+  int len = int(h->nlmsg_len) - int(NLMSG_LENGTH(sizeof *ifi));
+  const rtattr* info = find_attr(IFLA_RTA(ifi), len, IFLA_LINKINFO);
+  if (!info) return 0;
+  const rtattr* data = find_attr(static_cast<const rtattr*>(RTA_DATA(info)), int(RTA_PAYLOAD(info)), IFLA_INFO_DATA);
+  if (!data) return 0;
+  const rtattr* bt = find_attr(static_cast<const rtattr*>(RTA_DATA(data)), int(RTA_PAYLOAD(data)), IFLA_CAN_BITTIMING);
+  if (!bt || RTA_PAYLOAD(bt) < sizeof(can_bittiming)) return 0;
+  can_bittiming timing;
+  std::memcpy(&timing, RTA_DATA(bt), sizeof timing);
+  return timing.bitrate;
+}
+
+}  // namespace
+
+std::uint32_t kernel_bit_rate(const std::string& ifname) {
+  unsigned index = if_nametoindex(ifname.c_str());
+  if (index == 0) return 0;
+  int fd = ::socket(AF_NETLINK, SOCK_RAW | SOCK_CLOEXEC, NETLINK_ROUTE);
+  if (fd < 0) return 0;
+  struct {
+    nlmsghdr h;
+    ifinfomsg i;
+  } req{};
+  req.h.nlmsg_len = NLMSG_LENGTH(sizeof req.i);
+  req.h.nlmsg_type = RTM_GETLINK;
+  req.h.nlmsg_flags = NLM_F_REQUEST;
+  req.h.nlmsg_seq = 1;
+  req.i.ifi_family = AF_UNSPEC;
+  req.i.ifi_index = int(index);
+  std::uint32_t rate = 0;
+  timeval tv{1, 0};
+  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+  if (::send(fd, &req, req.h.nlmsg_len, 0) >= 0) {
+    alignas(nlmsghdr) char buf[16384];
+    ssize_t n = ::recv(fd, buf, sizeof buf, 0);
+    int len = int(n);
+    for (auto* h = reinterpret_cast<nlmsghdr*>(buf); n > 0 && NLMSG_OK(h, len); h = NLMSG_NEXT(h, len))
+      if (h->nlmsg_type == RTM_NEWLINK) rate = bit_rate_from_link(h);
+  }
+  ::close(fd);
+  return rate;
+}
+
+}  // namespace cansim::io

@@ -1,0 +1,95 @@
+// One SocketCAN CAN_RAW socket per interface, shared by every node on it.
+// Kernel loopback stays on (other programs on this host see our frames) and
+// CAN_RAW_RECV_OWN_MSGS stays off (we do not read our own frames back: the
+// loop core delivers local frames itself). Writes never block: when the
+// kernel queue is full (EAGAIN / ENOBUFS) frames wait in a bounded queue that
+// drains on EPOLLOUT; beyond that they are dropped and counted. An interface
+// that is missing or goes down is closed and reopened by the owner's retry
+// timer; its nodes keep running and resume on the wire when it is back.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/can_frame.hpp"
+#include "io/transport.hpp"
+
+struct can_frame;
+
+namespace cansim::io {
+
+struct CanStats {
+  std::uint64_t rx = 0;
+  std::uint64_t tx = 0;
+  std::uint64_t tx_dropped = 0;
+  std::uint64_t tx_queued = 0;
+  std::uint64_t errors = 0;
+};
+
+// Conversion between SocketCAN frames and core frames (EFF <-> kExtended,
+// RTR <-> kRtr). Returns false for frames the core does not take (error frames).
+bool from_socketcan(const ::can_frame& in, CanFrame& out);
+void to_socketcan(const CanFrame& in, ::can_frame& out);
+
+class CanInterface : public Transport {
+ public:
+  static constexpr std::size_t kBatch = 32;
+
+  explicit CanInterface(std::string name, std::size_t tx_queue_frames = 1024);
+  ~CanInterface() override;
+  CanInterface(const CanInterface&) = delete;
+  CanInterface& operator=(const CanInterface&) = delete;
+
+  const std::string& name() const { return name_; }
+  // Opens and binds the socket. On failure returns false and sets error().
+  bool open();
+  void close();
+  bool is_open() const { return fd_ >= 0; }
+  int fd() const { return fd_; }
+  const std::string& error() const { return error_; }
+
+  // Transport: sends now, or queues, or drops (counted).
+  void transmit(const CanFrame& frame) override;
+  // Reads up to kBatch frames (recvmmsg). Returns the count, 0 when nothing
+  // is pending, -1 when the interface failed (is_open() is then false).
+  int read_batch(CanFrame* out, std::size_t max);
+  // Sends queued frames (sendmmsg); returns false if the interface failed.
+  bool drain();
+  // True while frames wait for EPOLLOUT.
+  bool wants_write() const { return queued_ > 0; }
+  // Set when the caller must update the epoll mask (write interest changed).
+  bool take_interest_changed() {
+    bool c = interest_changed_;
+    interest_changed_ = false;
+    return c;
+  }
+  const CanStats& stats() const { return stats_; }
+  // Drops since the last call (for rate-limited logging).
+  std::uint64_t take_new_drops() {
+    std::uint64_t d = stats_.tx_dropped - drops_reported_;
+    drops_reported_ = stats_.tx_dropped;
+    return d;
+  }
+
+ private:
+  bool fail(const char* what, int err);
+  void enqueue(const CanFrame& frame);
+  bool send_now(const CanFrame& frame, bool& again);
+
+  std::string name_;
+  int fd_ = -1;
+  std::string error_;
+  std::vector<CanFrame> queue_;  // ring, fixed size
+  std::size_t head_ = 0;
+  std::size_t queued_ = 0;
+  bool interest_changed_ = false;
+  CanStats stats_;
+  std::uint64_t drops_reported_ = 0;
+};
+
+// The nominal bit rate of a real CAN interface from the kernel (netlink
+// IFLA_CAN_BITTIMING), in bit/s; 0 when unknown (vcan, missing, no netlink).
+std::uint32_t kernel_bit_rate(const std::string& ifname);
+
+}  // namespace cansim::io

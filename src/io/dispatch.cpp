@@ -1,0 +1,68 @@
+#include "io/dispatch.hpp"
+
+#include <algorithm>
+
+namespace cansim::io {
+
+namespace {
+constexpr std::uint32_t kCobInvalid = 0x80000000u;  // CiA 301 COB-ID bit 31
+constexpr std::uint32_t kCobFrame29 = 0x20000000u;  // CiA 301 COB-ID bit 29
+constexpr std::uint32_t kId29Mask = 0x1FFFFFFFu;
+}  // namespace
+
+bool RxDispatch::key_of(std::uint32_t cob_id, std::uint32_t& key) {
+  if (cob_id & kCobInvalid) return false;
+  std::uint32_t id = cob_id & kId29Mask;
+  key = ((cob_id & kCobFrame29) || id > 0x7FF) ? (id | kExtendedKey) : id;
+  return true;
+}
+
+std::vector<std::uint32_t>& RxDispatch::list(std::uint32_t key) {
+  if (key & kExtendedKey) return extended_[key];
+  return standard_[key];
+}
+
+void RxDispatch::unlink(std::uint32_t slot, std::uint32_t key) {
+  if (key & kExtendedKey) {
+    auto it = extended_.find(key);
+    if (it == extended_.end()) return;
+    std::erase(it->second, slot);
+    if (it->second.empty()) extended_.erase(it);
+    return;
+  }
+  std::erase(standard_[key], slot);
+}
+
+void RxDispatch::set(std::uint32_t slot, std::span<const std::uint32_t> cob_ids) {
+  remove(slot);
+  if (by_slot_.size() <= slot) by_slot_.resize(slot + 1);
+  auto& mine = by_slot_[slot];
+  for (std::uint32_t cob : cob_ids) {
+    std::uint32_t key = 0;
+    if (key_of(cob, key)) mine.push_back(key);
+  }
+  std::sort(mine.begin(), mine.end());
+  mine.erase(std::unique(mine.begin(), mine.end()), mine.end());
+  for (std::uint32_t key : mine) list(key).push_back(slot);
+}
+
+void RxDispatch::remove(std::uint32_t slot) {
+  if (slot >= by_slot_.size()) return;
+  for (std::uint32_t key : by_slot_[slot]) unlink(slot, key);
+  by_slot_[slot].clear();
+}
+
+std::span<const std::uint32_t> RxDispatch::lookup(const CanFrame& frame) const {
+  if (!frame.extended()) return frame.id <= 0x7FF ? std::span<const std::uint32_t>(standard_[frame.id])
+                                                  : std::span<const std::uint32_t>();
+  auto it = extended_.find((frame.id & kId29Mask) | kExtendedKey);
+  if (it == extended_.end()) return {};
+  return it->second;
+}
+
+std::span<const std::uint32_t> RxDispatch::registered(std::uint32_t slot) const {
+  if (slot >= by_slot_.size()) return {};
+  return by_slot_[slot];
+}
+
+}  // namespace cansim::io

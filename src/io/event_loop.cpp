@@ -1,0 +1,111 @@
+#include "io/event_loop.hpp"
+
+#include <sys/epoll.h>
+#include <sys/signalfd.h>
+#include <sys/timerfd.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <ctime>
+#include <stdexcept>
+#include <string>
+
+namespace cansim::io {
+
+namespace {
+[[noreturn]] void sys_fail(const char* what) {
+  throw std::runtime_error(std::string(what) + ": " + std::strerror(errno));
+}
+// Marker pointers for the loop's own descriptors.
+FdHandler* const kTimerTag = reinterpret_cast<FdHandler*>(std::uintptr_t(1));
+FdHandler* const kSignalTag = reinterpret_cast<FdHandler*>(std::uintptr_t(2));
+}  // namespace
+
+TimeUs monotonic_now() {
+  timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return TimeUs(ts.tv_sec) * 1000000 + ts.tv_nsec / 1000;
+}
+
+EventLoop::EventLoop() {
+  epoll_ = epoll_create1(EPOLL_CLOEXEC);
+  if (epoll_ < 0) sys_fail("epoll_create1");
+  timer_ = timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC);
+  if (timer_ < 0) sys_fail("timerfd_create");
+  add(timer_, EPOLLIN, kTimerTag);
+}
+
+EventLoop::~EventLoop() {
+  if (signal_ >= 0) ::close(signal_);
+  if (timer_ >= 0) ::close(timer_);
+  if (epoll_ >= 0) ::close(epoll_);
+}
+
+void EventLoop::add(int fd, std::uint32_t events, FdHandler* handler) {
+  epoll_event ev{};
+  ev.events = events;
+  ev.data.ptr = handler;
+  if (epoll_ctl(epoll_, EPOLL_CTL_ADD, fd, &ev) < 0) sys_fail("epoll_ctl(ADD)");
+}
+
+void EventLoop::modify(int fd, std::uint32_t events, FdHandler* handler) {
+  epoll_event ev{};
+  ev.events = events;
+  ev.data.ptr = handler;
+  if (epoll_ctl(epoll_, EPOLL_CTL_MOD, fd, &ev) < 0) sys_fail("epoll_ctl(MOD)");
+}
+
+void EventLoop::remove(int fd) { epoll_ctl(epoll_, EPOLL_CTL_DEL, fd, nullptr); }
+
+void EventLoop::arm_timer(TimeUs at) {
+  if (at == timer_at_) return;
+  timer_at_ = at;
+  itimerspec spec{};
+  if (at != kNever) {
+    // 0 would disarm: an already-past deadline fires at the next tick instead.
+    TimeUs t = at < 1 ? 1 : at;
+    spec.it_value.tv_sec = t / 1000000;
+    spec.it_value.tv_nsec = long(t % 1000000) * 1000;
+  }
+  if (timerfd_settime(timer_, TFD_TIMER_ABSTIME, &spec, nullptr) < 0) sys_fail("timerfd_settime");
+}
+
+void EventLoop::watch_signals(std::initializer_list<int> signals) {
+  sigset_t set;
+  sigemptyset(&set);
+  for (int s : signals) sigaddset(&set, s);
+  if (sigprocmask(SIG_BLOCK, &set, nullptr) < 0) sys_fail("sigprocmask");
+  signal_ = signalfd(-1, &set, SFD_NONBLOCK | SFD_CLOEXEC);
+  if (signal_ < 0) sys_fail("signalfd");
+  add(signal_, EPOLLIN, kSignalTag);
+}
+
+int EventLoop::wait(int timeout_ms, bool& timer_fired, int& signal) {
+  timer_fired = false;
+  signal = 0;
+  epoll_event events[64];
+  int n = epoll_wait(epoll_, events, 64, timeout_ms);
+  if (n < 0) {
+    if (errno == EINTR) return 0;
+    sys_fail("epoll_wait");
+  }
+  for (int i = 0; i < n; ++i) {
+    auto* h = static_cast<FdHandler*>(events[i].data.ptr);
+    if (h == kTimerTag) {
+      std::uint64_t expirations;
+      if (::read(timer_, &expirations, sizeof expirations) > 0) timer_fired = true;
+      timer_at_ = kNever;  // one-shot: fired (or about to), re-armed by the owner
+    } else if (h == kSignalTag) {
+      signalfd_siginfo info;
+      // A termination request outranks a reload arriving in the same batch.
+      while (::read(signal_, &info, sizeof info) == ssize_t(sizeof info))
+        if (signal != SIGTERM && signal != SIGINT) signal = int(info.ssi_signo);
+    } else if (h) {
+      h->on_events(events[i].events);
+    }
+  }
+  return n;
+}
+
+}  // namespace cansim::io
