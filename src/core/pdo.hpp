@@ -1,27 +1,90 @@
-// TPDO / RPDO engine: 0x1400-0x1BFF (CiA 301 §7.2.2).
+// TPDO / RPDO engine: 0x1400-0x1BFF (CiA 301 §7.2.2, objects §7.5.2.33-36).
+//
+// Every PDO the profile declares (0x1400+n/0x1600+n, 0x1800+n/0x1A00+n) is
+// discovered once at construction; its configuration is cached from the OD at
+// reset() and after every accepted write. Frame and tick paths never allocate.
+//
+// Timing model (sans I/O): synchronous work happens in on_sync(), event-driven
+// work at absolute deadlines reported by next_deadline() (event timer, inhibit
+// expiry, RPDO timeout). NMT state changes are picked up by on_nmt_state() or,
+// if nobody calls it, detected at the next advance (next_deadline() reports
+// "due now" when the PDO-allowed state differs from the last one seen).
 #pragma once
 
+#include <array>
+#include <cstdint>
 #include <span>
 #include <vector>
 
 #include "core/can_frame.hpp"
+#include "core/node_options.hpp"
 #include "core/od.hpp"
 
 namespace cansim {
 
 class Node;
 
+// COB-ID bits of 0x14xx:01 / 0x18xx:01 (CiA 301 Table 71 / 73).
+constexpr std::uint32_t kPdoCobInvalid = 0x80000000u;  // bit 31: PDO does not exist
+constexpr std::uint32_t kPdoCobNoRtr = 0x40000000u;    // bit 30: no RTR allowed (TPDO)
+constexpr std::uint32_t kPdoCobFrame = 0x20000000u;    // bit 29: 29-bit CAN-ID
+// Flag on collect_rx_ids() entries for 29-bit identifiers (as SocketCAN's CAN_EFF_FLAG).
+constexpr std::uint32_t kRxIdExtended = 0x80000000u;
+
+// One resolved mapping entry: an OD slot and a length in bits.
+struct PdoMapItem {
+  static constexpr std::uint16_t kDummy = 0xFFFF;  // dummy entry: bits are skipped
+  std::uint16_t slot = kDummy;
+  std::uint8_t bits = 0;
+};
+
+// Configuration shared by TPDOs and RPDOs, cached from the OD.
+struct PdoConfig {
+  static constexpr int kMaxItems = 64;  // CiA 301: sub 0 of a mapping is 0..0x40
+  std::uint16_t comm_index = 0;         // 0x1400+n or 0x1800+n
+  std::uint16_t map_index = 0;          // 0x1600+n or 0x1A00+n
+  std::uint32_t cobid = kPdoCobInvalid;
+  std::uint8_t type = 255;
+  std::uint16_t inhibit_100us = 0;
+  std::uint16_t event_ms = 0;
+  std::uint8_t sync_start = 0;
+  std::uint8_t item_count = 0;  // 0 when the stored mapping is empty or invalid
+  std::uint8_t bits = 0;        // total mapped length
+  std::array<PdoMapItem, kMaxItems> items{};
+};
+
+struct Tpdo {
+  PdoConfig cfg;
+  TimeUs inhibit_until = 0;     // earliest time the next event-driven PDO may go out
+  TimeUs event_due = kNever;    // event timer expiry (types 254/255)
+  TimeUs last_sent = kNever;    // for tpdo_type0_paced_by_event_timer
+  bool event_pending = false;   // application event waiting for SYNC (type 0) or inhibit
+  bool sampled = false;         // type 252: `sample` holds the last SYNC sample
+  std::uint8_t sync_phase = 0;  // types 1..240: see PdoEngine::on_sync_cyclic()
+  CanFrame sample;
+};
+
+struct Rpdo {
+  PdoConfig cfg;
+  TimeUs timeout_due = kNever;  // event timer (deadline monitoring) expiry
+  bool buffered = false;        // synchronous RPDO waiting for the next SYNC
+  bool short_reported = false;  // EMCY 0x8210 sent, until a good frame arrives
+  bool long_reported = false;   // EMCY 0x8220 sent, until a good frame arrives
+  CanFrame buffer;
+};
+
 class PdoEngine {
  public:
-  explicit PdoEngine(Node& node) : node_(node) {}
+  explicit PdoEngine(Node& node);
   // Re-reads its configuration from the OD (after a reset / power-on).
   void reset(TimeUs now);
   // Returns true when the frame was addressed to this service.
   bool on_frame(const CanFrame& frame, TimeUs now);
   // Runs the work due at or before now.
   void process(TimeUs now);
-  TimeUs next_deadline() const { return next_; }
-  // COB-IDs this service wants to receive (for the bus dispatcher).
+  TimeUs next_deadline() const;
+  // COB-IDs this service wants to receive (for the bus dispatcher): valid
+  // RPDOs and TPDOs that accept RTR; 29-bit ones carry kRxIdExtended.
   void collect_rx_ids(std::vector<std::uint32_t>& out) const;
   // True for OD indices whose remote writes this service handles itself.
   bool owns(std::uint16_t index) const;
@@ -31,14 +94,64 @@ class PdoEngine {
   // Called by the SYNC consumer on every SYNC received (counter 0 when the
   // SYNC carries no counter, CiA 301 §7.2.5).
   void on_sync(std::uint8_t counter, TimeUs now);
+  // Called by NMT after a state change (optional: detected at the next advance).
+  void on_nmt_state(TimeUs now);
   // Application events (CiA 301 §7.2.2.2, types 0/254/255): 1-based TPDO number.
+  // Without a time the PDO goes out at the next advance (it reports itself due).
   void raise_event(unsigned tpdo_number);
+  void raise_event(unsigned tpdo_number, TimeUs now);
   // Raises an event on every valid event-driven/acyclic TPDO that maps `e`.
   void raise_event_for(const OdEntry& e);
 
+  std::size_t tpdo_count() const { return tpdos_.size(); }
+  std::size_t rpdo_count() const { return rpdos_.size(); }
+
  private:
+  // ---- configuration
+  void load(PdoConfig& cfg, bool tx);
+  void load_mapping(PdoConfig& cfg, bool tx);
+  bool valid(const PdoConfig& cfg) const;
+  bool locked(const PdoConfig& cfg) const;  // CiA 301: "while the PDO exists"
+  SdoAbort check_map_entry(std::uint32_t raw, bool tx) const;
+  SdoAbort check_cobid(const PdoConfig& cfg, bool tx, std::uint32_t& v) const;
+  SdoAbort check_comm(const PdoConfig& cfg, bool tx, std::uint8_t sub, std::uint32_t& v) const;
+  SdoAbort check_map_count(const PdoConfig& cfg, bool tx, std::uint32_t n) const;
+  SdoAbort check_map_write(const PdoConfig& cfg, bool tx, std::uint8_t sub, std::uint32_t v) const;
+  void after_config_change(PdoConfig& cfg, bool tx, std::uint8_t comm_sub, TimeUs now);
+  Tpdo* find_tpdo(const PdoConfig& cfg);
+  Rpdo* find_rpdo(const PdoConfig& cfg);
+
+  // ---- NMT
+  void sync_state(TimeUs now);
+  void arm(Tpdo& t, TimeUs now);
+  void arm(Rpdo& r);
+  void disarm(Tpdo& t);
+
+  // ---- TPDO
+  static bool event_driven(std::uint8_t type) { return type >= 254; }
+  void on_sync_tpdo(Tpdo& t, std::uint8_t counter, TimeUs now);
+  void on_sync_cyclic(Tpdo& t, std::uint8_t counter, TimeUs now);
+  void on_rtr(Tpdo& t, TimeUs now);
+  void process_tpdo(Tpdo& t, TimeUs now);
+  void send_event_driven(Tpdo& t, TimeUs now, TimeUs timer_base);
+  bool build(Tpdo& t, TimeUs now, CanFrame& out);
+  void transmit(Tpdo& t, TimeUs now);
+
+  // ---- RPDO
+  void on_rpdo(Rpdo& r, const CanFrame& frame, TimeUs now);
+  void apply(Rpdo& r, TimeUs now);
+  void store_received(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
+  void emcy(std::uint16_t code, TimeUs now);
+
+  void update_deadline();
+
   Node& node_;
+  std::vector<Tpdo> tpdos_;  // sized once at construction
+  std::vector<Rpdo> rpdos_;
+  ByteSet allowed_types_;    // tpdo_allowed_types, parsed once
   TimeUs next_ = kNever;
+  TimeUs last_now_ = 0;      // latest time seen; "due now" for state detection
+  bool operational_ = false;  // node_.allowed(Service::kPdo) as last seen
 };
 
 }  // namespace cansim
