@@ -1,4 +1,16 @@
-// EMCY producer, error register 0x1001, history 0x1003, 0x1014, 0x1015 (CiA 301 §7.2.7).
+// EMCY producer 0x1014 / 0x1015, error register 0x1001 and pre-defined error
+// field 0x1003 (CiA 301 §7.2.7, §7.5.2.2-4, §7.5.2.17-18).
+//
+// Errors are raised and cleared by code. raise() records the error as active,
+// updates 0x1001, pushes it into 0x1003 (newest at sub 1) and sends
+// [code lo, code hi, 0x1001, mfr0..mfr4] on 0x1014. When the last active error
+// clears, an error-reset EMCY (code 0x0000, register after clearing) follows;
+// option emcy_on_partial_clear says what a partial clear sends. report() is a
+// one-shot event (e.g. SYNC length) that is sent and recorded but not kept
+// active. EMCYs are not sent in STOPPED (recorded only, CiA 301 Table 82);
+// EMCYs raised while INITIALISING wait for the boot-up. Inhibit 0x1015
+// (×100 µs): EMCYs raised inside it wait in a small ring and go out when it
+// expires.
 #pragma once
 
 #include <span>
@@ -10,10 +22,35 @@
 namespace cansim {
 
 class Node;
+enum class NmtState : std::uint8_t;
 
 class Emcy {
  public:
+  static constexpr std::size_t kMaxActive = 16;
+  static constexpr std::size_t kQueueSize = 8;
+
   explicit Emcy(Node& node) : node_(node) {}
+
+  // An error became active. reg_bits are ORed into 0x1001 while it is active
+  // (on top of the bits derived from the code class); mfr = 5 manufacturer
+  // bytes of the frame (zeros when null).
+  void raise(std::uint16_t code, std::uint8_t reg_bits, const std::uint8_t mfr[5], TimeUs now);
+  void raise(std::uint16_t code, std::uint8_t reg_bits, TimeUs now) { raise(code, reg_bits, nullptr, now); }
+  // A one-shot error event: sent and recorded in 0x1003, not kept active.
+  void report(std::uint16_t code, std::uint8_t reg_bits, const std::uint8_t mfr[5], TimeUs now);
+  void clear(std::uint16_t code, TimeUs now);
+  void clear_all(TimeUs now);
+  std::size_t active_count() const { return active_n_; }
+  bool active(std::uint16_t code) const;
+  std::uint8_t error_register() const { return register_; }
+  // Bits 0x1001 gets from an error code (CiA 301 Table 48 classes).
+  static std::uint8_t class_bits(std::uint16_t code);
+
+  // NMT hook (called by Node on every state change).
+  void on_nmt_state(NmtState old, TimeUs now);
+  // 0x1003 subs above the error count have no data (option).
+  SdoAbort check_read(const OdEntry& e) const;
+
   // Re-reads its configuration from the OD (after a reset / power-on).
   void reset(TimeUs now);
   // Returns true when the frame was addressed to this service.
@@ -29,8 +66,41 @@ class Emcy {
   SdoAbort write(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
 
  private:
+  enum class PartialClear : std::uint8_t { kReset, kLatest, kNone };
+  struct Active {
+    std::uint16_t code;
+    std::uint8_t reg;
+  };
+  struct Pending {
+    std::uint8_t data[8];
+  };
+
+  void read_config();
+  void update_register();
+  void record(std::uint16_t code, std::uint8_t reg, const std::uint8_t* mfr);
+  void clear_history();
+  std::uint8_t history_count() const;
+  void emit(std::uint16_t code, std::uint8_t reg, const std::uint8_t* mfr, TimeUs now);
+  bool may_send_now(TimeUs now) const;
+  void send_front(TimeUs now);
+  void update_deadline(TimeUs now);
+  SdoAbort write_cob_id(const OdEntry& e, std::uint32_t v);
+
   Node& node_;
   TimeUs next_ = kNever;
+  TimeUs last_sent_ = kNever;
+  TimeUs inhibit_us_ = 0;
+  std::uint32_t can_id_ = 0;
+  bool extended_ = false;
+  bool valid_ = true;
+  PartialClear partial_clear_ = PartialClear::kReset;
+  std::uint8_t register_ = 0;
+  std::uint8_t history_depth_ = 0;
+  std::uint8_t active_n_ = 0;
+  Active active_[kMaxActive] = {};
+  Pending queue_[kQueueSize] = {};
+  std::uint8_t queue_head_ = 0;
+  std::uint8_t queue_n_ = 0;
 };
 
 }  // namespace cansim

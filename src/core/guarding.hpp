@@ -1,4 +1,14 @@
 // Node guarding and life guarding, 0x100C / 0x100D (CiA 301 §7.2.8.3.1).
+//
+// Guarding exists only when the profile has 0x100C. An RTR on 0x700+id is
+// answered with [state | toggle << 7]; the toggle starts at 0 after a reset
+// communication and alternates with every answer. Choice (CiA 301 §7.2.8.1:
+// a device uses heartbeat when 0x1017 != 0): RTRs are answered only while the
+// heartbeat producer is off, unless option guarding_with_heartbeat is set.
+// Life guarding: life time = 0x100C guard time × 0x100D factor (0 = off); it
+// starts with the first RTR, every RTR restarts it; when it elapses: EMCY
+// 0x8130 (option heartbeat_consumer_emcy) + 0x1029 reaction; the next RTR
+// clears the error.
 #pragma once
 
 #include <span>
@@ -14,6 +24,9 @@ class Node;
 class NodeGuarding {
  public:
   explicit NodeGuarding(Node& node) : node_(node) {}
+  bool life_guard_failed() const { return failed_; }
+  TimeUs life_time() const { return life_time_; }
+
   // Re-reads its configuration from the OD (after a reset / power-on).
   void reset(TimeUs now);
   // Returns true when the frame was addressed to this service.
@@ -29,8 +42,15 @@ class NodeGuarding {
   SdoAbort write(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
 
  private:
+  void read_life_time();
+  bool answers() const;
+
   Node& node_;
   TimeUs next_ = kNever;
+  TimeUs life_time_ = 0;
+  bool supported_ = false;
+  bool toggle_ = false;
+  bool failed_ = false;
 };
 
 }  // namespace cansim

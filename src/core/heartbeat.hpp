@@ -1,4 +1,13 @@
 // Heartbeat producer 0x1017 and consumer 0x1016 (CiA 301 §7.2.8.3.2).
+//
+// Producer: 0x700+id [state] every 0x1017 ms, first one period after the
+// boot-up (start()) or after a write of 0x1017; deadlines are absolute
+// (t0 + k·period) so the period never drifts.
+// Consumer: each 0x1016 sub = node-ID (bits 23-16) + time ms (bits 15-0);
+// monitoring of an entry starts with the first heartbeat from that node (a
+// boot-up re-arms it); a timeout raises EMCY (option heartbeat_consumer_emcy,
+// 0x8130 by default) and runs the 0x1029 reaction; the EMCY clears when every
+// failed producer beats again.
 #pragma once
 
 #include <span>
@@ -14,6 +23,12 @@ class Node;
 class Heartbeat {
  public:
   explicit Heartbeat(Node& node) : node_(node) {}
+  // Starts the producer (called by NMT at the boot-up).
+  void start(TimeUs now);
+  std::uint16_t producer_time_ms() const { return period_ms_; }
+  // True while at least one consumer entry timed out and did not recover.
+  bool consumer_failed() const { return failed_count_ > 0; }
+
   // Re-reads its configuration from the OD (after a reset / power-on).
   void reset(TimeUs now);
   // Returns true when the frame was addressed to this service.
@@ -29,8 +44,25 @@ class Heartbeat {
   SdoAbort write(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
 
  private:
+  enum class Watch : std::uint8_t { kOff, kWaiting, kActive, kTimedOut };
+  struct Consumer {
+    std::uint8_t node_id = 0;
+    std::uint16_t time_ms = 0;
+    Watch watch = Watch::kOff;
+    TimeUs deadline = kNever;
+  };
+
+  void configure(Consumer& c, std::uint32_t value);
+  void on_heartbeat(Consumer& c, std::uint8_t state, TimeUs now);
+  void time_out(Consumer& c, TimeUs now);
+  void update_deadline();
+
   Node& node_;
   TimeUs next_ = kNever;
+  TimeUs next_beat_ = kNever;
+  std::uint16_t period_ms_ = 0;
+  std::uint16_t failed_count_ = 0;
+  std::vector<Consumer> consumers_;  // one per 0x1016 sub, sized at reset
 };
 
 }  // namespace cansim

@@ -1,15 +1,26 @@
 // NMT slave state machine, boot-up and reset sequences (CiA 301 §7.3.2).
+//
+// Sequence of a reset (power-on, NMT reset node 0x81, reset communication
+// 0x82): state INITIALISING, services that define prepare_reset() run it (LSS
+// applies a pending node-ID), OD reload (defaults, then stored values), every
+// service re-reads its configuration, Application::on_reset (may edit
+// boot_plan()), then after boot_up_delay_ms the boot-up frame 0x700+id [00]
+// and PRE-OPERATIONAL (or OPERATIONAL per boot plan). A node whose node-ID is
+// 0xFF (LSS-unconfigured, CiA 305) stays INITIALISING without boot-up until
+// the LSS slave configured an ID and calls command(0x82, now).
 #pragma once
 
 #include <span>
 #include <vector>
 
 #include "core/can_frame.hpp"
+#include "core/node_options.hpp"
 #include "core/od.hpp"
 
 namespace cansim {
 
 class Node;
+enum class ResetKind : std::uint8_t;
 
 // NMT states as the heartbeat byte encodes them (CiA 301 Table 58).
 enum class NmtState : std::uint8_t {
@@ -19,14 +30,42 @@ enum class NmtState : std::uint8_t {
   kPreOperational = 0x7F,
 };
 
+// NMT command specifiers (CiA 301 §7.2.8.3.1).
+enum : std::uint8_t {
+  kNmtStart = 0x01,
+  kNmtStop = 0x02,
+  kNmtEnterPreOperational = 0x80,
+  kNmtResetNode = 0x81,
+  kNmtResetCommunication = 0x82,
+};
+
+// What happens after a reset: derived from the options and 0x1F80 by reset(),
+// editable by Application::on_reset (vendor start-up quirks).
+struct BootPlan {
+  bool send_boot_up = true;
+  bool self_start = false;         // enter OPERATIONAL by itself
+  TimeUs self_start_delay = 0;     // after the boot-up
+  TimeUs start_all_delay = -1;     // send NMT start-all this long after boot-up (< 0: never)
+  TimeUs boot_up_delay = 0;        // from the reset to the boot-up
+};
+
 class NmtSlave {
  public:
   explicit NmtSlave(Node& node) : node_(node) {}
   // Power-on: initialisation, boot-up, then pre-operational (or operational).
   void power_on(TimeUs now);
   NmtState state() const { return state_; }
-  // Executes an NMT command specifier (0x01, 0x02, 0x80, 0x81, 0x82) locally.
+  // Executes an NMT command specifier (0x01, 0x02, 0x80, 0x81, 0x82) locally,
+  // whatever the current state (the LSS slave uses 0x82 to boot a node that
+  // just got its node-ID). Unknown specifiers are ignored.
   void command(std::uint8_t cs, TimeUs now);
+  // Communication error reaction per 0x1029:01 (heartbeat consumer timeout,
+  // life-guarding event; CiA 301 §7.5.2.32).
+  void communication_error(TimeUs now);
+  BootPlan& boot_plan() { return plan_; }
+  // True once the boot-up of the current reset cycle happened.
+  bool booted() const { return booted_; }
+
   // Re-reads its configuration from the OD (after a reset / power-on).
   void reset(TimeUs now);
   // Returns true when the frame was addressed to this service.
@@ -42,9 +81,22 @@ class NmtSlave {
   SdoAbort write(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
 
  private:
+  void restart(ResetKind kind, TimeUs now);
+  void boot_up(TimeUs now);
+  void send_start_all(TimeUs now);
+  void set_state(NmtState s, TimeUs now);
+  void update_deadline();
+
   Node& node_;
   TimeUs next_ = kNever;
+  TimeUs boot_at_ = kNever;
+  TimeUs start_at_ = kNever;
+  TimeUs start_all_at_ = kNever;
   NmtState state_ = NmtState::kInitialising;
+  bool booted_ = false;
+  BootPlan plan_;
+  ByteSet startup_values_;
+  bool startup_values_any_ = true;
 };
 
 }  // namespace cansim

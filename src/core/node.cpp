@@ -34,11 +34,15 @@ void Node::for_each_service(Fn&& fn) const {
   const_cast<Node*>(this)->for_each_service([&](const auto& s) { fn(s); });
 }
 
+// Power-on: what LSS "store configuration" saved overrides the configured
+// node-ID and bit rate (CiA 305).
 void Node::power_on(TimeUs now) {
   powered_ = true;
   silent_ = false;
-  node_id_ = setup_.node_id;
-  bit_rate_ = setup_.bit_rate_index;
+  store_.load();
+  LssStored lss = store_.stored_lss();
+  node_id_ = lss.valid ? lss.node_id : setup_.node_id;
+  bit_rate_ = lss.valid ? lss.bit_rate_index : setup_.bit_rate_index;
   nmt_.power_on(now);
 }
 
@@ -68,7 +72,7 @@ void Node::on_frame(const CanFrame& frame, TimeUs now) {
   // broadcast services (LSS, NMT) first.
   bool done = false;
   for_each_service([&](auto& s) {
-    if (!done) done = s.on_frame(frame, now);
+    if (!done && hears(s)) done = s.on_frame(frame, now);
   });
 }
 
@@ -94,6 +98,13 @@ void Node::collect_rx_ids(std::vector<std::uint32_t>& out) const {
 
 SdoAbort Node::read(const OdEntry& e, TimeUs now, std::span<const std::uint8_t>& out) {
   if (!readable(e.access)) return SdoAbort::kWriteOnly;
+  // Owning services may refuse a read (0x1003 sub above the error count).
+  SdoAbort refused = SdoAbort::kNone;
+  for_each_service([&](auto& s) {
+    if constexpr (requires { s.check_read(e); })
+      if (ok(refused) && s.owns(e.index)) refused = s.check_read(e);
+  });
+  if (!ok(refused)) return refused;
   refresh(e, now);
   out = values_.bytes(e);
   return SdoAbort::kNone;
@@ -135,6 +146,19 @@ SdoAbort Node::write(std::uint16_t index, std::uint8_t sub, std::span<const std:
   SdoAbort why = SdoAbort::kNone;
   const OdEntry* e = od().lookup(index, sub, why);
   return e ? write(*e, data, now) : why;
+}
+
+void Node::prepare_reset(ResetKind kind, TimeUs now) {
+  for_each_service([&](auto& s) {
+    if constexpr (requires { s.prepare_reset(kind, now); }) s.prepare_reset(kind, now);
+  });
+}
+
+void Node::nmt_state_changed(NmtState old, TimeUs now) {
+  for_each_service([&](auto& s) {
+    if constexpr (requires { s.on_nmt_state(old, now); }) s.on_nmt_state(old, now);
+  });
+  if (app_) app_->on_nmt_state(*this, state(), now);
 }
 
 void Node::reset_values(ResetKind kind) {

@@ -75,6 +75,8 @@ class Node {
   const OdValues& values() const { return values_; }
   const NodeOptions& options() const { return *setup_.options; }
   Application* app() { return app_; }
+  // Makes Application::process run at `at` at the latest (NMT change, write).
+  void wake_app(TimeUs at) { if (at < app_next_) app_next_ = at; }
   NodeStorage* storage() { return storage_; }
 
   // ---- OD access as a remote client (SDO, RPDO) sees it: access rights,
@@ -87,8 +89,14 @@ class Node {
   void refresh(const OdEntry& e, TimeUs now);
 
   // ---- reset building blocks (used by NMT and LSS)
+  // First step of every reset: services that define
+  // `void prepare_reset(ResetKind, TimeUs)` run it (LSS: apply a pending node-ID).
+  void prepare_reset(ResetKind kind, TimeUs now);
   void reset_values(ResetKind kind);    // defaults, then stored values
   void reset_services(TimeUs now);      // services re-read their OD configuration
+  // Called by NMT after every state change: services that define
+  // `void on_nmt_state(NmtState old, TimeUs)` run it, then Application::on_nmt_state.
+  void nmt_state_changed(NmtState old, TimeUs now);
 
   // ---- dispatch support: the COB-IDs this node listens to. rx_epoch()
   // changes whenever that set may have changed.
@@ -114,6 +122,12 @@ class Node {
   void for_each_service(Fn&& fn);
   template <typename Fn>
   void for_each_service(Fn&& fn) const;
+  // NMT gating of received frames (CiA 301 Table 82); LSS, NMT and error
+  // control hear every frame, SYNC and EMCY gate themselves.
+  bool hears(const SdoServer&) const { return allowed(Service::kSdo); }
+  bool hears(const PdoEngine&) const { return allowed(Service::kPdo); }
+  template <typename S>
+  bool hears(const S&) const { return true; }
 
   NodeSetup setup_;
   FrameSink& sink_;

@@ -1,18 +1,185 @@
 #include "core/store.hpp"
 
+#include <cstring>
+
 #include "core/node.hpp"
 
 namespace cansim {
 
-void StoreRestore::apply_stored(std::uint16_t, std::uint16_t) {}
+namespace {
+constexpr std::uint8_t kMagic[4] = {'C', 'S', 'N', 'V'};
+constexpr std::uint8_t kVersion = 1;
+constexpr std::size_t kHeaderSize = 10;  // magic, version, LSS (3), record count u16
+constexpr std::size_t kRecordHeader = 6;  // index u16, sub, group, length u16
+constexpr std::size_t kCrcSize = 4;
+constexpr std::uint8_t kAllGroups = 1;
+
+// 0x1010/0x1011 sub 1 covers every group, the others their own (od.hpp).
+bool in_group(std::uint8_t sub, std::uint8_t group) {
+  return group != 0 && (sub == kAllGroups || sub == group);
+}
+
+bool blob_ok(std::span<const std::uint8_t> b) {
+  if (b.size() < kHeaderSize + kCrcSize) return false;
+  if (std::memcmp(b.data(), kMagic, 4) != 0 || b[4] != kVersion) return false;
+  std::size_t body = b.size() - kCrcSize;
+  if (crc32(b.first(body)) != get_u32(b.data() + body)) return false;
+  std::size_t pos = kHeaderSize;
+  for (unsigned n = get_u16(b.data() + 8); n > 0; --n) {
+    if (pos + kRecordHeader > body) return false;
+    pos += kRecordHeader + get_u16(b.data() + pos + 4);
+  }
+  return pos == body;
+}
+
+void append_u16(std::vector<std::uint8_t>& out, std::uint16_t v) {
+  out.push_back(std::uint8_t(v));
+  out.push_back(std::uint8_t(v >> 8));
+}
+
+void append_record(std::vector<std::uint8_t>& out, std::uint16_t index, std::uint8_t sub,
+                   std::uint8_t group, std::span<const std::uint8_t> bytes) {
+  append_u16(out, index);
+  out.push_back(sub);
+  out.push_back(group);
+  append_u16(out, std::uint16_t(bytes.size()));
+  out.insert(out.end(), bytes.begin(), bytes.end());
+}
+}  // namespace
+
+std::uint32_t crc32(std::span<const std::uint8_t> data) {
+  std::uint32_t crc = 0xFFFFFFFFu;
+  for (std::uint8_t byte : data) {
+    crc ^= byte;
+    for (int bit = 0; bit < 8; ++bit) crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
+  }
+  return ~crc;
+}
+
+void StoreRestore::load() {
+  blob_.clear();
+  lss_ = LssStored{};
+  corrupt_ = false;
+  NodeStorage* storage = node_.storage();
+  std::vector<std::uint8_t> data;
+  if (!storage || !storage->load(data) || data.empty()) return;
+  if (!blob_ok(data)) {
+    corrupt_ = true;
+    return;
+  }
+  blob_ = std::move(data);
+  lss_.valid = blob_[5] != 0;
+  lss_.node_id = blob_[6];
+  lss_.bit_rate_index = blob_[7];
+}
+
+template <typename Fn>
+void StoreRestore::for_each_record(Fn&& fn) const {
+  if (blob_.empty()) return;
+  std::size_t pos = kHeaderSize;
+  for (unsigned n = get_u16(blob_.data() + 8); n > 0; --n) {
+    const std::uint8_t* p = blob_.data() + pos;
+    std::uint16_t len = get_u16(p + 4);
+    fn(Record{get_u16(p), p[2], p[3], {p + kRecordHeader, len}});
+    pos += kRecordHeader + len;
+  }
+}
+
+// Robust to a changed profile: records for entries that vanished, stopped
+// being persistent or changed size are skipped.
+void StoreRestore::apply_stored(std::uint16_t first, std::uint16_t last) {
+  for_each_record([&](const Record& r) {
+    if (r.index < first || r.index > last) return;
+    const OdEntry* e = node_.od().find(r.index, r.sub);
+    if (!e || e->persist == kPersistNone) return;
+    std::size_t fixed = type_size(e->type);
+    if (fixed ? r.bytes.size() != fixed : r.bytes.size() > e->capacity) return;
+    node_.values().set_bytes(*e, r.bytes);
+  });
+}
+
+bool StoreRestore::rewrite(std::uint8_t drop_sub, bool add_current) {
+  std::vector<std::uint8_t> out(kMagic, kMagic + 4);
+  out.push_back(kVersion);
+  out.push_back(lss_.valid ? 1 : 0);
+  out.push_back(lss_.node_id);
+  out.push_back(lss_.bit_rate_index);
+  append_u16(out, 0);
+  unsigned count = 0;
+  for_each_record([&](const Record& r) {
+    if (in_group(drop_sub, r.group)) return;
+    append_record(out, r.index, r.sub, r.group, r.bytes);
+    ++count;
+  });
+  if (add_current) {
+    for (const OdEntry& e : node_.od().entries()) {
+      if (!in_group(drop_sub, e.persist)) continue;
+      append_record(out, e.index, e.sub, e.persist, node_.values().bytes(e));
+      ++count;
+    }
+  }
+  put_u16(out.data() + 8, std::uint16_t(count));
+  std::uint32_t crc = crc32(out);
+  out.resize(out.size() + kCrcSize);
+  put_u32(out.data() + out.size() - kCrcSize, crc);
+  NodeStorage* storage = node_.storage();
+  if (!storage || !storage->save(out)) return false;
+  blob_ = std::move(out);
+  corrupt_ = false;
+  return true;
+}
+
+SdoAbort StoreRestore::save_group(std::uint8_t sub) {
+  return rewrite(sub, true) ? SdoAbort::kNone : SdoAbort::kHardware;
+}
+
+SdoAbort StoreRestore::restore_group(std::uint8_t sub) {
+  const std::string& mode = node_.options().restore_mode;
+  if (mode == "ram") {
+    defaults_to_ram(sub);  // kept only if saved afterwards
+    return SdoAbort::kNone;
+  }
+  if (!rewrite(sub, false)) return SdoAbort::kHardware;
+  if (mode == "immediate") defaults_to_ram(sub);
+  return SdoAbort::kNone;
+}
+
+// Vendor variants: the defaults of the group replace the RAM values now
+// (services pick them up at their next reset).
+void StoreRestore::defaults_to_ram(std::uint8_t sub) {
+  std::uint16_t last_index = 0;
+  bool any = false;
+  for (const OdEntry& e : node_.od().entries()) {
+    if (!in_group(sub, e.persist) || (any && e.index == last_index)) continue;
+    node_.values().reset(node_.node_id(), e.index, e.index);
+    last_index = e.index;
+    any = true;
+  }
+}
+
+bool StoreRestore::save_lss(const LssStored& lss) {
+  LssStored old = lss_;
+  lss_ = lss;
+  if (rewrite(0, false)) return true;
+  lss_ = old;
+  return false;
+}
+
 void StoreRestore::reset(TimeUs) { next_ = kNever; }
 bool StoreRestore::on_frame(const CanFrame&, TimeUs) { return false; }
-void StoreRestore::process(TimeUs) {}
+void StoreRestore::process(TimeUs) { next_ = kNever; }
 void StoreRestore::collect_rx_ids(std::vector<std::uint32_t>&) const {}
-bool StoreRestore::owns(std::uint16_t) const { return false; }
+bool StoreRestore::owns(std::uint16_t index) const { return index == 0x1010 || index == 0x1011; }
+
+// The written signature is a command, never stored: reads keep returning the
+// capability bits (CiA 301 §7.5.2.13).
 SdoAbort StoreRestore::write(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs) {
-  node_.values().set_bytes(e, data);
-  return SdoAbort::kNone;
+  if (e.sub == 0) return SdoAbort::kReadOnly;
+  std::uint32_t v = std::uint32_t(decode_u(e.type, data.data()));
+  bool save = e.index == 0x1010;
+  if (v != (save ? kSave : kLoad))
+    return SdoAbort(std::uint32_t(node_.options().store_bad_signature_abort));
+  return save ? save_group(e.sub) : restore_group(e.sub);
 }
 
 }  // namespace cansim

@@ -1,4 +1,17 @@
 // Store / restore parameters, 0x1010 / 0x1011 (CiA 301 §7.5.2.13-14).
+//
+// Sub 1 = all groups, 2 = communication, 3 = application, 4..127 =
+// manufacturer groups (OdEntry::persist). Writing "save" (0x65766173) to
+// 0x1010:n stores the current values of group n; writing "load" (0x64616F6C)
+// to 0x1011:n drops the stored values of group n so the defaults apply at the
+// next reset node / power cycle (reset communication for group 2). Reads
+// return the OD default (capability bits) whatever was written.
+//
+// Blob (NodeStorage): "CSNV", version 1, LSS node-ID / bit rate, record count,
+// records {index u16, sub u8, group u8, length u16, bytes}, CRC-32 of all
+// preceding bytes. Loading skips records whose entry no longer exists, is no
+// longer persistent or has another size; a bad magic / version / CRC drops the
+// whole blob (corrupt() tells the personality, e.g. for a vendor EMCY).
 #pragma once
 
 #include <span>
@@ -11,11 +24,31 @@ namespace cansim {
 
 class Node;
 
+// What LSS "store configuration" saved (CiA 305); applied at power-on.
+struct LssStored {
+  bool valid = false;
+  std::uint8_t node_id = 0xFF;
+  std::uint8_t bit_rate_index = 0;
+};
+
 class StoreRestore {
  public:
+  static constexpr std::uint32_t kSave = 0x65766173;  // "save"
+  static constexpr std::uint32_t kLoad = 0x64616F6C;  // "load"
+
   explicit StoreRestore(Node& node) : node_(node) {}
+  // Reads the blob from NodeStorage into the cache (power-on).
+  void load();
   // Applies stored values of entries with index in [first, last] to the OD.
   void apply_stored(std::uint16_t first, std::uint16_t last);
+  // Stores / forgets the values of a 0x1010 / 0x1011 sub-index group (1 = all).
+  SdoAbort save_group(std::uint8_t sub);
+  SdoAbort restore_group(std::uint8_t sub);
+  // LSS store configuration, kept in the same blob as the parameters.
+  bool save_lss(const LssStored& lss);
+  LssStored stored_lss() const { return lss_; }
+  bool corrupt() const { return corrupt_; }
+
   // Re-reads its configuration from the OD (after a reset / power-on).
   void reset(TimeUs now);
   // Returns true when the frame was addressed to this service.
@@ -31,8 +64,28 @@ class StoreRestore {
   SdoAbort write(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
 
  private:
+  struct Record {
+    std::uint16_t index;
+    std::uint8_t sub;
+    std::uint8_t group;
+    std::span<const std::uint8_t> bytes;
+  };
+  // Calls fn(record) for every record of the cached blob.
+  template <typename Fn>
+  void for_each_record(Fn&& fn) const;
+  // Rebuilds the blob from the kept cached records plus the current values of
+  // entries in `groups`, and saves it.
+  bool rewrite(std::uint8_t drop_sub, bool add_current);
+  void defaults_to_ram(std::uint8_t sub);
+
   Node& node_;
   TimeUs next_ = kNever;
+  std::vector<std::uint8_t> blob_;  // validated copy of what storage holds
+  LssStored lss_;
+  bool corrupt_ = false;
 };
+
+// CRC-32 (IEEE 802.3, reflected, init and xor 0xFFFFFFFF) of the blob.
+std::uint32_t crc32(std::span<const std::uint8_t> data);
 
 }  // namespace cansim

@@ -1,4 +1,10 @@
-// SYNC consumer: 0x1005, 0x1006, 0x1007, 0x1019 (CiA 301 §7.2.5).
+// SYNC consumer: 0x1005, 0x1006, 0x1007, 0x1019 (CiA 301 §7.2.5, §7.5.2.5-7,
+// §7.5.2.40). The node consumes SYNC only; it never produces it.
+//
+// A SYNC is valid when its DLC is 0 (0x1019 = 0) or 1 (0x1019 = 2..240, byte 0
+// = counter); any other DLC raises EMCY 0x8240 (a one-shot report) and the
+// frame is ignored. Valid SYNCs in PRE-OPERATIONAL / OPERATIONAL go to the
+// PDO engine and the application; a SYNC opens the synchronous window 0x1007.
 #pragma once
 
 #include <span>
@@ -14,6 +20,13 @@ class Node;
 class SyncConsumer {
  public:
   explicit SyncConsumer(Node& node) : node_(node) {}
+  // True while synchronous PDOs may be sent: within 0x1007 µs after the last
+  // SYNC (always, when 0x1007 = 0).
+  bool window_open(TimeUs now) const;
+  std::uint32_t cob_id() const { return cob_id_; }
+  std::uint8_t overflow() const { return overflow_; }
+  TimeUs last_sync() const { return last_sync_; }
+
   // Re-reads its configuration from the OD (after a reset / power-on).
   void reset(TimeUs now);
   // Returns true when the frame was addressed to this service.
@@ -29,8 +42,18 @@ class SyncConsumer {
   SdoAbort write(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
 
  private:
+  void read_config();
+  SdoAbort write_cob_id(const OdEntry& e, std::uint32_t v);
+  SdoAbort write_overflow(const OdEntry& e, std::uint8_t v);
+
   Node& node_;
   TimeUs next_ = kNever;
+  TimeUs last_sync_ = kNever;
+  TimeUs window_us_ = 0;
+  std::uint32_t cob_id_ = 0;  // CAN-ID, with CanFrame::kExtended in extended_
+  bool extended_ = false;
+  bool present_ = false;
+  std::uint8_t overflow_ = 0;
 };
 
 }  // namespace cansim
