@@ -1,0 +1,779 @@
+#include "personalities/cia404.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <string>
+
+#include "config/physics_config.hpp"
+#include "config/yaml_util.hpp"
+#include "physics/quantize.hpp"
+
+namespace cansim::personalities {
+
+namespace {
+
+using config::fail;
+using config::Where;
+
+struct RoleInfo {
+  Role role;
+  const char* name;
+  std::uint16_t index;  // CiA 404 REAL32 / base index
+  bool twins;           // 0x71xx / 0x91xx integer twins may exist
+  bool valued;          // a logical value that follows unit / digits changes
+  bool difference;      // converts without zero shift
+  std::uint8_t hooks;
+};
+
+// CiA 404 analogue-input objects (HYDAC VFL §3.5.3, esd CAN-CBX manuals).
+constexpr RoleInfo kRoles[kRoleCount] = {
+    {Role::kPv, "pv", 0x6130, true, false, false, kHookRead},
+    {Role::kFieldValue, "field_value", 0x6100, true, false, false, kHookRead},
+    {Role::kStatus, "status", 0x6150, false, false, false, kHookRead},
+    {Role::kUnit, "unit", 0x6131, false, false, false, kHookWrite},
+    {Role::kDigits, "digits", 0x6132, false, false, false, kHookWrite},
+    {Role::kOffset, "offset", 0x6124, true, true, true, kHookWrite},
+    {Role::kAutozero, "autozero", 0x6125, true, false, false, kHookWrite},
+    {Role::kDelta, "delta", 0x6133, true, true, true, kHookWrite},
+    {Role::kLowerLimit, "lower_limit", 0x6134, true, true, false, kHookWrite},
+    {Role::kUpperLimit, "upper_limit", 0x6135, true, true, false, kHookWrite},
+    {Role::kHysteresis, "hysteresis", 0x6136, true, true, true, kHookWrite},
+    {Role::kSpanStart, "span_start", 0x6148, true, true, false, kHookWrite},
+    {Role::kSpanEnd, "span_end", 0x6149, true, true, false, kHookWrite},
+    {Role::kFilterType, "filter_type", 0x61A0, false, false, false, kHookWrite},
+    {Role::kFilterConstant, "filter_constant", 0x61A1, false, false, false, kHookWrite},
+};
+
+const RoleInfo& info(Role r) { return kRoles[std::size_t(r)]; }
+bool valued(Role r) { return r < Role::kExtra && info(r).valued; }
+
+const RoleInfo* role_by_name(const std::string& name) {
+  for (const RoleInfo& r : kRoles)
+    if (name == r.name) return &r;
+  return nullptr;
+}
+
+void add_view(Param& p, const OdEntry* e) {
+  if (!e || p.count == 3) return;
+  // The REAL view is the primary: it holds the value without rounding.
+  if (is_real(e->type) && p.count && !is_real(p.views[0]->type)) {
+    for (int i = p.count; i > 0; --i) p.views[i] = p.views[i - 1];
+    p.views[0] = e;
+  } else {
+    p.views[p.count] = e;
+  }
+  ++p.count;
+}
+
+void integer_range(DataType t, std::int64_t& lo, std::int64_t& hi) {
+  const std::size_t bits = 8 * type_size(t);
+  if (bits >= 64) {
+    lo = is_signed(t) ? std::numeric_limits<std::int64_t>::min() : 0;
+    hi = std::numeric_limits<std::int64_t>::max();
+  } else if (is_signed(t)) {
+    lo = -(std::int64_t(1) << (bits - 1));
+    hi = (std::int64_t(1) << (bits - 1)) - 1;
+  } else {
+    lo = 0;
+    hi = (std::int64_t(1) << bits) - 1;
+  }
+}
+
+double decode_view(const OdEntry& e, const std::uint8_t* p, int digits) {
+  if (is_real(e.type)) return decode_f(e.type, p);
+  return physics::from_decimal(decode_i(e.type, p), digits);
+}
+
+SdoAbort abort_code(const Where& w, const YAML::Node& n) {
+  return SdoAbort(std::uint32_t(config::get_int(w, n, 0, 0xFFFFFFFF)));
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------- profile
+
+struct ProfileBuilder {
+  const Where& w;
+  const YAML::Node& section;
+  OdLayout& layout;
+  Cia404Profile& out;
+
+  void settings() {
+    Cia404Settings& s = out.settings;
+    ByteSet::parse("254-255", s.event_tpdo_types);
+    if (!section || section.IsNull()) return;
+    config::check_keys(w, section,
+                       {"event_check_period", "config_scan_period", "event_tpdo_types", "limit_trigger", "span_compare",
+                        "unit_informational", "digits_on_unit_change", "autozero_signature", "bad_unit_abort",
+                        "bad_autozero_abort", "digits_abort", "unit_digits_abort", "negative_abort", "channels"});
+    auto time_us = [&](const char* key, TimeUs& field) {
+      if (!section[key]) return;
+      double s_ = config::get_quantity(w.child(key), section[key], config::Dim::kTime);
+      if (s_ < 0) fail(w.child(key), section[key], "expected a time >= 0");
+      field = TimeUs(std::llround(s_ * 1e6));
+    };
+    time_us("event_check_period", s.event_check_period_us);
+    time_us("config_scan_period", s.config_scan_period_us);
+    if (s.config_scan_period_us <= 0) fail(w.child("config_scan_period"), section["config_scan_period"], "expected a time > 0");
+    if (section["event_tpdo_types"]) {
+      s.event_tpdo_types = {};
+      if (!ByteSet::parse(config::get_string(w.child("event_tpdo_types"), section["event_tpdo_types"]), s.event_tpdo_types))
+        fail(w.child("event_tpdo_types"), section["event_tpdo_types"], "expected ranges like '254-255'");
+    }
+    if (section["limit_trigger"]) {
+      std::string v = config::get_string(w.child("limit_trigger"), section["limit_trigger"]);
+      if (v != "edge" && v != "level") fail(w.child("limit_trigger"), section["limit_trigger"], "expected edge or level");
+      s.limit_level = v == "level";
+    }
+    if (section["span_compare"]) {
+      std::string v = config::get_string(w.child("span_compare"), section["span_compare"]);
+      if (v != "pv" && v != "input") fail(w.child("span_compare"), section["span_compare"], "expected pv or input");
+      s.span_compares_input = v == "input";
+    }
+    if (section["unit_informational"])
+      s.unit_informational = config::get_bool(w.child("unit_informational"), section["unit_informational"]);
+    if (section["digits_on_unit_change"]) {
+      const YAML::Node& n = section["digits_on_unit_change"];
+      std::string v = config::get_string(w.child("digits_on_unit_change"), n);
+      if (v == "keep") s.digits_on_unit_change = DigitsOnUnitChange::kKeep;
+      else if (v == "reject") s.digits_on_unit_change = DigitsOnUnitChange::kReject;
+      else if (v == "clamp") s.digits_on_unit_change = DigitsOnUnitChange::kClamp;
+      else if (v == "adjust") s.digits_on_unit_change = DigitsOnUnitChange::kAdjust;
+      else fail(w.child("digits_on_unit_change"), n, "expected keep, reject, clamp or adjust");
+    }
+    if (section["autozero_signature"])
+      s.autozero_signature = std::uint32_t(config::get_int(w.child("autozero_signature"), section["autozero_signature"], 0, 0xFFFFFFFF));
+    struct AbortKey {
+      const char* key;
+      SdoAbort* field;
+    };
+    for (AbortKey k : {AbortKey{"bad_unit_abort", &s.bad_unit_abort}, AbortKey{"bad_autozero_abort", &s.bad_autozero_abort},
+                       AbortKey{"digits_abort", &s.digits_abort}, AbortKey{"unit_digits_abort", &s.unit_digits_abort},
+                       AbortKey{"negative_abort", &s.negative_abort}})
+      if (section[k.key]) *k.field = abort_code(w.child(k.key), section[k.key]);
+  }
+
+  // Channels = the sub-indices of the PV objects, unless the profile lists them.
+  std::vector<std::uint8_t> discover_subs() {
+    std::vector<std::uint8_t> subs;
+    for (std::uint16_t index : {0x6130, 0x7130, 0x9130, 0x6100, 0x7100}) {
+      for (int sub = 1; sub < 255; ++sub) {
+        if (!layout.find(index, std::uint8_t(sub))) continue;
+        bool known = false;
+        for (auto s : subs) known |= s == sub;
+        if (!known) subs.push_back(std::uint8_t(sub));
+      }
+    }
+    std::sort(subs.begin(), subs.end());
+    return subs;
+  }
+
+  const OdEntry* entry(std::uint16_t index, std::uint8_t sub) {
+    const OdEntry* e = layout.find(index, sub);
+    if (!e) {  // a VAR object serves a single-channel device
+      const OdObject* o = layout.object(index);
+      if (o && o->kind == ObjectKind::kVar) e = layout.find(index, 0);
+    }
+    return e;
+  }
+
+  void default_views(ChannelConfig& c) {
+    for (const RoleInfo& r : kRoles) {
+      Param& p = c.params[std::size_t(r.role)];
+      p.difference = r.difference;
+      add_view(p, entry(r.index, c.sub));
+      if (r.twins) {
+        add_view(p, entry(std::uint16_t(r.index + 0x1000), c.sub));
+        add_view(p, entry(std::uint16_t(r.index + 0x3000), c.sub));
+      }
+    }
+  }
+
+  std::uint16_t index_of(const Where& wi, const YAML::Node& n) {
+    return std::uint16_t(config::get_int(wi, n, 0x1000, 0xFFFF));
+  }
+
+  void parse_objects(const Where& wo, const YAML::Node& m, ChannelConfig& c) {
+    if (!m.IsMap()) fail(wo, m, "expected a mapping of role names to OD indices");
+    for (const auto& kv : m) {
+      std::string name = kv.first.Scalar();
+      Where wr = wo.child(name);
+      const RoleInfo* r = role_by_name(name);
+      if (!r) fail(wr, kv.first, "unknown role (expected pv, field_value, status, unit, digits, offset, autozero, delta, "
+                                 "lower_limit, upper_limit, hysteresis, span_start, span_end, filter_type, filter_constant)");
+      Param& p = c.params[std::size_t(r->role)];
+      p = Param{};
+      p.difference = r->difference;
+      YAML::Node list = kv.second;
+      if (list.IsScalar()) {
+        YAML::Node seq(YAML::NodeType::Sequence);
+        seq.push_back(list);
+        list = seq;
+      }
+      if (!list.IsSequence()) fail(wr, kv.second, "expected an index or a list of indices");
+      for (std::size_t i = 0; i < list.size(); ++i) {
+        Where wi = list.size() == 1 && kv.second.IsScalar() ? wr : wr.item(i);
+        std::uint16_t index = index_of(wi, list[i]);
+        const OdEntry* e = entry(index, c.sub);
+        if (!e) fail(wi, list[i], "no such object for channel " + std::to_string(c.sub) + " in the objects list");
+        if (p.count == 3) fail(wi, list[i], "at most three views (REAL32 and two integer twins)");
+        add_view(p, e);
+      }
+    }
+  }
+
+  void parse_units(const Where& wu, const YAML::Node& list, ChannelConfig& c) {
+    if (!list.IsSequence() || list.size() == 0) fail(wu, list, "expected a list of units");
+    c.units.clear();
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      Where wi = wu.item(i);
+      const YAML::Node& n = list[i];
+      UnitChoice u;
+      std::string name;
+      if (n.IsScalar()) {
+        name = n.Scalar();
+      } else {
+        config::check_keys(wi, n, {"unit", "code", "max_digits"});
+        if (!n["unit"]) fail(wi.child("unit"), n, "missing required key 'unit'");
+        name = config::get_string(wi.child("unit"), n["unit"]);
+        if (n["max_digits"]) u.max_digits = int(config::get_int(wi.child("max_digits"), n["max_digits"], 0, 18));
+      }
+      const YAML::Node& at = n.IsScalar() ? n : n["unit"];
+      auto scale = named_unit(name, &u.code);
+      if (!scale) fail(n.IsScalar() ? wi : wi.child("unit"), at, "unknown unit (expected Pa, hPa, kPa, MPa, bar, mbar, psi, atm, at, mmHg, degC, degF, K)");
+      if (scale->kind != c.kind) fail(n.IsScalar() ? wi : wi.child("unit"), at, "unit of the wrong quantity for this channel");
+      u.scale = *scale;
+      if (!n.IsScalar() && n["code"]) u.code = std::uint32_t(config::get_int(wi.child("code"), n["code"], 0, 0xFFFFFFFF));
+      if (u.code == 0) fail(wi, n, "this unit has no CiA 303-2 code built in: give 'code'");
+      c.units.push_back(u);
+    }
+  }
+
+  void default_units(ChannelConfig& c) {
+    const char* pressure[] = {"Pa", "hPa", "kPa", "MPa", "bar", "mbar", "psi"};
+    const char* temperature[] = {"degC", "degF", "K"};
+    auto add = [&](const char* name) {
+      UnitChoice u;
+      u.scale = *named_unit(name, &u.code);
+      c.units.push_back(u);
+    };
+    if (c.kind == QuantityKind::kPressure) for (auto n : pressure) add(n);
+    else for (auto n : temperature) add(n);
+  }
+
+  QuantityKind guess_kind(std::uint8_t sub) {
+    if (const OdEntry* e = entry(0x6131, sub); e && e->default_bytes.size() >= 4) {
+      if (auto u = builtin_unit(decode_u(DataType::kUnsigned32, e->default_bytes.data()))) return u->kind;
+    }
+    return QuantityKind::kPressure;
+  }
+
+  void parse_dependents(const Where& wd, const YAML::Node& list, ChannelConfig& c, std::uint32_t& mask) {
+    if (!list.IsSequence()) fail(wd, list, "expected a list of roles or OD indices");
+    mask = 0;
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      Where wi = wd.item(i);
+      const YAML::Node& n = list[i];
+      YAML::Node idx = n;
+      bool difference = false;
+      if (n.IsMap()) {
+        config::check_keys(wi, n, {"index", "difference"});
+        if (!n["index"]) fail(wi.child("index"), n, "missing required key 'index'");
+        idx = n["index"];
+        if (n["difference"]) difference = config::get_bool(wi.child("difference"), n["difference"]);
+      } else if (const RoleInfo* r = role_by_name(n.Scalar())) {
+        if (!r->valued) fail(wi, n, "this role has no unit-dependent value");
+        mask |= 1u << unsigned(r->role);
+        continue;
+      }
+      std::int64_t index = 0;
+      if (!idx.IsScalar() || !config::parse_int_literal(idx.Scalar(), index) || index < 0x1000 || index > 0xFFFF)
+        fail(wi, idx, "expected a role name (offset, delta, lower_limit, upper_limit, hysteresis, span_start, span_end) or an OD index");
+      const OdEntry* e = entry(std::uint16_t(index), c.sub);
+      if (!e) fail(wi, idx, "no such object for channel " + std::to_string(c.sub));
+      if (is_variable_size(e->type)) fail(wi, idx, "expected a numeric object");
+      Param p;
+      p.difference = difference;
+      add_view(p, e);
+      c.extras.push_back(p);
+    }
+  }
+
+  ChannelConfig channel(std::uint8_t sub, const Where& wc, const YAML::Node& m) {
+    ChannelConfig c;
+    c.sub = sub;
+    c.kind = guess_kind(sub);
+    if (m && m["quantity"]) {
+      std::string q = config::get_string(wc.child("quantity"), m["quantity"]);
+      if (q == "pressure") c.kind = QuantityKind::kPressure;
+      else if (q == "temperature") c.kind = QuantityKind::kTemperature;
+      else fail(wc.child("quantity"), m["quantity"], "expected pressure or temperature");
+    }
+    c.source = c.kind == QuantityKind::kPressure ? physics::Channel::Pressure : physics::Channel::Temperature;
+    default_views(c);
+    if (m && m["objects"]) parse_objects(wc.child("objects"), m["objects"], c);
+    if (m && m["units"]) parse_units(wc.child("units"), m["units"], c);
+    else default_units(c);
+    c.fixed_unit = c.units.front();
+    if (const OdEntry* u = c.param(Role::kUnit).views[0]; u && u->default_bytes.size() >= 4) {
+      std::uint32_t code = std::uint32_t(decode_u(u->type, u->default_bytes.data()));
+      for (const UnitChoice& choice : c.units)
+        if (choice.code == code) c.fixed_unit = choice;
+    }
+    if (m && m["fixed_unit"]) {
+      std::string name = config::get_string(wc.child("fixed_unit"), m["fixed_unit"]);
+      auto s = named_unit(name, &c.fixed_unit.code);
+      if (!s || s->kind != c.kind) fail(wc.child("fixed_unit"), m["fixed_unit"], "expected a unit of this channel's quantity");
+      c.fixed_unit.scale = *s;
+    }
+    c.dependent_roles = 0;
+    for (const RoleInfo& r : kRoles)
+      if (r.valued) c.dependent_roles |= 1u << unsigned(r.role);
+    if (m && m["unit_dependent"]) parse_dependents(wc.child("unit_dependent"), m["unit_dependent"], c, c.dependent_roles);
+    return c;
+  }
+
+  void channels() {
+    const YAML::Node list = section && section.IsMap() ? section["channels"] : YAML::Node();
+    Where wl = w.child("channels");
+    std::vector<std::uint8_t> subs = discover_subs();
+    if (list) {
+      if (!list.IsSequence()) fail(wl, list, "expected a list of channels");
+      for (std::size_t i = 0; i < list.size(); ++i) {
+        Where wi = wl.item(i);
+        config::check_keys(wi, list[i], {"sub", "quantity", "objects", "units", "fixed_unit", "unit_dependent"});
+        if (!list[i]["sub"]) fail(wi.child("sub"), list[i], "missing required key 'sub'");
+        std::uint8_t sub = std::uint8_t(config::get_int(wi.child("sub"), list[i]["sub"], 1, 254));
+        for (const ChannelConfig& other : out.channels)
+          if (other.sub == sub) fail(wi.child("sub"), list[i]["sub"], "duplicate channel");
+        out.channels.push_back(channel(sub, wi, list[i]));
+      }
+    } else {
+      for (std::uint8_t sub : subs) out.channels.push_back(channel(sub, wl, YAML::Node()));
+    }
+  }
+
+  void bind() {
+    out.by_slot_.assign(layout.entries().size(), Cia404Profile::Binding{});
+    for (std::size_t ch = 0; ch < out.channels.size(); ++ch) {
+      ChannelConfig& c = out.channels[ch];
+      for (std::size_t r = 0; r < kRoleCount; ++r) {
+        Param& p = c.params[r];
+        for (int v = 0; v < p.count; ++v) {
+          out.by_slot_[p.views[v]->slot] = {std::uint8_t(ch), Role(r), 0};
+          if (OdEntry* e = layout.edit(p.views[v]->index, p.views[v]->sub)) e->hooks |= kRoles[r].hooks;
+        }
+      }
+      for (std::size_t x = 0; x < c.extras.size(); ++x)
+        out.by_slot_[c.extras[x].views[0]->slot] = {std::uint8_t(ch), Role::kExtra, std::uint16_t(x)};
+    }
+  }
+
+  void tpdos() {
+    for (unsigned n = 0; n < 512; ++n) {
+      Cia404Profile::Tpdo t;
+      t.cob_id = layout.find(std::uint16_t(0x1800 + n), 1);
+      t.type = layout.find(std::uint16_t(0x1800 + n), 2);
+      t.count = layout.find(std::uint16_t(0x1A00 + n), 0);
+      if (!t.cob_id || !t.type || !t.count) continue;
+      for (unsigned i = 0; i < 8; ++i) t.map[i] = layout.find(std::uint16_t(0x1A00 + n), std::uint8_t(i + 1));
+      out.tpdos.push_back(t);
+    }
+  }
+};
+
+std::shared_ptr<const Cia404Profile> Cia404Profile::build(const config::Where& w, const YAML::Node& section,
+                                                          OdLayout& layout) {
+  auto p = std::make_shared<Cia404Profile>();
+  ProfileBuilder b{w, section, layout, *p};
+  if (section && !section.IsNull() && !section.IsMap()) fail(w, section, "expected a mapping");
+  b.settings();
+  b.channels();
+  b.bind();
+  b.tpdos();
+  return p;
+}
+
+// ---------------------------------------------------------------- source
+
+MeasurementSource::Sample SensorSource::sample(physics::Channel ch, TimeUs now) {
+  const physics::SensorReading& r = sensor_.read(now);
+  const physics::ChannelReading& c = ch == physics::Channel::Pressure ? r.pressure : r.temperature;
+  return {c.value, c.adc_counts, c.status};
+}
+
+TimeUs SensorSource::sample_period_us(physics::Channel ch) const {
+  const physics::ChannelSpec& c = ch == physics::Channel::Pressure ? sensor_.spec().pressure : sensor_.spec().temperature;
+  return std::max<TimeUs>(1, TimeUs(std::llround(1e6 / c.sample_rate_hz)));
+}
+
+// ---------------------------------------------------------------- application
+
+Cia404Application::Cia404Application(std::shared_ptr<const Cia404Profile> profile,
+                                     std::unique_ptr<MeasurementSource> source, IdentitySettings identity,
+                                     std::uint32_t node_index)
+    : profile_(std::move(profile)), source_(std::move(source)), identity_(identity), node_index_(node_index) {
+  state_.resize(profile_->channels.size());
+  for (std::size_t ch = 0; ch < state_.size(); ++ch) {
+    state_[ch].captured.assign(kRoleCount + profile_->channels[ch].extras.size(), 0.0);
+    state_[ch].unit = profile_->channels[ch].fixed_unit;
+  }
+}
+
+int Cia404Application::digits(const Node& node, std::size_t ch) const {
+  const OdEntry* d = profile_->channels[ch].param(Role::kDigits).views[0];
+  return d ? int(std::min<std::uint64_t>(node.values().get_u(*d), 18)) : 0;
+}
+
+double Cia404Application::param_value(const Node& node, const Param& p, int dd) const {
+  if (!p.present()) return 0.0;
+  const OdEntry& e = *p.views[0];
+  return is_real(e.type) ? node.values().get_f(e) : physics::from_decimal(node.values().get_i(e), dd);
+}
+
+void Cia404Application::store_param(Node& node, const Param& p, double value, int dd) {
+  // Integer twins are rendered from the REAL32 value the node reports
+  // (float32(1.92) x 100 -> 192, round half away from zero, saturated).
+  const bool has_real = p.present() && is_real(p.views[0]->type);
+  const double v = has_real ? double(float(value)) : value;
+  for (int i = 0; i < p.count; ++i) {
+    const OdEntry& e = *p.views[i];
+    if (is_real(e.type)) {
+      node.values().set_f(e, value);
+    } else {
+      std::int64_t lo = 0, hi = 0;
+      integer_range(e.type, lo, hi);
+      node.values().set_i(e, physics::to_decimal(v, dd, lo, hi).value);
+    }
+  }
+}
+
+double Cia404Application::get(const Node& node, std::size_t ch, Role role) const {
+  return param_value(node, profile_->channels[ch].param(role), digits(node, ch));
+}
+
+void Cia404Application::set(Node& node, std::size_t ch, Role role, double value) {
+  store_param(node, profile_->channels[ch].param(role), value, digits(node, ch));
+}
+
+const UnitChoice* Cia404Application::find_unit(const ChannelConfig& c, std::uint32_t code) const {
+  for (const UnitChoice& u : c.units)
+    if (u.code == code) return &u;
+  return nullptr;
+}
+
+Cia404Application::Measurement Cia404Application::measure(Node& node, std::size_t ch, TimeUs now) {
+  const ChannelConfig& c = profile_->channels[ch];
+  ChannelState& st = state_[ch];
+  const MeasurementSource::Sample s = source_->sample(c.source, now);
+  Measurement m;
+  m.raw = s.raw;
+  m.input = input_value(c, s, st.unit.scale) + st.zero_correction;
+  m.pv = m.input + get(node, ch, Role::kOffset);
+  // 0x6150: bit 0 from the sensor; overload against the span objects when
+  // the profile has them, else the sensor's own range check.
+  m.status = s.status & physics::kStatusInvalid;
+  const Param& start = c.param(Role::kSpanStart);
+  const Param& end = c.param(Role::kSpanEnd);
+  if (start.present() || end.present()) {
+    const double x = profile_->settings.span_compares_input ? m.input : m.pv;
+    if (end.present() && x > get(node, ch, Role::kSpanEnd)) m.status |= physics::kStatusPositiveOverload;
+    if (start.present() && x < get(node, ch, Role::kSpanStart)) m.status |= physics::kStatusNegativeOverload;
+  } else {
+    m.status |= s.status & (physics::kStatusPositiveOverload | physics::kStatusNegativeOverload);
+  }
+  const int dd = digits(node, ch);
+  store_param(node, c.param(Role::kPv), m.pv, dd);
+  const Param& fv = c.param(Role::kFieldValue);
+  for (int i = 0; i < fv.count; ++i) node.values().set_i(*fv.views[i], m.raw);  // raw counts, not scaled
+  if (const OdEntry* e = c.param(Role::kStatus).views[0]) node.values().set_u(*e, m.status);
+  return m;
+}
+
+void Cia404Application::apply_filter(Node& node, std::size_t ch) {
+  const ChannelConfig& c = profile_->channels[ch];
+  const OdEntry* type = c.param(Role::kFilterType).views[0];
+  if (!type) return;
+  const OdEntry* constant = c.param(Role::kFilterConstant).views[0];
+  physics::FilterSpec f;
+  // CiA 404 0x61A0: 0 none, 1 moving average, 2 repeating average.
+  switch (node.values().get_u(*type)) {
+    case 1: f.type = physics::FilterType::MovingAverage; break;
+    case 2: f.type = physics::FilterType::RepeatingAverage; break;
+    default: f.type = physics::FilterType::None; break;
+  }
+  f.length = constant ? std::uint32_t(std::max<std::uint64_t>(1, node.values().get_u(*constant))) : 1;
+  source_->set_filter(c.source, f);
+}
+
+void Cia404Application::on_reset(Node& node, ResetKind kind, TimeUs now) {
+  if (identity_.serial_per_node) node.values().set_u(0x1018, 4, identity_.serial_base + node_index_);
+  if (kind != ResetKind::kCommunication) source_->reboot(now);
+  for (std::size_t ch = 0; ch < state_.size(); ++ch) {
+    const ChannelConfig& c = profile_->channels[ch];
+    ChannelState& st = state_[ch];
+    st.unit = c.fixed_unit;
+    if (const OdEntry* u = c.param(Role::kUnit).views[0]; u && !profile_->settings.unit_informational) {
+      if (const UnitChoice* found = find_unit(c, std::uint32_t(node.values().get_u(*u)))) st.unit = *found;
+    }
+    if (kind != ResetKind::kCommunication) {
+      st.zero_correction = 0.0;
+      apply_filter(node, ch);
+    }
+    st.have_ref = false;
+    st.upper_armed = st.lower_armed = true;
+  }
+  event_channels_ = 0;
+  next_scan_ = now;
+  next_check_ = now;
+}
+
+void Cia404Application::on_nmt_state(Node& node, NmtState, TimeUs now) {
+  next_scan_ = now;  // the event TPDO set may have changed
+  node.wake_app(now);
+}
+
+void Cia404Application::refresh(Node& node, const OdEntry& e, TimeUs now) {
+  const Cia404Profile::Binding& b = profile_->binding(e);
+  if (b.role == Role::kPv || b.role == Role::kFieldValue || b.role == Role::kStatus) measure(node, b.channel, now);
+}
+
+// ---- writes
+
+void Cia404Application::capture(const Node& node, std::size_t ch) {
+  const ChannelConfig& c = profile_->channels[ch];
+  ChannelState& st = state_[ch];
+  const int dd = digits(node, ch);
+  for (std::size_t r = 0; r < kRoleCount; ++r) st.captured[r] = param_value(node, c.params[r], dd);
+  for (std::size_t x = 0; x < c.extras.size(); ++x) st.captured[kRoleCount + x] = param_value(node, c.extras[x], dd);
+}
+
+// Stores the captured values again with the current digits, converted
+// between units for the unit-dependent ones when from/to are given.
+void Cia404Application::rerender(Node& node, std::size_t ch, const UnitScale* from, const UnitScale* to) {
+  const ChannelConfig& c = profile_->channels[ch];
+  const ChannelState& st = state_[ch];
+  const int dd = digits(node, ch);
+  for (std::size_t r = 0; r < kRoleCount; ++r) {
+    if (!valued(Role(r)) || !c.params[r].present()) continue;
+    double v = st.captured[r];
+    if (from && (c.dependent_roles >> r) & 1) v = convert(v, *from, *to, c.params[r].difference);
+    store_param(node, c.params[r], v, dd);
+  }
+  for (std::size_t x = 0; x < c.extras.size(); ++x) {
+    double v = st.captured[kRoleCount + x];
+    if (from) v = convert(v, *from, *to, c.extras[x].difference);
+    store_param(node, c.extras[x], v, dd);
+  }
+}
+
+namespace {
+int unit_change_digits(DigitsOnUnitChange policy, int dd, int max, const UnitScale& from, const UnitScale& to) {
+  switch (policy) {
+    case DigitsOnUnitChange::kAdjust: {
+      // Keep the resolution: one new unit is k old units (e.g. bar -> mbar: 3 digits fewer).
+      double k = to.si_per_unit / from.si_per_unit;
+      dd = std::clamp(dd + int(std::lround(std::log10(k))), 0, max >= 0 ? max : 9);
+      return dd;
+    }
+    case DigitsOnUnitChange::kClamp: return max >= 0 ? std::min(dd, max) : dd;
+    default: return dd;
+  }
+}
+
+double decode_data(const OdEntry& e, std::span<const std::uint8_t> data, int dd) {
+  return data.size() >= type_size(e.type) ? decode_view(e, data.data(), dd) : 0.0;
+}
+}  // namespace
+
+SdoAbort Cia404Application::check_write(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs) {
+  const Cia404Profile::Binding& b = profile_->binding(e);
+  if (b.role == Role::kNone) return SdoAbort::kNone;
+  const Cia404Settings& s = profile_->settings;
+  const ChannelConfig& c = profile_->channels[b.channel];
+  ChannelState& st = state_[b.channel];
+  const int dd = digits(node, b.channel);
+  switch (b.role) {
+    case Role::kUnit: {
+      if (s.unit_informational) return SdoAbort::kNone;
+      const UnitChoice* u = find_unit(c, std::uint32_t(decode_u(e.type, data.data())));
+      if (!u) return s.bad_unit_abort;
+      if (s.digits_on_unit_change == DigitsOnUnitChange::kReject && u->max_digits >= 0 && dd > u->max_digits)
+        return s.unit_digits_abort;
+      st.pending_unit = *u;
+      capture(node, b.channel);
+      return SdoAbort::kNone;
+    }
+    case Role::kDigits: {
+      if (st.unit.max_digits >= 0 && std::int64_t(decode_u(e.type, data.data())) > st.unit.max_digits) return s.digits_abort;
+      capture(node, b.channel);
+      return SdoAbort::kNone;
+    }
+    case Role::kAutozero:
+      // CiA 404: only the signature "zero" (0x6F72657A) triggers the autozero.
+      return decode_u(e.type, data.data()) == s.autozero_signature ? SdoAbort::kNone : s.bad_autozero_abort;
+    case Role::kDelta:
+    case Role::kHysteresis:
+      return decode_data(e, data, dd) < 0 ? s.negative_abort : SdoAbort::kNone;
+    case Role::kFilterType:
+      return decode_u(e.type, data.data()) > 2 ? SdoAbort::kInvalidValue : SdoAbort::kNone;
+    case Role::kFilterConstant:
+      return decode_u(e.type, data.data()) == 0 ? SdoAbort::kValueTooLow : SdoAbort::kNone;
+    default:
+      return SdoAbort::kNone;
+  }
+}
+
+void Cia404Application::after_param_write(Node& node, std::size_t ch, const Param& p, const OdEntry& written) {
+  // The written view is the truth; its twins follow.
+  const int dd = digits(node, ch);
+  const double v = decode_view(written, node.values().bytes(written).data(), dd);
+  store_param(node, p, v, dd);
+}
+
+void Cia404Application::autozero(Node& node, std::size_t ch, TimeUs now) {
+  // CiA 404 0x6125: the offset is set so that the PV reads 0 now.
+  const Measurement m = measure(node, ch, now);
+  if (profile_->channels[ch].param(Role::kOffset).present()) set(node, ch, Role::kOffset, get(node, ch, Role::kOffset) - m.pv);
+  else state_[ch].zero_correction -= m.pv;
+  measure(node, ch, now);
+}
+
+void Cia404Application::after_write(Node& node, const OdEntry& e, TimeUs now) {
+  const Cia404Profile::Binding& b = profile_->binding(e);
+  if (b.role == Role::kNone) return;
+  const std::size_t ch = b.channel;
+  const ChannelConfig& c = profile_->channels[ch];
+  ChannelState& st = state_[ch];
+  switch (b.role) {
+    case Role::kUnit: {
+      if (profile_->settings.unit_informational) return;
+      const UnitChoice from = st.unit;
+      st.unit = st.pending_unit;
+      if (const OdEntry* d = c.param(Role::kDigits).views[0]; d && writable(d->access)) {
+        int dd = unit_change_digits(profile_->settings.digits_on_unit_change, digits(node, ch), st.unit.max_digits,
+                                    from.scale, st.unit.scale);
+        node.values().set_u(*d, std::uint64_t(dd));
+      }
+      rerender(node, ch, &from.scale, &st.unit.scale);
+      break;
+    }
+    case Role::kDigits: rerender(node, ch, nullptr, nullptr); break;
+    case Role::kAutozero: autozero(node, ch, now); break;
+    case Role::kFilterType:
+    case Role::kFilterConstant: apply_filter(node, ch); break;
+    case Role::kExtra: after_param_write(node, ch, c.extras[b.extra], e); break;
+    default:
+      if (valued(b.role)) after_param_write(node, ch, c.param(b.role), e);
+      break;
+  }
+  if (b.role >= Role::kDelta && b.role <= Role::kHysteresis) {
+    st.have_ref = false;
+    st.upper_armed = st.lower_armed = true;
+    next_scan_ = now;
+    node.wake_app(now);
+  }
+}
+
+// ---- events (CiA 404 analogue-input interrupts, TPDO types 254/255)
+
+std::uint32_t Cia404Application::scan_event_channels(const Node& node) const {
+  std::uint32_t mask = 0;
+  const OdValues& v = node.values();
+  for (const Cia404Profile::Tpdo& t : profile_->tpdos) {
+    if (v.get_u(*t.cob_id) & 0x80000000u) continue;  // PDO not valid
+    if (!profile_->settings.event_tpdo_types.has(std::uint8_t(v.get_u(*t.type)))) continue;
+    const unsigned n = unsigned(std::min<std::uint64_t>(v.get_u(*t.count), 8));
+    for (unsigned i = 0; i < n; ++i) {
+      if (!t.map[i]) continue;
+      const std::uint32_t m = std::uint32_t(v.get_u(*t.map[i]));
+      const OdEntry* e = node.od().find(std::uint16_t(m >> 16), std::uint8_t(m >> 8));
+      if (!e) continue;
+      const Cia404Profile::Binding& b = profile_->binding(*e);
+      if (b.role == Role::kPv && b.channel < 32) mask |= 1u << b.channel;
+    }
+  }
+  return mask;
+}
+
+TimeUs Cia404Application::check_period(std::size_t ch) const {
+  const TimeUs p = profile_->settings.event_check_period_us;
+  return p > 0 ? p : source_->sample_period_us(profile_->channels[ch].source);
+}
+
+bool Cia404Application::check_events(Node& node, std::size_t ch, TimeUs now) {
+  const ChannelConfig& c = profile_->channels[ch];
+  ChannelState& st = state_[ch];
+  const double pv = measure(node, ch, now).pv;
+  bool fire = false;
+  // Delta: |PV - PV at the last event| > delta (delta 0 = off).
+  const double delta = get(node, ch, Role::kDelta);
+  if (c.param(Role::kDelta).present() && delta > 0) {
+    if (!st.have_ref) {
+      st.delta_ref = pv;
+      st.have_ref = true;
+    } else if (std::fabs(pv - st.delta_ref) > delta) {
+      fire = true;
+    }
+  }
+  // Limits: one event per crossing; re-armed once back inside by the hysteresis.
+  const double hyst = get(node, ch, Role::kHysteresis);
+  const bool level = profile_->settings.limit_level;
+  if (c.param(Role::kUpperLimit).present()) {
+    const double upper = get(node, ch, Role::kUpperLimit);
+    if (pv > upper && (st.upper_armed || level)) {
+      fire = true;
+      st.upper_armed = false;
+    } else if (pv <= upper - hyst) {
+      st.upper_armed = true;
+    }
+  }
+  if (c.param(Role::kLowerLimit).present()) {
+    const double lower = get(node, ch, Role::kLowerLimit);
+    if (pv < lower && (st.lower_armed || level)) {
+      fire = true;
+      st.lower_armed = false;
+    } else if (pv >= lower + hyst) {
+      st.lower_armed = true;
+    }
+  }
+  if (!fire) return false;
+  st.delta_ref = pv;  // the TPDO carries this value
+  st.have_ref = true;
+  for (Role r : {Role::kPv, Role::kFieldValue, Role::kStatus}) {
+    const Param& p = c.param(r);
+    for (int i = 0; i < p.count; ++i) raise_pdo_event(node, *p.views[i]);
+  }
+  return true;
+}
+
+TimeUs Cia404Application::process(Node& node, TimeUs now) {
+  const TimeUs scan = profile_->settings.config_scan_period_us;
+  if (!node.allowed(Service::kPdo)) {
+    event_channels_ = 0;
+    return now + scan;  // woken earlier by on_nmt_state when the NMT layer reports it
+  }
+  if (now >= next_scan_) {
+    const std::uint32_t mask = scan_event_channels(node);
+    for (std::size_t ch = 0; ch < state_.size() && ch < 32; ++ch) {
+      if ((mask >> ch) & 1 && !((event_channels_ >> ch) & 1)) {
+        state_[ch].have_ref = false;
+        state_[ch].upper_armed = state_[ch].lower_armed = true;
+      }
+    }
+    event_channels_ = mask;
+    next_scan_ = now + scan;
+  }
+  if (!event_channels_) return next_scan_;
+  TimeUs period = scan;
+  for (std::size_t ch = 0; ch < state_.size() && ch < 32; ++ch) {
+    if (!((event_channels_ >> ch) & 1)) continue;
+    check_events(node, ch, now);
+    period = std::min(period, check_period(ch));
+  }
+  return std::min(next_scan_, now + period);
+}
+
+}  // namespace cansim::personalities

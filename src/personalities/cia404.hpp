@@ -1,0 +1,242 @@
+// The CiA 404 measurement chain, shared by every sensor personality.
+//
+// One chain per analogue-input channel (channel n = sub-index n of the 0x61xx
+// objects). A channel's logical values (PV, offset, span, limits, ...) are each
+// seen through up to three OD views: REAL32 (0x61xx) and the INTEGER16
+// (0x71xx) / INTEGER32 (0x91xx) twins, whose integers are value x 10^digits
+// (0x6132). Which objects exist, their types, the accepted units and which
+// objects follow a unit change are profile data; a device personality
+// derives from Cia404Application and overrides only what its manual says
+// differs (see the virtual hooks).
+//
+//   source (physics::Sensor, SI) -> unit 0x6131 -> + offset 0x6124 -> PV 0x6130 / 0x7130 / 0x9130
+//   raw ADC counts -> FV 0x6100 / 0x7100 / 0x9100;  span 0x6148/0x6149 -> status 0x6150
+//   delta 0x6133, limits 0x6134/0x6135 with hysteresis 0x6136 -> TPDO events (type 254/255)
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "config/profile.hpp"
+#include "core/application.hpp"
+#include "core/node.hpp"
+#include "core/node_options.hpp"
+#include "personalities/units.hpp"
+#include "physics/sensor.hpp"
+
+namespace cansim::personalities {
+
+// What an OD entry is to the chain.
+enum class Role : std::uint8_t {
+  kPv,              // 0x6130 / 0x7130 / 0x9130 (live)
+  kFieldValue,      // 0x6100 / 0x7100 / 0x9100 raw ADC counts (live)
+  kStatus,          // 0x6150 (live)
+  kUnit,            // 0x6131
+  kDigits,          // 0x6132
+  kOffset,          // 0x6124 (+ twins)
+  kAutozero,        // 0x6125 / 0x7125
+  kDelta,           // 0x6133
+  kLowerLimit,      // 0x6134
+  kUpperLimit,      // 0x6135
+  kHysteresis,      // 0x6136
+  kSpanStart,       // 0x6148
+  kSpanEnd,         // 0x6149
+  kFilterType,      // 0x61A0
+  kFilterConstant,  // 0x61A1
+  kExtra,           // a profile-listed object that follows unit changes (e.g. DPS 0x2006)
+  kNone,
+};
+constexpr std::size_t kRoleCount = std::size_t(Role::kExtra);
+
+// One logical value of a channel and its OD views; views[0] is the primary
+// (the REAL32 view when there is one).
+struct Param {
+  const OdEntry* views[3] = {};
+  std::uint8_t count = 0;
+  bool difference = false;  // converted without zero shift on a unit change
+
+  bool present() const { return count != 0; }
+};
+
+struct UnitChoice {
+  std::uint32_t code = 0;
+  UnitScale scale;
+  int max_digits = -1;  // largest 0x6132 allowed with this unit (-1: OD limits only)
+};
+
+struct ChannelConfig {
+  std::uint8_t sub = 1;
+  QuantityKind kind = QuantityKind::kPressure;
+  physics::Channel source = physics::Channel::Pressure;
+  Param params[kRoleCount];
+  std::vector<Param> extras;       // profile-listed unit-dependent objects
+  std::uint32_t dependent_roles = 0;  // bit per Role converted on a unit change
+  std::vector<UnitChoice> units;   // accepted 0x6131 values
+  UnitChoice fixed_unit;           // unit when 0x6131 is absent
+  const Param& param(Role r) const { return params[std::size_t(r)]; }
+};
+
+enum class DigitsOnUnitChange : std::uint8_t { kKeep, kReject, kClamp, kAdjust };
+
+// Chain settings (profile `vendor: cia404:`), default = CiA 404 behaviour.
+struct Cia404Settings {
+  TimeUs event_check_period_us = 0;  // 0: the channel's sample period
+  TimeUs config_scan_period_us = 100000;
+  ByteSet event_tpdo_types;          // TPDO types whose mapped PVs get delta/limit events
+  bool limit_level = false;          // false: one event per crossing (edge)
+  bool span_compares_input = false;  // status compares the value before the offset
+  bool unit_informational = false;   // 0x6131 accepts any code and converts nothing
+  DigitsOnUnitChange digits_on_unit_change = DigitsOnUnitChange::kKeep;
+  std::uint32_t autozero_signature = 0x6F72657A;  // "zero"
+  SdoAbort bad_unit_abort = SdoAbort::kInvalidValue;
+  SdoAbort bad_autozero_abort = SdoAbort::kInvalidValue;
+  SdoAbort digits_abort = SdoAbort::kValueTooHigh;
+  SdoAbort unit_digits_abort = SdoAbort::kParamIncompatible;
+  SdoAbort negative_abort = SdoAbort::kValueTooLow;  // negative delta / hysteresis
+};
+
+// The chain's view of a profile: built once, shared by all its nodes.
+class Cia404Profile {
+ public:
+  // Reads the `cia404:` map of the vendor section (may be undefined) and the
+  // layout; sets kHookRead / kHookWrite on the entries the chain serves.
+  // Throws config::ConfigError naming file:line:key.
+  static std::shared_ptr<const Cia404Profile> build(const config::Where& w, const YAML::Node& section,
+                                                    OdLayout& layout);
+
+  struct Binding {
+    std::uint8_t channel = 0xFF;
+    Role role = Role::kNone;
+    std::uint16_t extra = 0;  // index into extras for Role::kExtra
+  };
+  const Binding& binding(const OdEntry& e) const { return by_slot_[e.slot]; }
+
+  struct Tpdo {
+    const OdEntry* cob_id = nullptr;
+    const OdEntry* type = nullptr;
+    const OdEntry* count = nullptr;
+    const OdEntry* map[8] = {};
+  };
+
+  std::vector<ChannelConfig> channels;
+  std::vector<Tpdo> tpdos;
+  Cia404Settings settings;
+
+ private:
+  std::vector<Binding> by_slot_;
+  friend struct ProfileBuilder;
+};
+
+// Where a channel's values come from. The default wraps a physics::Sensor.
+class MeasurementSource {
+ public:
+  struct Sample {
+    double si = 0.0;           // Pa / K
+    std::int32_t raw = 0;      // ADC counts
+    std::uint8_t status = 0;   // physics kStatus* bits
+  };
+  virtual ~MeasurementSource() = default;
+  virtual Sample sample(physics::Channel ch, TimeUs now) = 0;
+  virtual void set_filter(physics::Channel, const physics::FilterSpec&) {}
+  virtual TimeUs sample_period_us(physics::Channel) const { return 1000; }
+  virtual void reboot(TimeUs) {}
+};
+
+class SensorSource : public MeasurementSource {
+ public:
+  explicit SensorSource(physics::Sensor sensor) : sensor_(std::move(sensor)) {}
+  Sample sample(physics::Channel ch, TimeUs now) override;
+  void set_filter(physics::Channel ch, const physics::FilterSpec& f) override { sensor_.set_filter(ch, f); }
+  TimeUs sample_period_us(physics::Channel ch) const override;
+  void reboot(TimeUs now) override { sensor_.reboot(now); }
+  physics::Sensor& sensor() { return sensor_; }
+
+ private:
+  physics::Sensor sensor_;
+};
+
+// Node identity settings of the vendor section.
+struct IdentitySettings {
+  bool serial_per_node = false;       // 0x1018:04 = serial_base + node index
+  std::uint32_t serial_base = 0;
+};
+
+// The per-node Application of a CiA 404 sensor. Device personalities derive
+// from it; every override should call the base for the CiA 404 part.
+class Cia404Application : public Application {
+ public:
+  Cia404Application(std::shared_ptr<const Cia404Profile> profile, std::unique_ptr<MeasurementSource> source,
+                    IdentitySettings identity = {}, std::uint32_t node_index = 0);
+
+  void on_reset(Node& node, ResetKind kind, TimeUs now) override;
+  void on_nmt_state(Node& node, NmtState state, TimeUs now) override;
+  void refresh(Node& node, const OdEntry& e, TimeUs now) override;
+  SdoAbort check_write(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now) override;
+  void after_write(Node& node, const OdEntry& e, TimeUs now) override;
+  TimeUs process(Node& node, TimeUs now) override;
+
+  // ---- the chain, for personalities and tests
+  struct Measurement {
+    double input = 0.0;       // source value in the current unit, before the offset
+    double pv = 0.0;          // process value (input + offset)
+    std::int32_t raw = 0;     // ADC counts
+    std::uint8_t status = 0;  // 0x6150 bits
+  };
+  // Evaluates channel `ch` (index into profile().channels) at `now` and
+  // stores the live objects (PV views, FV, status).
+  Measurement measure(Node& node, std::size_t ch, TimeUs now);
+  // A logical value in the channel's current unit (0 when the object is absent).
+  double get(const Node& node, std::size_t ch, Role role) const;
+  void set(Node& node, std::size_t ch, Role role, double value);
+  const UnitScale& unit(std::size_t ch) const { return state_[ch].unit.scale; }
+  const Cia404Profile& profile() const { return *profile_; }
+  MeasurementSource& source() { return *source_; }
+
+ protected:
+  // ---- override points for device personalities
+  // Source value -> value in the current unit before the offset.
+  virtual double input_value(const ChannelConfig& c, const MeasurementSource::Sample& s, const UnitScale& unit) {
+    (void)c;
+    return unit.from_si(s.si);
+  }
+  // Raises a TPDO event for a mapped entry (CiA 301 §7.2.2.2).
+  virtual void raise_pdo_event(Node& node, const OdEntry& e) { node.pdo().raise_event_for(e); }
+
+  double param_value(const Node& node, const Param& p, int digits) const;
+  void store_param(Node& node, const Param& p, double value, int digits);
+  int digits(const Node& node, std::size_t ch) const;
+
+ private:
+  struct ChannelState {
+    UnitChoice unit;
+    double zero_correction = 0.0;  // autozero without an offset object
+    double delta_ref = 0.0;
+    bool have_ref = false;
+    bool upper_armed = true;
+    bool lower_armed = true;
+    std::vector<double> captured;  // logical values during a unit / digits write
+    UnitChoice pending_unit;
+  };
+  const UnitChoice* find_unit(const ChannelConfig& c, std::uint32_t code) const;
+  void apply_filter(Node& node, std::size_t ch);
+  void capture(const Node& node, std::size_t ch);
+  void rerender(Node& node, std::size_t ch, const UnitScale* from, const UnitScale* to);
+  void after_param_write(Node& node, std::size_t ch, const Param& p, const OdEntry& written);
+  void autozero(Node& node, std::size_t ch, TimeUs now);
+  std::uint32_t scan_event_channels(const Node& node) const;
+  bool check_events(Node& node, std::size_t ch, TimeUs now);
+  TimeUs check_period(std::size_t ch) const;
+
+  std::shared_ptr<const Cia404Profile> profile_;
+  std::unique_ptr<MeasurementSource> source_;
+  IdentitySettings identity_;
+  std::uint32_t node_index_;
+  std::vector<ChannelState> state_;
+  std::uint32_t event_channels_ = 0;  // bit per channel mapped into an event TPDO
+  TimeUs next_scan_ = 0;
+  TimeUs next_check_ = 0;
+};
+
+}  // namespace cansim::personalities

@@ -1,0 +1,67 @@
+#include "personalities/units.hpp"
+
+#include <string>
+
+#include "physics/quantize.hpp"
+#include "physics/units.hpp"
+
+namespace cansim::personalities {
+
+namespace {
+
+UnitScale pressure(double pa_per_unit) { return {QuantityKind::kPressure, pa_per_unit, 0.0}; }
+
+UnitScale temperature(physics::TemperatureUnit u) {
+  double zero = physics::to_kelvin(0.0, u);
+  double per = physics::delta_to_kelvin(1.0, u);
+  return {QuantityKind::kTemperature, per, zero};
+}
+
+}  // namespace
+
+std::optional<UnitScale> builtin_unit(std::uint32_t code) {
+  const int prefix = unit_prefix(code);
+  if (prefix < -18 || prefix > 18) return std::nullopt;
+  const double p10 = physics::pow10(prefix);
+  switch (std::uint8_t(code >> 16)) {
+    case unit_code::kPascal: return pressure(p10);
+    case unit_code::kBar: return pressure(physics::kPaPerBar * p10);
+    case unit_code::kPsi: return pressure(physics::kPaPerPsi * p10);
+    default: break;
+  }
+  // Temperatures take no prefix (a "milli-degC" would be a vendor invention).
+  if (prefix != 0) return std::nullopt;
+  switch (std::uint8_t(code >> 16)) {
+    case unit_code::kCelsius: return temperature(physics::TemperatureUnit::degC);
+    case unit_code::kFahrenheit: return temperature(physics::TemperatureUnit::degF);
+    case unit_code::kKelvin: return temperature(physics::TemperatureUnit::K);
+    default: return std::nullopt;
+  }
+}
+
+std::optional<UnitScale> named_unit(std::string_view name, std::uint32_t* code) {
+  struct Named {
+    std::string_view name;
+    std::uint32_t code;
+  };
+  static constexpr Named kNamed[] = {
+      {"Pa", make_unit(0, unit_code::kPascal)},     {"hPa", make_unit(2, unit_code::kPascal)},
+      {"kPa", make_unit(3, unit_code::kPascal)},    {"MPa", make_unit(6, unit_code::kPascal)},
+      {"bar", make_unit(0, unit_code::kBar)},       {"mbar", make_unit(-3, unit_code::kBar)},
+      {"psi", make_unit(0, unit_code::kPsi)},       {"degC", make_unit(0, unit_code::kCelsius)},
+      {"°C", make_unit(0, unit_code::kCelsius)},    {"degF", make_unit(0, unit_code::kFahrenheit)},
+      {"°F", make_unit(0, unit_code::kFahrenheit)}, {"K", make_unit(0, unit_code::kKelvin)},
+  };
+  for (const Named& n : kNamed) {
+    if (n.name == name) {
+      if (code) *code = n.code;
+      return builtin_unit(n.code);
+    }
+  }
+  if (code) *code = 0;
+  if (auto p = physics::parse_pressure_unit(name)) return pressure(physics::pa_per_unit(*p));
+  if (auto t = physics::parse_temperature_unit(name)) return temperature(*t);
+  return std::nullopt;
+}
+
+}  // namespace cansim::personalities
