@@ -1,0 +1,176 @@
+// Fault injection: scheduling (at / after / duration / repeat period / count) and queries.
+//
+// A FaultSet holds scheduled faults of one node. The same FaultSpec is used for faults
+// from the profile (armed at boot) and for faults triggered later by the runtime control
+// API (armed at the time of the request): `at_us` is absolute simulated time, `after_us`
+// is relative to the arm time.
+//
+// Measurement faults (open, short, stuck, drift, spikes, noise burst, over-temperature)
+// are applied by physics::Sensor. Communication faults are only scheduled here; the
+// node / personality layers query `active(kind, t)` or poll start/end edges:
+//
+//     FaultEdge e;
+//     while (faults.poll(now_us, e)) { if (e.kind == FaultKind::PowerCycle && e.started) ... }
+//
+// All queries are allocation-free; add() may allocate when the set grows past its capacity.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <optional>
+#include <string_view>
+#include <vector>
+
+#include "physics/time.hpp"
+
+namespace cansim::physics {
+
+enum class FaultKind : std::uint8_t {
+  // measurement faults (applied in the sensor chain)
+  SensorOpen,       ///< open circuit: status "not valid", ADC at the negative rail
+  SensorShort,      ///< short circuit: status "not valid", ADC at the positive rail
+  StuckValue,       ///< output frozen (at onset value or at stuck_value)
+  Drift,            ///< error growing linearly with time since onset
+  Spikes,           ///< random single-sample spikes
+  NoiseBurst,       ///< extra gaussian noise
+  OverTemperature,  ///< the sensor element is hotter than the process (temperature reading + thermal errors)
+  // communication faults (acted on by node / personality layers)
+  EepromError,    ///< EEPROM / data-set error at boot (check active(EepromError, boot_time))
+  Silent,         ///< node alive but sends no frames
+  PowerCycle,     ///< power off for `duration` then boot (duration 0: immediate reboot)
+  BusOff,         ///< CAN bus-off; recovery at the end of the duration
+  HeartbeatStop,  ///< heartbeat producer stops
+  SlowSdo,        ///< SDO answers delayed by sdo_delay_us
+  SdoBlockDrop,   ///< SDO block transfer segments dropped
+};
+inline constexpr std::size_t kFaultKindCount = 14;
+
+constexpr bool is_measurement_fault(FaultKind k) noexcept {
+  return static_cast<std::uint8_t>(k) <= static_cast<std::uint8_t>(FaultKind::OverTemperature);
+}
+
+/// Names used in profiles / the control API: "open" "short" "stuck" "drift" "spikes"
+/// "noise_burst" "over_temperature" "eeprom_error" "silent" "power_cycle" "bus_off"
+/// "heartbeat_stop" "slow_sdo" "sdo_block_drop".
+std::string_view to_string(FaultKind k) noexcept;
+std::optional<FaultKind> parse_fault_kind(std::string_view s) noexcept;
+
+/// Which measurement channel a measurement fault affects (ignored by OverTemperature,
+/// which heats the whole sensor, and by communication faults).
+enum class FaultChannel : std::uint8_t { Pressure = 1, Temperature = 2, Both = 3 };
+
+struct FaultTiming {
+  /// Absolute start of the first occurrence (simulated time, us). If unset, the fault
+  /// starts `after_us` after the time it is armed (FaultSet::add's arm_time).
+  std::optional<TimeUs> at_us;
+  TimeUs after_us = 0;
+  /// Length of each occurrence. < 0: until cancelled. 0: instantaneous (a start and an
+  /// end edge at the same time, never `active`; e.g. an immediate power cycle).
+  /// When repeating, a duration >= period is clipped to the period.
+  TimeUs duration_us = -1;
+  /// > 0: the occurrence repeats every period_us (start to start).
+  TimeUs period_us = 0;
+  /// Number of occurrences when repeating; 0 = unlimited. Ignored without a period.
+  std::uint32_t count = 0;
+};
+
+struct FaultSpec {
+  FaultKind kind = FaultKind::SensorOpen;
+  FaultChannel channel = FaultChannel::Pressure;
+  FaultTiming timing;
+  // Parameters, in SI units of the affected channel (Pa for pressure, K for temperature):
+  double stuck_value = std::numeric_limits<double>::quiet_NaN();  ///< StuckValue: NaN = freeze at onset
+  double drift_per_s = 0.0;         ///< Drift: error added = drift_per_s * (t - onset)
+  double spike_amplitude = 0.0;     ///< Spikes: added to one sample, random sign
+  double spike_rate_hz = 0.0;       ///< Spikes: mean spikes per second (Bernoulli per sample)
+  double noise_rms = 0.0;           ///< NoiseBurst: additional rms noise
+  double over_temperature_k = 0.0;  ///< OverTemperature: added to the sensor temperature (K)
+  TimeUs sdo_delay_us = 0;          ///< SlowSdo: extra delay before each SDO answer
+  std::uint32_t drop_every_n = 0;   ///< SdoBlockDrop: drop every n-th segment (0: use probability)
+  double drop_probability = 0.0;    ///< SdoBlockDrop: probability to drop a segment
+  std::uint32_t id = 0;             ///< caller's tag (e.g. control API request id), echoed in edges
+};
+
+using FaultHandle = std::uint32_t;
+inline constexpr FaultHandle kInvalidFaultHandle = 0xFFFFFFFFu;
+
+/// A start or end of one occurrence, in time order.
+struct FaultEdge {
+  FaultKind kind;
+  bool started;             ///< true: occurrence began; false: it ended
+  TimeUs time_us;           ///< when (scheduled time, <= the poll time)
+  std::uint32_t occurrence; ///< 0-based occurrence index
+  FaultHandle handle;
+  const FaultSpec* spec;    ///< valid until the set is modified
+};
+
+/// Measurement faults in effect for one channel at one instant (combined).
+struct MeasurementFaults {
+  bool open = false;
+  bool short_circuit = false;
+  bool stuck = false;
+  double stuck_value = std::numeric_limits<double>::quiet_NaN();  ///< NaN: freeze at onset
+  TimeUs stuck_onset_us = 0;      ///< onset of the stuck occurrence (to latch the value once)
+  double drift = 0.0;             ///< total drift offset at this instant
+  double spike_amplitude = 0.0;   ///< largest active spike amplitude
+  double spike_rate_hz = 0.0;     ///< summed spike rates
+  double extra_noise_rms = 0.0;   ///< root-sum-square of active noise bursts
+  double over_temperature_k = 0.0;
+  bool any() const noexcept {
+    return open || short_circuit || stuck || drift != 0.0 || spike_rate_hz > 0.0 || extra_noise_rms > 0.0 ||
+           over_temperature_k != 0.0;
+  }
+};
+
+class FaultSet {
+ public:
+  explicit FaultSet(std::size_t capacity = 8);
+
+  /// Schedules a fault; `arm_time_us` is the reference for timing.after_us.
+  FaultHandle add(const FaultSpec& spec, TimeUs arm_time_us);
+  /// Ends a fault at `now_us`: an active occurrence ends then (an end edge is produced),
+  /// no further occurrences start. Returns false for an unknown handle.
+  bool cancel(FaultHandle h, TimeUs now_us) noexcept;
+  /// Removes everything (node replaced).
+  void clear() noexcept;
+
+  std::size_t size() const noexcept { return entries_.size(); }
+  const FaultSpec* spec(FaultHandle h) const noexcept;
+
+  /// Is any fault of `kind` active at t?
+  bool active(FaultKind kind, TimeUs t) const noexcept;
+  /// The first active fault of `kind` at t (nullptr if none); *onset_us = start of its occurrence.
+  const FaultSpec* active_spec(FaultKind kind, TimeUs t, TimeUs* onset_us = nullptr) const noexcept;
+  /// Is fault h active at t? (*onset_us as above)
+  bool active(FaultHandle h, TimeUs t, TimeUs* onset_us = nullptr) const noexcept;
+
+  /// Next start/end edge with time <= now_us, in time order across all faults (ties:
+  /// in handle order, an occurrence's start before its end). Returns false when none is due.
+  bool poll(TimeUs now_us, FaultEdge& out) noexcept;
+  /// Time of the next pending edge (INT64_MAX if none): lets an event loop schedule a timer.
+  TimeUs next_edge_time() const noexcept;
+
+  /// Combined measurement faults for `channel` at t. Cheap when no measurement fault exists.
+  MeasurementFaults measurement(FaultChannel channel, TimeUs t) const noexcept;
+  bool has_measurement_faults() const noexcept { return measurement_count_ > 0; }
+
+ private:
+  struct Entry {
+    FaultSpec spec;
+    TimeUs start;       // first occurrence start
+    TimeUs cancel_at;   // INT64_MAX if not cancelled
+    // edge cursor
+    std::uint32_t next_occ = 0;
+    bool end_pending = false;
+    bool done = false;
+  };
+  bool occurrence_at(const Entry& e, TimeUs t, TimeUs* onset) const noexcept;
+  TimeUs pending_edge_time(const Entry& e) const noexcept;  // INT64_MAX if none
+  void advance_cursor(Entry& e) noexcept;
+
+  std::vector<Entry> entries_;
+  std::size_t measurement_count_ = 0;
+};
+
+}  // namespace cansim::physics
