@@ -290,7 +290,16 @@ struct Sensor::ChannelState {
     started = true;
 
     // Device filter on integer codes, output quantisation, back to physical units.
-    double fc = filter(counts, n);
+    // While the element is open / shorted / damaged the filter is not fed (the device flags
+    // the value invalid); it restarts with the first good sample afterwards.
+    const bool invalid = damaged || mf.open || mf.short_circuit;
+    double fc;
+    if (invalid) {
+      filter_fresh = true;
+      fc = counts;
+    } else {
+      fc = filter(counts, n);
+    }
     if (spec.output_steps > 0) {
       const double steps = spec.output_steps;
       fc = c0 + std::round((fc - c0) / (c1 - c0) * steps) / steps * (c1 - c0);
@@ -310,7 +319,6 @@ struct Sensor::ChannelState {
     if (mf.any()) flags |= kFlagFault;
 
     std::uint8_t status = 0;
-    const bool invalid = damaged || mf.open || mf.short_circuit;
     if (damaged) flags |= kFlagDamaged;
     if (invalid) {
       status = kStatusInvalid;

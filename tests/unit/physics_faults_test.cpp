@@ -292,3 +292,16 @@ TEST(PhysicsFaultSensor, TemperatureChannelFaultLeavesPressureAlone) {
   EXPECT_FALSE(r.temperature.valid());
   EXPECT_TRUE(r.pressure.valid());
 }
+
+TEST(PhysicsFaultSensor, FilterIsNotPollutedByRailSamples) {
+  FaultSet fs;
+  fs.add(fault(FaultKind::SensorOpen, 100 * kMs, 50 * kMs), 0);
+  auto spec = ideal();
+  spec.pressure.filter = {FilterType::MovingAverage, 30};
+  Sensor s(spec, proc({ConstantSpec{5e5}}), 1, &fs);
+  for (int n = 0; n < 200; ++n) {
+    const auto& r = s.read(n * kMs).pressure;
+    EXPECT_EQ(r.value, 5e5) << n;  // held while invalid, clean restart afterwards
+    EXPECT_EQ(r.valid(), n < 100 || n >= 150) << n;
+  }
+}

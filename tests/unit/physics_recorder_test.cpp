@@ -1,0 +1,143 @@
+// CSV recorder: buffered, no allocation per row, readable; and the gnuplot wrapper.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <atomic>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <new>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "physics/recorder.hpp"
+
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
+#endif
+
+namespace {
+std::atomic<long> g_allocations{0};
+}
+void* operator new(std::size_t n) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  if (void* p = std::malloc(n ? n : 1)) return p;
+  throw std::bad_alloc();
+}
+void* operator new[](std::size_t n) { return operator new(n); }
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+
+using namespace cansim::physics;
+
+namespace {
+
+std::string temp_path(const char* name) {
+  const char* dir = std::getenv("TMPDIR");
+  return std::string(dir ? dir : "/tmp") + "/cansim_" + std::to_string(::getpid()) + "_" + name;
+}
+
+std::vector<std::string> split(const std::string& line) {
+  std::vector<std::string> out;
+  std::stringstream ss(line);
+  std::string f;
+  while (std::getline(ss, f, ',')) out.push_back(f);
+  return out;
+}
+
+Sensor demo_sensor(const FaultSet* faults) {
+  SensorSpec spec;
+  spec.pressure.range_min = 0;
+  spec.pressure.range_max = 10e5;
+  spec.pressure.adc = AdcSpec::int16_field(30000);
+  spec.pressure.noise_rms = 200;
+  spec.pressure.filter = {FilterType::MovingAverage, 30};
+  spec.temperature.range_min = 233.15;
+  spec.temperature.range_max = 398.15;
+  spec.temperature.adc = AdcSpec::int16_field(30000);
+  ProcessSpec ps;
+  SecondOrderSpec so;
+  so.setpoint.points = {{0, 2e5}, {1, 6e5}, {3, 3e5}, {4.5, 12e5}, {5.5, 2e5}};
+  so.setpoint.interpolation = Interpolation::Hold;
+  so.natural_frequency_hz = 1.5;
+  so.damping = 0.25;
+  ps.pressure = {so, PulsationSpec::piston_pump(1450, 3, 8000, 3)};
+  GasVolumeSpec g;
+  g.initial_temperature_k = 313.15;
+  g.ambient_k.points = {{0, 293.15}};
+  g.time_constant_s = 3;
+  ps.temperature = {ConstantSpec{0}};
+  add_gas_volume(ps, g);
+  ps.pressure.pop_back();  // temperature only from the gas volume; pressure from the setpoint
+  return Sensor(spec, ProcessModel(ps, 1), 7, faults);
+}
+
+}  // namespace
+
+TEST(PhysicsRecorder, WritesRowsWithoutAllocating) {
+  const std::string path = temp_path("rec.csv");
+  FaultSet faults;
+  FaultSpec open;
+  open.kind = FaultKind::SensorOpen;
+  open.timing.at_us = 2000000;
+  open.timing.duration_us = 300000;
+  faults.add(open, 0);
+  Sensor s = demo_sensor(&faults);
+  CsvRecorder rec;
+  std::string err;
+  ASSERT_TRUE(rec.open(path, &err, 4096)) << err;  // small buffer: many flushes
+  const long before = g_allocations.load();
+  for (int i = 0; i <= 7000; ++i) {
+    const TimeUs t = static_cast<TimeUs>(i) * 1000;
+    rec.record(t, s.read(t));
+  }
+  EXPECT_EQ(g_allocations.load() - before, 0);
+  EXPECT_EQ(rec.rows(), 7001u);
+  rec.close();
+  EXPECT_FALSE(rec.failed());
+
+  std::ifstream in(path);
+  std::string line;
+  ASSERT_TRUE(std::getline(in, line));
+  EXPECT_EQ(line + "\n", CsvRecorder::header());
+  std::vector<std::vector<std::string>> rows;
+  while (std::getline(in, line)) rows.push_back(split(line));
+  ASSERT_EQ(rows.size(), 7001u);
+  for (const auto& r : rows) ASSERT_EQ(r.size(), 11u);
+  EXPECT_EQ(rows[1234][0], "1.234000");
+  const double p = std::stod(rows[1234][3]);
+  const double tp = std::stod(rows[1234][1]);
+  EXPECT_NEAR(p, tp, 0.05 * 10e5);
+  EXPECT_EQ(rows[2100][5], "1");  // open fault: invalid
+  EXPECT_EQ(rows[1900][5], "0");
+  std::remove(path.c_str());
+
+  CsvRecorder bad;
+  EXPECT_FALSE(bad.open("/nonexistent-dir/x.csv", &err));
+  EXPECT_FALSE(err.empty());
+  bad.record(0, s.last());  // no-op when closed
+}
+
+TEST(PhysicsRecorder, PlotScriptDrawsAPng) {
+  if (std::system("command -v gnuplot >/dev/null 2>&1") != 0) GTEST_SKIP() << "gnuplot not installed";
+  const std::string csv = temp_path("plot.csv");
+  const std::string png = temp_path("plot.png");
+  {
+    Sensor s = demo_sensor(nullptr);
+    CsvRecorder rec;
+    ASSERT_TRUE(rec.open(csv));
+    for (int i = 0; i <= 700; ++i) rec.record(i * 10000, s.read(i * 10000));
+  }
+  const std::string cmd = std::string(CANSIM_SOURCE_DIR) + "/scripts/plot-recording '" + csv + "' '" + png + "'";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  std::ifstream in(png, std::ios::binary);
+  char magic[8] = {};
+  in.read(magic, 8);
+  EXPECT_EQ(std::string(magic + 1, 3), "PNG");
+  std::remove(csv.c_str());
+  std::remove(png.c_str());
+}
