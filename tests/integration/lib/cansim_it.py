@@ -1,0 +1,584 @@
+"""Helpers for cansimd integration tests on real SocketCAN (vcan).
+
+Tests are plain python3 scripts registered in tests/integration/CMakeLists.txt
+and run by ctest (label "integration"), natively when the host kernel has vcan
+or inside the test VM (scripts/vm/run). They get:
+
+  --cansimd PATH      the built daemon (empty when the target does not exist)
+  --source-dir DIR    the repository
+  --binary-dir DIR    the CMake build directory
+
+and the same in the environment (CANSIMD, CANSIM_SOURCE_DIR, CANSIM_BINARY_DIR).
+
+A test looks like:
+
+    import cansim_it as it
+
+    def test(ctx):
+        d = ctx.start_daemon("--profile", ctx.source("profiles/x.yaml"),
+                             "--interface", "vcan0", "--node-id", "5")
+        with it.open_bus("vcan0") as bus:
+            it.expect(bus, it.is_bootup(5), 10, "boot-up of node 5")
+            ...
+        assert d.stop() == 0
+
+    it.main(test)
+
+Everything is written by hand on python-can's raw Bus: no 'canopen' package.
+Time windows are generous and scaled by it.SCALE (5x inside the VM, where
+CPU-bound code runs 50-100x slower and timer granularity is a few ms;
+override with CANSIM_IT_TIME_SCALE).
+
+Exit codes: 0 pass, 1 fail, 77 skip (ctest SKIP_RETURN_CODE).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import signal
+import struct
+import subprocess
+import sys
+import tempfile
+import time
+import traceback
+from typing import Callable, Iterable, List, Optional, Sequence
+
+import can
+
+SKIP_CODE = 77
+IN_VM = os.environ.get("CANSIM_IN_VM") == "1"
+SCALE = float(os.environ.get("CANSIM_IT_TIME_SCALE", "5" if IN_VM else "1"))
+
+
+def scaled(seconds: float) -> float:
+    """A time window scaled for slow environments (the VM)."""
+    return seconds * SCALE
+
+
+# --------------------------------------------------------------------------
+# outcome helpers
+
+class Skip(Exception):
+    """Raise (or call skip()) to end the test as skipped (exit 77)."""
+
+
+def skip(reason: str) -> None:
+    raise Skip(reason)
+
+
+def log(msg: str) -> None:
+    print(f"[{time.strftime('%H:%M:%S')}] {msg}", flush=True)
+
+
+# --------------------------------------------------------------------------
+# interfaces and the bus
+
+def iface_exists(name: str) -> bool:
+    return os.path.isdir(f"/sys/class/net/{name}")
+
+
+def require_iface(name: str) -> None:
+    if not iface_exists(name):
+        raise AssertionError(
+            f"CAN interface {name} does not exist (run natively with "
+            f"scripts/has-vcan --up, or inside scripts/vm/run)")
+
+
+def open_bus(channel: str = "vcan0", receive_own_messages: bool = False,
+             can_filters: Optional[list] = None) -> can.BusABC:
+    """A raw SocketCAN bus. Use as a context manager so it is shut down."""
+    require_iface(channel)
+    return can.Bus(interface="socketcan", channel=channel,
+                   receive_own_messages=receive_own_messages,
+                   can_filters=can_filters)
+
+
+def frame(can_id: int, data: Sequence[int] | bytes = b"", rtr: bool = False,
+          dlc: Optional[int] = None) -> can.Message:
+    data = bytes(data)
+    return can.Message(arbitration_id=can_id, data=data, is_extended_id=can_id > 0x7FF,
+                       is_remote_frame=rtr, dlc=dlc if dlc is not None else len(data))
+
+
+def send(bus: can.BusABC, can_id: int, data: Sequence[int] | bytes = b"",
+         rtr: bool = False, dlc: Optional[int] = None) -> None:
+    bus.send(frame(can_id, data, rtr, dlc))
+
+
+def drain(bus: can.BusABC) -> int:
+    """Throw away frames already queued; returns how many."""
+    n = 0
+    while bus.recv(timeout=0) is not None:
+        n += 1
+    return n
+
+
+Predicate = Callable[[can.Message], bool]
+
+
+def wait_for(bus: can.BusABC, pred: Predicate, timeout: float) -> Optional[can.Message]:
+    """First frame matching pred within timeout seconds (unscaled), else None.
+    Frames that do not match are consumed."""
+    deadline = time.monotonic() + timeout
+    while True:
+        left = deadline - time.monotonic()
+        if left <= 0:
+            return None
+        msg = bus.recv(timeout=min(left, 0.5))
+        if msg is not None and not msg.is_error_frame and pred(msg):
+            return msg
+
+
+def expect(bus: can.BusABC, pred: Predicate, timeout: float, what: str) -> can.Message:
+    """Like wait_for, but timeout is scaled and a miss fails the test."""
+    msg = wait_for(bus, pred, scaled(timeout))
+    if msg is None:
+        raise AssertionError(f"timed out after {scaled(timeout):.1f}s waiting for {what}")
+    return msg
+
+
+def expect_none(bus: can.BusABC, pred: Predicate, duration: float, what: str) -> None:
+    """Fail if a matching frame arrives within duration seconds (unscaled:
+    silence checks get no longer in the VM)."""
+    msg = wait_for(bus, pred, duration)
+    if msg is not None:
+        raise AssertionError(f"unexpected {what}: {fmt(msg)}")
+
+
+def collect(bus: can.BusABC, duration: float, pred: Optional[Predicate] = None) -> List[can.Message]:
+    """All frames (matching pred) received during duration seconds (unscaled)."""
+    out = []
+    deadline = time.monotonic() + duration
+    while True:
+        left = deadline - time.monotonic()
+        if left <= 0:
+            return out
+        msg = bus.recv(timeout=min(left, 0.5))
+        if msg is not None and not msg.is_error_frame and (pred is None or pred(msg)):
+            out.append(msg)
+
+
+def fmt(msg: can.Message) -> str:
+    if msg.is_remote_frame:
+        return f"{msg.arbitration_id:03X}#R{msg.dlc}"
+    return f"{msg.arbitration_id:03X}#{msg.data.hex().upper()}"
+
+
+# predicates -----------------------------------------------------------------
+
+def has_id(can_id: int) -> Predicate:
+    return lambda m: m.arbitration_id == can_id and not m.is_remote_frame
+
+
+def is_bootup(node: int) -> Predicate:
+    return lambda m: m.arbitration_id == 0x700 + node and bytes(m.data) == b"\x00"
+
+
+def is_heartbeat(node: int, state: Optional[int] = None) -> Predicate:
+    def p(m: can.Message) -> bool:
+        return (m.arbitration_id == 0x700 + node and not m.is_remote_frame and len(m.data) == 1
+                and (state is None or (m.data[0] & 0x7F) == state))
+    return p
+
+
+def is_emcy(node: int) -> Predicate:
+    return lambda m: m.arbitration_id == 0x80 + node and len(m.data) == 8
+
+
+def is_tpdo(node: int, n: int = 1) -> Predicate:
+    """TPDO n (1..4) with the default COB-ID 0x180/0x280/0x380/0x480 + node."""
+    return has_id(0x80 + 0x100 * n + node)
+
+
+# --------------------------------------------------------------------------
+# CANopen: NMT, heartbeat states, EMCY, LSS
+
+NMT_START = 0x01
+NMT_STOP = 0x02
+NMT_PRE_OPERATIONAL = 0x80
+NMT_RESET_NODE = 0x81
+NMT_RESET_COMMUNICATION = 0x82
+
+STATE_BOOTUP = 0x00
+STATE_STOPPED = 0x04
+STATE_OPERATIONAL = 0x05
+STATE_PRE_OPERATIONAL = 0x7F
+STATE_NAMES = {0x00: "boot-up", 0x04: "stopped", 0x05: "operational", 0x7F: "pre-operational"}
+
+
+def nmt(bus: can.BusABC, command: int, node: int = 0) -> None:
+    """Send an NMT command (node 0 = all nodes)."""
+    send(bus, 0x000, [command, node])
+
+
+def emcy_fields(msg: can.Message) -> tuple:
+    """(error code, error register, 5 manufacturer bytes) of an EMCY frame."""
+    code, reg = struct.unpack_from("<HB", bytes(msg.data))
+    return code, reg, bytes(msg.data[3:8])
+
+
+LSS_TX = 0x7E5  # master -> slaves
+LSS_RX = 0x7E4  # slave -> master
+
+
+def lss(bus: can.BusABC, cs: int, payload: Sequence[int] | bytes = b"") -> None:
+    """Send an LSS request (command specifier + up to 7 bytes, zero-padded)."""
+    data = bytes([cs]) + bytes(payload)
+    send(bus, LSS_TX, data.ljust(8, b"\x00"))
+
+
+def lss_expect(bus: can.BusABC, cs: int, timeout: float = 2.0) -> can.Message:
+    return expect(bus, lambda m: m.arbitration_id == LSS_RX and len(m.data) >= 1 and m.data[0] == cs,
+                  timeout, f"LSS reply 0x{cs:02X}")
+
+
+# --------------------------------------------------------------------------
+# SDO client (expedited and segmented), by hand
+
+class SdoAbort(AssertionError):
+    def __init__(self, index: int, sub: int, code: int):
+        super().__init__(f"SDO abort 0x{code:08X} on 0x{index:04X}:{sub}")
+        self.index, self.sub, self.code = index, sub, code
+
+
+class SdoError(AssertionError):
+    pass
+
+
+class SdoClient:
+    """SDO client for one node. Timeouts are per response and scaled.
+
+        sdo = SdoClient(bus, 5)
+        raw = sdo.upload(0x1018, 1)            # bytes
+        v = sdo.upload_u32(0x1018, 1)
+        sdo.download(0x1017, 0, struct.pack("<H", 100))
+        sdo.download_u16(0x1017, 0, 100)
+        code = sdo.abort_code_of(lambda: sdo.download(0x1000, 0, b"\\0\\0\\0\\0"))
+    """
+
+    def __init__(self, bus: can.BusABC, node: int, timeout: float = 2.0,
+                 tx_cob: Optional[int] = None, rx_cob: Optional[int] = None):
+        self.bus = bus
+        self.node = node
+        self.timeout = timeout
+        self.tx = tx_cob if tx_cob is not None else 0x600 + node  # client -> server
+        self.rx = rx_cob if rx_cob is not None else 0x580 + node  # server -> client
+
+    # -- plumbing
+    def _send(self, data: bytes) -> None:
+        send(self.bus, self.tx, data.ljust(8, b"\x00"))
+
+    def _recv(self, index: int, sub: int) -> bytes:
+        msg = wait_for(self.bus, lambda m: m.arbitration_id == self.rx and not m.is_remote_frame,
+                       scaled(self.timeout))
+        if msg is None:
+            self.abort(index, sub, 0x05040000)
+            raise SdoError(f"SDO timeout on 0x{index:04X}:{sub} (node {self.node})")
+        data = bytes(msg.data)
+        if len(data) != 8:
+            raise SdoError(f"SDO response with DLC {len(data)}: {fmt(msg)}")
+        if data[0] == 0x80:
+            code = struct.unpack_from("<I", data, 4)[0]
+            raise SdoAbort(index, sub, code)
+        return data
+
+    def _check_mux(self, data: bytes, index: int, sub: int) -> None:
+        i, s = struct.unpack_from("<HB", data, 1)
+        if (i, s) != (index, sub):
+            raise SdoError(f"SDO response for 0x{i:04X}:{s}, expected 0x{index:04X}:{sub}")
+
+    def abort(self, index: int, sub: int, code: int) -> None:
+        self._send(struct.pack("<BHBI", 0x80, index, sub, code))
+
+    # -- upload (read)
+    def upload(self, index: int, sub: int = 0) -> bytes:
+        drain(self.bus)
+        self._send(struct.pack("<BHB", 0x40, index, sub))
+        r = self._recv(index, sub)
+        if r[0] & 0xE0 != 0x40:
+            self.abort(index, sub, 0x05040001)
+            raise SdoError(f"bad upload initiate response 0x{r[0]:02X}")
+        self._check_mux(r, index, sub)
+        e, s, n = r[0] & 0x02, r[0] & 0x01, (r[0] >> 2) & 0x03
+        if e:
+            return r[4:8 - n] if s else r[4:8]
+        size = struct.unpack_from("<I", r, 4)[0] if s else None
+        out = bytearray()
+        toggle = 0
+        while True:
+            self._send(bytes([0x60 | (toggle << 4)]))
+            r = self._recv(index, sub)
+            if r[0] & 0xE0 != 0x00:
+                self.abort(index, sub, 0x05040001)
+                raise SdoError(f"bad upload segment response 0x{r[0]:02X}")
+            if (r[0] >> 4) & 1 != toggle:
+                self.abort(index, sub, 0x05030000)
+                raise SdoError("upload segment toggle bit not alternated")
+            n = (r[0] >> 1) & 0x07
+            out += r[1:8 - n]
+            if r[0] & 0x01:
+                break
+            toggle ^= 1
+        if size is not None and len(out) != size:
+            raise SdoError(f"segmented upload: {len(out)} bytes, size indicated {size}")
+        return bytes(out)
+
+    # -- download (write)
+    def download(self, index: int, sub: int, data: bytes, force_segmented: bool = False) -> None:
+        data = bytes(data)
+        drain(self.bus)
+        if 0 < len(data) <= 4 and not force_segmented:
+            n = 4 - len(data)
+            self._send(struct.pack("<BHB", 0x23 | (n << 2), index, sub) + data)
+            r = self._recv(index, sub)
+            if r[0] != 0x60:
+                raise SdoError(f"bad download initiate response 0x{r[0]:02X}")
+            self._check_mux(r, index, sub)
+            return
+        self._send(struct.pack("<BHBI", 0x21, index, sub, len(data)))
+        r = self._recv(index, sub)
+        if r[0] != 0x60:
+            raise SdoError(f"bad download initiate response 0x{r[0]:02X}")
+        self._check_mux(r, index, sub)
+        toggle = 0
+        pos = 0
+        while True:
+            chunk = data[pos:pos + 7]
+            pos += len(chunk)
+            last = pos >= len(data)
+            cmd = (toggle << 4) | ((7 - len(chunk)) << 1) | (1 if last else 0)
+            self._send(bytes([cmd]) + chunk)
+            r = self._recv(index, sub)
+            if r[0] & 0xE0 != 0x20:
+                raise SdoError(f"bad download segment response 0x{r[0]:02X}")
+            if (r[0] >> 4) & 1 != toggle:
+                self.abort(index, sub, 0x05030000)
+                raise SdoError("download segment toggle bit not alternated")
+            if last:
+                return
+            toggle ^= 1
+
+    # -- typed conveniences
+    def upload_u8(self, index: int, sub: int = 0) -> int:
+        return self._unpack("<B", self.upload(index, sub))
+
+    def upload_u16(self, index: int, sub: int = 0) -> int:
+        return self._unpack("<H", self.upload(index, sub))
+
+    def upload_u32(self, index: int, sub: int = 0) -> int:
+        return self._unpack("<I", self.upload(index, sub))
+
+    def upload_i16(self, index: int, sub: int = 0) -> int:
+        return self._unpack("<h", self.upload(index, sub))
+
+    def upload_i32(self, index: int, sub: int = 0) -> int:
+        return self._unpack("<i", self.upload(index, sub))
+
+    def upload_f32(self, index: int, sub: int = 0) -> float:
+        return self._unpack("<f", self.upload(index, sub))
+
+    def upload_str(self, index: int, sub: int = 0) -> str:
+        return self.upload(index, sub).decode("latin-1")
+
+    def download_u8(self, index: int, sub: int, v: int) -> None:
+        self.download(index, sub, struct.pack("<B", v))
+
+    def download_u16(self, index: int, sub: int, v: int) -> None:
+        self.download(index, sub, struct.pack("<H", v))
+
+    def download_u32(self, index: int, sub: int, v: int) -> None:
+        self.download(index, sub, struct.pack("<I", v))
+
+    def download_i16(self, index: int, sub: int, v: int) -> None:
+        self.download(index, sub, struct.pack("<h", v))
+
+    def download_i32(self, index: int, sub: int, v: int) -> None:
+        self.download(index, sub, struct.pack("<i", v))
+
+    def download_f32(self, index: int, sub: int, v: float) -> None:
+        self.download(index, sub, struct.pack("<f", v))
+
+    @staticmethod
+    def _unpack(f: str, raw: bytes):
+        if len(raw) != struct.calcsize(f):
+            raise SdoError(f"expected {struct.calcsize(f)} bytes, got {raw.hex()}")
+        return struct.unpack(f, raw)[0]
+
+    @staticmethod
+    def abort_code_of(fn: Callable[[], object]) -> Optional[int]:
+        """Run fn; return the SDO abort code it raised, or None if it succeeded."""
+        try:
+            fn()
+        except SdoAbort as a:
+            return a.code
+        return None
+
+
+# --------------------------------------------------------------------------
+# the daemon under test
+
+class Daemon:
+    """cansimd running in the background with its own state dir and log file.
+
+    args may contain '{state_dir}', replaced by the daemon's state directory.
+    The process also gets CANSIM_STATE_DIR=<state dir> in its environment and
+    runs with the state dir as its working directory.
+    """
+
+    def __init__(self, binary: str, args: Iterable[str], name: str = "cansimd",
+                 env: Optional[dict] = None, state_dir: Optional[str] = None):
+        self.binary = binary
+        self.name = name
+        self._own_state = state_dir is None
+        self.state_dir = state_dir or tempfile.mkdtemp(prefix=f"cansim-it-{name}-")
+        self.args = [a.replace("{state_dir}", self.state_dir) for a in args]
+        self.log_path = os.path.join(self.state_dir, f"{name}.log")
+        self.env = dict(os.environ)
+        self.env["CANSIM_STATE_DIR"] = self.state_dir
+        if env:
+            self.env.update(env)
+        self.proc: Optional[subprocess.Popen] = None
+        self.returncode: Optional[int] = None
+
+    def start(self) -> "Daemon":
+        if not self.binary or not os.access(self.binary, os.X_OK):
+            raise Skip(f"cansimd binary not built ({self.binary or 'no target'})")
+        log(f"starting {self.name}: {self.binary} {' '.join(self.args)}")
+        self._log = open(self.log_path, "wb")
+        self.proc = subprocess.Popen([self.binary, *self.args], stdin=subprocess.DEVNULL,
+                                     stdout=self._log, stderr=subprocess.STDOUT,
+                                     cwd=self.state_dir, env=self.env)
+        return self
+
+    def alive(self) -> bool:
+        return self.proc is not None and self.proc.poll() is None
+
+    def assert_alive(self) -> None:
+        if not self.alive():
+            rc = self.proc.returncode if self.proc else None
+            raise AssertionError(f"{self.name} exited early with status {rc}")
+
+    def send_signal(self, sig: int) -> None:
+        if self.alive():
+            self.proc.send_signal(sig)
+
+    def stop(self, timeout: float = 10.0, sig: int = signal.SIGTERM) -> int:
+        """Send sig (SIGTERM), wait up to timeout (scaled), SIGKILL after that.
+        Returns the exit status (negative: killed by that signal)."""
+        if self.proc is None:
+            return self.returncode if self.returncode is not None else -1
+        if self.proc.poll() is None:
+            self.proc.send_signal(sig)
+            try:
+                self.proc.wait(scaled(timeout))
+            except subprocess.TimeoutExpired:
+                log(f"{self.name} did not exit {scaled(timeout):.0f}s after signal {sig}; SIGKILL")
+                self.proc.kill()
+                self.proc.wait()
+        self.returncode = self.proc.returncode
+        self._log.close()
+        return self.returncode
+
+    def wait(self, timeout: float) -> Optional[int]:
+        """Wait for the daemon to exit by itself; None if still running."""
+        try:
+            return self.proc.wait(scaled(timeout))
+        except subprocess.TimeoutExpired:
+            return None
+
+    def log_text(self) -> str:
+        try:
+            with open(self.log_path, "rb") as f:
+                return f.read().decode("utf-8", "replace")
+        except OSError:
+            return ""
+
+    def dump_log(self, out=sys.stderr) -> None:
+        print(f"----- {self.name} log ({self.log_path}) -----", file=out)
+        print(self.log_text().rstrip(), file=out)
+        print(f"----- end of {self.name} log -----", file=out, flush=True)
+
+    def cleanup(self) -> None:
+        if self.proc is not None and self.proc.poll() is None:
+            self.proc.kill()
+            self.proc.wait()
+        if self._own_state and os.environ.get("CANSIM_IT_KEEP") != "1":
+            shutil.rmtree(self.state_dir, ignore_errors=True)
+
+    def __enter__(self) -> "Daemon":
+        return self if self.proc else self.start()
+
+    def __exit__(self, *exc) -> None:
+        if exc[0] is not None and exc[0] is not Skip:
+            self.dump_log()
+        self.stop()
+
+
+# --------------------------------------------------------------------------
+# test entry point
+
+class Context:
+    def __init__(self, ns: argparse.Namespace):
+        self.cansimd: str = ns.cansimd
+        self.source_dir: str = ns.source_dir
+        self.binary_dir: str = ns.binary_dir
+        self.daemons: List[Daemon] = []
+
+    def source(self, *parts: str) -> str:
+        return os.path.join(self.source_dir, *parts)
+
+    def require_cansimd(self) -> str:
+        if not self.cansimd or not os.access(self.cansimd, os.X_OK):
+            raise Skip("cansimd is not built yet")
+        return self.cansimd
+
+    def daemon(self, *args: str, name: str = "cansimd", env: Optional[dict] = None) -> Daemon:
+        """A Daemon for the built cansimd (not started)."""
+        d = Daemon(self.require_cansimd(), args, name=name, env=env)
+        self.daemons.append(d)
+        return d
+
+    def start_daemon(self, *args: str, name: str = "cansimd", env: Optional[dict] = None) -> Daemon:
+        return self.daemon(*args, name=name, env=env).start()
+
+
+def parse_args(argv: Optional[Sequence[str]] = None) -> argparse.Namespace:
+    p = argparse.ArgumentParser()
+    p.add_argument("--cansimd", default=os.environ.get("CANSIMD", ""))
+    p.add_argument("--source-dir", default=os.environ.get(
+        "CANSIM_SOURCE_DIR", os.path.abspath(os.path.join(os.path.dirname(__file__), "..", "..", ".."))))
+    p.add_argument("--binary-dir", default=os.environ.get("CANSIM_BINARY_DIR", ""))
+    return p.parse_args(argv)
+
+
+def main(test: Callable[[Context], None], argv: Optional[Sequence[str]] = None) -> None:
+    """Run test(ctx); exit 0 pass, 1 fail (daemon logs printed), 77 skip."""
+    ctx = Context(parse_args(argv))
+    name = os.path.basename(sys.argv[0])
+    t0 = time.monotonic()
+    code = 0
+    try:
+        test(ctx)
+        for d in ctx.daemons:
+            if d.alive():
+                rc = d.stop()
+                if rc != 0:
+                    raise AssertionError(f"{d.name} exited with status {rc} on SIGTERM")
+        print(f"PASS {name} ({time.monotonic() - t0:.1f}s)", flush=True)
+    except Skip as s:
+        print(f"SKIP {name}: {s}", flush=True)
+        code = SKIP_CODE
+    except BaseException as e:  # noqa: BLE001 - report anything, incl. KeyboardInterrupt
+        traceback.print_exc()
+        print(f"FAIL {name}: {e}", file=sys.stderr, flush=True)
+        for d in ctx.daemons:
+            d.stop()
+            d.dump_log()
+        code = 1
+    finally:
+        for d in ctx.daemons:
+            d.cleanup()
+    sys.exit(code)
