@@ -1,0 +1,139 @@
+#include "daemon/cli.hpp"
+
+#include "config/yaml_util.hpp"
+
+namespace cansim::daemon {
+
+namespace {
+
+constexpr const char* kLevels[] = {"trace", "debug", "info", "warn", "error", "critical", "off"};
+
+bool parse_number(const std::string& text, std::int64_t& out) {
+  return config::parse_int_literal(text, out);
+}
+
+}  // namespace
+
+std::string usage_text() {
+  return "usage: cansimd --profile FILE|NAME [--interface IF] [--node-id N] [options]\n"
+         "       cansimd --config FILE [options]\n"
+         "\n"
+         "Simulates CANopen (CiA 301/305/404) sensor nodes on SocketCAN interfaces.\n"
+         "\n"
+         "  --profile FILE|NAME  run one node from a profile (path or name in the profiles folder)\n"
+         "  --interface IF       CAN interface of that node (default vcan0)\n"
+         "  --node-id N          its node-ID, 1..127 or 255 = LSS-unconfigured (default: the profile's)\n"
+         "  --config FILE        run the fleet described in FILE\n"
+         "  --check              validate the configuration and exit (0 valid, 1 invalid)\n"
+         "  --state-dir DIR      stored parameters (default $STATE_DIRECTORY, else ./state)\n"
+         "  --log-level LEVEL    trace, debug, info, warn, error, critical or off (default info)\n"
+         "  --seed N             fleet random seed (default: the config's, else 1)\n"
+         "  --version            print the version and exit\n"
+         "  --help               print this help and exit\n"
+         "\n"
+         "Signals: SIGHUP reloads the configuration, SIGTERM / SIGINT stop.\n";
+}
+
+CliResult parse_cli(const std::vector<std::string>& args, const char* state_directory_env) {
+  CliResult r;
+  CliOptions& o = r.options;
+  bool have_interface = false;
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    std::string arg = args[i];
+    std::string value;
+    bool has_inline = false;
+    if (auto eq = arg.find('='); arg.rfind("--", 0) == 0 && eq != std::string::npos) {
+      value = arg.substr(eq + 1);
+      arg = arg.substr(0, eq);
+      has_inline = true;
+    }
+    auto need_value = [&]() -> bool {
+      if (has_inline) return true;
+      if (i + 1 >= args.size()) {
+        r.error = "option " + arg + " needs a value";
+        return false;
+      }
+      value = args[++i];
+      return true;
+    };
+    auto no_value = [&]() -> bool {
+      if (has_inline) r.error = "option " + arg + " takes no value";
+      return !has_inline;
+    };
+    if (arg == "--help" || arg == "-h") {
+      if (!no_value()) return r;
+      o.help = true;
+    } else if (arg == "--version") {
+      if (!no_value()) return r;
+      o.version = true;
+    } else if (arg == "--check") {
+      if (!no_value()) return r;
+      o.check = true;
+    } else if (arg == "--profile") {
+      if (!need_value()) return r;
+      o.profile = value;
+    } else if (arg == "--config") {
+      if (!need_value()) return r;
+      o.config = value;
+    } else if (arg == "--interface") {
+      if (!need_value()) return r;
+      o.interface = value;
+      have_interface = true;
+      if (value.empty() || value.size() > 15) {
+        r.error = "--interface: expected an interface name of 1..15 characters";
+        return r;
+      }
+    } else if (arg == "--node-id") {
+      if (!need_value()) return r;
+      std::int64_t v = 0;
+      if (!parse_number(value, v) || v < 1 || (v > 127 && v != 255)) {
+        r.error = "--node-id: expected 1..127 or 255, got '" + value + "'";
+        return r;
+      }
+      o.node_id = int(v);
+    } else if (arg == "--state-dir") {
+      if (!need_value()) return r;
+      o.state_dir = value;
+    } else if (arg == "--log-level") {
+      if (!need_value()) return r;
+      bool known = false;
+      for (const char* l : kLevels) known |= value == l;
+      if (!known) {
+        r.error = "--log-level: expected trace, debug, info, warn, error, critical or off, got '" + value + "'";
+        return r;
+      }
+      o.log_level = value;
+    } else if (arg == "--seed") {
+      if (!need_value()) return r;
+      std::int64_t v = 0;
+      if (!parse_number(value, v) || value[0] == '-') {
+        r.error = "--seed: expected a non-negative integer, got '" + value + "'";
+        return r;
+      }
+      o.seed = std::uint64_t(v);
+    } else if (arg.rfind("-", 0) == 0) {
+      r.error = "unknown option " + arg;
+      return r;
+    } else {
+      r.error = "unexpected argument '" + arg + "'";
+      return r;
+    }
+  }
+  if (o.help || o.version) return r;
+  if (o.profile.empty() == o.config.empty()) {
+    r.error = o.profile.empty() ? "expected --profile or --config" : "--profile and --config exclude each other";
+    return r;
+  }
+  if (!o.config.empty() && (have_interface || o.node_id)) {
+    r.error = "--interface and --node-id go with --profile (a --config file names its own)";
+    return r;
+  }
+  if (o.state_dir.empty()) {
+    std::string env = state_directory_env ? state_directory_env : "";
+    // systemd passes a colon-separated list when several StateDirectory= are set.
+    o.state_dir = env.empty() ? "state" : env.substr(0, env.find(':'));
+  }
+  return r;
+}
+
+}  // namespace cansim::daemon

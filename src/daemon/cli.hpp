@@ -1,0 +1,34 @@
+// cansimd command line. Bad usage is reported as an error string; main()
+// prints it with the usage text and exits 2.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace cansim::daemon {
+
+struct CliOptions {
+  std::string profile;                 // --profile FILE|NAME: one node
+  std::string interface = "vcan0";     // --interface IF (with --profile)
+  std::optional<int> node_id;          // --node-id N (with --profile)
+  std::string config;                  // --config FILE: a fleet
+  bool check = false;                  // --check: validate and exit
+  std::string state_dir;               // --state-dir, $STATE_DIRECTORY, ./state
+  std::string log_level = "info";      // --log-level
+  std::optional<std::uint64_t> seed;   // --seed
+  bool version = false;
+  bool help = false;
+};
+
+struct CliResult {
+  CliOptions options;
+  std::string error;  // non-empty: usage error (exit 2)
+};
+
+// args excludes argv[0]. state_directory_env is $STATE_DIRECTORY (may be null).
+CliResult parse_cli(const std::vector<std::string>& args, const char* state_directory_env);
+std::string usage_text();
+
+}  // namespace cansim::daemon

@@ -1,0 +1,392 @@
+#include "daemon/daemon.hpp"
+
+#include <spdlog/spdlog.h>
+#include <sys/epoll.h>
+#include <systemd/sd-daemon.h>
+
+#include <algorithm>
+#include <csignal>
+#include <set>
+
+#include "core/node.hpp"
+#include "daemon/bus_load.hpp"
+#include "daemon/file_storage.hpp"
+#include "personalities/registry.hpp"
+
+#ifndef CANSIM_PROFILE_DIR
+#define CANSIM_PROFILE_DIR ""
+#endif
+
+namespace cansim::daemon {
+
+namespace {
+constexpr TimeUs kRetryPeriod = 1'000'000;      // reopen a missing / down interface
+constexpr TimeUs kDrainRetry = 1'000;           // kernel queue full (ENOBUFS): retry
+constexpr TimeUs kStatusPeriod = 5'000'000;     // STATUS= and drop reports
+constexpr TimeUs kDownReminder = 30'000'000;    // repeat "still down" warnings
+constexpr int kReadBatchesPerWake = 16;         // fairness between interfaces
+
+std::uint8_t rate_index(std::uint32_t kbit) {
+  int i = config::bit_rate_index(kbit);
+  return i < 0 ? 0xFF : std::uint8_t(i);
+}
+
+// The configured rate, else the kernel's (real CAN), else 250 kbit/s.
+std::uint32_t resolve_bit_rate(const config::InterfaceConfig& ic, bool* from_kernel = nullptr) {
+  if (ic.bit_rate_kbit) return ic.bit_rate_kbit;
+  std::uint32_t kernel = io::kernel_bit_rate(ic.name);
+  if (from_kernel) *from_kernel = kernel != 0;
+  return kernel ? kernel / 1000 : 250;
+}
+}  // namespace
+
+// ---------------------------------------------------------------- building
+
+config::ProfileSearch profile_search(const std::string& config_file) {
+  return config::default_search(config_file, CANSIM_PROFILE_DIR);
+}
+
+void prepare_fleet(config::FleetConfig& fleet) {
+  for (auto& p : fleet.profiles) personalities::prepare_profile(*p);
+}
+
+void SerialOverlay::apply(Node& node) {
+  if (const OdEntry* e = node.od().find(0x1018, 4)) node.values().set_u(*e, serial_);
+}
+void SerialOverlay::on_reset(Node& n, ResetKind k, TimeUs t) {
+  if (inner_) inner_->on_reset(n, k, t);
+  apply(n);
+}
+void SerialOverlay::on_nmt_state(Node& n, NmtState s, TimeUs t) {
+  if (inner_) inner_->on_nmt_state(n, s, t);
+}
+void SerialOverlay::refresh(Node& n, const OdEntry& e, TimeUs t) {
+  if (inner_) inner_->refresh(n, e, t);
+}
+SdoAbort SerialOverlay::check_write(Node& n, const OdEntry& e, std::span<const std::uint8_t> d, TimeUs t) {
+  return inner_ ? inner_->check_write(n, e, d, t) : SdoAbort::kNone;
+}
+void SerialOverlay::after_write(Node& n, const OdEntry& e, TimeUs t) {
+  if (inner_) inner_->after_write(n, e, t);
+}
+void SerialOverlay::on_sync(Node& n, std::uint8_t c, TimeUs t) {
+  if (inner_) inner_->on_sync(n, c, t);
+}
+TimeUs SerialOverlay::process(Node& n, TimeUs t) { return inner_ ? inner_->process(n, t) : kNever; }
+
+std::unique_ptr<Application> make_node_application(const config::NodeConfig& node, std::uint64_t seed) {
+  personalities::NodeContext ctx;
+  ctx.fleet_seed = seed;
+  ctx.index = node.index;
+  ctx.key = node.key;
+  auto app = personalities::make_application(*node.profile, ctx);
+  if (!node.serial) return app;
+  return std::make_unique<SerialOverlay>(std::move(app), *node.serial);
+}
+
+std::string check_fleet(config::FleetConfig& fleet) {
+  prepare_fleet(fleet);
+  for (const auto& n : fleet.nodes) make_node_application(n, fleet.seed);
+  return fleet.file + ": ok, " + std::to_string(fleet.nodes.size()) + " node(s) on " +
+         std::to_string(fleet.interfaces.size()) + " interface(s)";
+}
+
+// ---------------------------------------------------------------- interfaces
+
+struct Daemon::Interface : io::FdHandler {
+  Interface(Daemon& d, std::string name) : daemon(d), can(std::move(name)) {}
+  void on_events(std::uint32_t events) override { daemon.on_can_events(*this, events); }
+
+  Daemon& daemon;
+  io::CanInterface can;
+  io::BusId bus = 0;
+  std::uint32_t bit_rate_kbit = 250;
+  bool configured = false;
+  bool in_epoll = false;
+  std::uint32_t mask = 0;
+  TimeUs retry_at = kNever;
+  TimeUs drain_at = kNever;
+  TimeUs last_down_log = 0;
+  bool reported_down = false;
+};
+
+Daemon::Daemon(DaemonSettings settings) : settings_(std::move(settings)) {}
+Daemon::~Daemon() = default;
+
+Daemon::Interface& Daemon::ensure_interface(const config::InterfaceConfig& ic) {
+  Interface* iface = nullptr;
+  for (auto& i : interfaces_)
+    if (i->can.name() == ic.name) iface = i.get();
+  if (!iface) {
+    interfaces_.push_back(std::make_unique<Interface>(*this, ic.name));
+    iface = interfaces_.back().get();
+    iface->bus = core_.add_bus(ic.name, iface->can, 3);
+    iface->retry_at = 0;  // open at the next housekeeping pass
+  }
+  bool from_kernel = false;
+  std::uint32_t kbit = resolve_bit_rate(ic, &from_kernel);
+  if (ic.bit_rate_kbit == 0 && kbit != iface->bit_rate_kbit)
+    spdlog::info("{}: bit rate {} kbit/s ({})", ic.name, kbit, from_kernel ? "from the kernel" : "default");
+  if (config::bit_rate_index(kbit) < 0)
+    spdlog::warn("{}: {} kbit/s is not in the CiA 305 table: every node will stay silent", ic.name, kbit);
+  iface->bit_rate_kbit = kbit;
+  core_.set_bus_bit_rate(iface->bus, rate_index(kbit));
+  iface->configured = true;
+  return *iface;
+}
+
+void Daemon::on_can_events(Interface& iface, std::uint32_t events) {
+  TimeUs now = io::monotonic_now();
+  if (events & (EPOLLIN | EPOLLERR | EPOLLHUP)) {
+    CanFrame frames[io::CanInterface::kBatch];
+    for (int b = 0; b < kReadBatchesPerWake; ++b) {
+      int n = iface.can.read_batch(frames, io::CanInterface::kBatch);
+      for (int i = 0; i < n; ++i) core_.receive(iface.bus, frames[i], now);
+      if (n < int(io::CanInterface::kBatch)) break;
+    }
+  }
+  if ((events & EPOLLOUT) && iface.can.is_open()) {
+    std::uint64_t before = iface.can.stats().tx;
+    iface.can.drain();
+    // ENOBUFS with a writable socket would spin on EPOLLOUT: poll by timer.
+    if (iface.can.wants_write() && iface.can.stats().tx == before) iface.drain_at = now + kDrainRetry;
+  }
+}
+
+void Daemon::sweep_interfaces(TimeUs now) {
+  for (auto& ip : interfaces_) {
+    Interface& i = *ip;
+    if (i.in_epoll && !i.can.is_open()) {
+      i.in_epoll = false;  // closing the fd took it out of the epoll set
+      i.retry_at = now + kRetryPeriod;
+      i.last_down_log = now;
+      i.reported_down = true;
+      spdlog::warn("{}: {}; its {} node(s) keep running off the bus, retrying every second", i.can.name(),
+                   i.can.error(), core_.node_count(i.bus));
+    }
+    if (!i.in_epoll) continue;
+    std::uint32_t want = EPOLLIN | (i.can.wants_write() && i.drain_at == kNever ? EPOLLOUT : 0u);
+    i.can.take_interest_changed();
+    if (want != i.mask) {
+      loop_.modify(i.can.fd(), want, &i);
+      i.mask = want;
+    }
+  }
+}
+
+void Daemon::housekeeping(TimeUs now) {
+  for (auto& ip : interfaces_) {
+    Interface& i = *ip;
+    if (i.retry_at <= now && i.configured && !i.can.is_open()) {
+      if (i.can.open()) {
+        loop_.add(i.can.fd(), EPOLLIN, &i);
+        i.in_epoll = true;
+        i.mask = EPOLLIN;
+        i.retry_at = kNever;
+        if (i.reported_down) spdlog::info("{}: interface is back, {} node(s) on the bus again", i.can.name(), core_.node_count(i.bus));
+        else spdlog::info("{}: open, {} kbit/s, {} node(s)", i.can.name(), i.bit_rate_kbit, core_.node_count(i.bus));
+        i.reported_down = false;
+      } else {
+        i.retry_at = now + kRetryPeriod;
+        if (!i.reported_down || now - i.last_down_log >= kDownReminder) {
+          spdlog::warn("{}: {}; its {} node(s) keep running off the bus, retrying every second", i.can.name(),
+                       i.can.error(), core_.node_count(i.bus));
+          i.reported_down = true;
+          i.last_down_log = now;
+        }
+      }
+    }
+    if (i.drain_at <= now) {
+      std::uint64_t before = i.can.stats().tx;
+      i.can.drain();
+      i.drain_at = (i.can.wants_write() && i.can.stats().tx == before) ? now + kDrainRetry : kNever;
+    }
+  }
+  if (watchdog_us_ && now >= next_watchdog_) {
+    sd_notify(0, "WATCHDOG=1");
+    next_watchdog_ = now + TimeUs(watchdog_us_ / 2);
+  }
+  if (now >= next_status_) report_status(now);
+}
+
+TimeUs Daemon::housekeeping_deadline() const {
+  TimeUs t = std::min(next_status_, watchdog_us_ ? next_watchdog_ : kNever);
+  for (const auto& i : interfaces_) {
+    if (i->configured && !i->can.is_open()) t = std::min(t, i->retry_at);
+    t = std::min(t, i->drain_at);
+  }
+  return t;
+}
+
+void Daemon::report_status(TimeUs now) {
+  const io::LoopStats& s = core_.stats();
+  double dt = double(now - last_status_) / 1e6;
+  if (dt > 0) frames_per_s_ = double(s.frames_out - last_frames_out_) / dt;
+  double in_per_s = dt > 0 ? double(s.frames_in - last_frames_in_) / dt : 0;
+  last_status_ = now;
+  last_frames_out_ = s.frames_out;
+  last_frames_in_ = s.frames_in;
+  next_status_ = now + kStatusPeriod;
+  std::size_t up = 0;
+  for (const auto& i : interfaces_) {
+    if (!i->configured) continue;
+    up += i->can.is_open();
+    std::uint64_t drops = i->can.take_new_drops();
+    if (drops && i->can.is_open())
+      spdlog::warn("{}: {} frame(s) dropped in the last {:.0f} s (kernel queue full)", i->can.name(), drops, dt);
+  }
+  std::size_t configured = std::count_if(interfaces_.begin(), interfaces_.end(), [](const auto& i) { return i->configured; });
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "STATUS=%zu node(s), %zu/%zu interface(s) up, %.0f frames/s out, %.0f in",
+                core_.node_count(), up, configured, frames_per_s_, in_per_s);
+  sd_notify(0, buf);
+  spdlog::debug("{}", buf + 7);
+}
+
+void Daemon::check_bus_load() {
+  for (const auto& ip : interfaces_) {
+    if (!ip->configured) continue;
+    Traffic t;
+    for (const auto& [key, e] : nodes_)
+      if (core_.bus_of(e.ref) == ip->bus) t += estimate_traffic(core_.node(e.ref));
+    double capacity = double(ip->bit_rate_kbit) * 1000.0;
+    double load = capacity > 0 ? t.bits_per_s / capacity : 0;
+    double worst = capacity > 0 ? t.stuffed_bits_per_s / capacity : 0;
+    if (load > 1.0)
+      spdlog::warn("{}: the fleet offers {:.0f} frames/s = {:.0f}% of {} kbit/s: more than the bus can carry",
+                   ip->can.name(), t.frames_per_s, load * 100, ip->bit_rate_kbit);
+    else if (worst > 1.0)
+      spdlog::warn("{}: the fleet offers {:.0f} frames/s = {:.0f}% of {} kbit/s ({:.0f}% with worst-case bit stuffing)",
+                   ip->can.name(), t.frames_per_s, load * 100, ip->bit_rate_kbit, worst * 100);
+    else
+      spdlog::info("{}: {} node(s) offer about {:.0f} frames/s, {:.1f}% of {} kbit/s", ip->can.name(),
+                   core_.node_count(ip->bus), t.frames_per_s, load * 100, ip->bit_rate_kbit);
+  }
+}
+
+void Daemon::notify(const std::string& state) { sd_notify(0, state.c_str()); }
+
+// ---------------------------------------------------------------- fleet changes
+
+struct Daemon::Pending {
+  const config::NodeConfig* cfg;
+  std::unique_ptr<Application> app;
+};
+
+void Daemon::remove_node(NodeEntry& e) {
+  core_.remove_node(e.ref);
+  e.ref = io::kNoNode;
+}
+
+void Daemon::apply(config::FleetConfig cfg, TimeUs now) {
+  prepare_fleet(cfg);
+  const std::uint64_t seed = settings_.seed.value_or(cfg.seed);
+  auto bus_rate = [&](const std::string& iface) { return rate_index(resolve_bit_rate(*cfg.interface(iface))); };
+  // Phase 1 (may throw): decide what changes and build the new applications,
+  // so an invalid reload leaves the running fleet untouched.
+  std::vector<Pending> to_add;
+  std::set<std::string> wanted;
+  for (const auto& n : cfg.nodes) {
+    wanted.insert(n.key);
+    auto it = nodes_.find(n.key);
+    if (it != nodes_.end() && it->second.cfg.fingerprint == n.fingerprint && it->second.seed == seed &&
+        it->second.cfg.interface == n.interface && it->second.bus_rate == bus_rate(n.interface))
+      continue;
+    to_add.push_back({&n, make_node_application(n, seed)});
+  }
+  // Phase 2: interfaces, removals, additions.
+  for (auto& i : interfaces_) i->configured = false;
+  for (const auto& ic : cfg.interfaces) ensure_interface(ic);
+  std::size_t removed = 0, changed = 0;
+  for (auto it = nodes_.begin(); it != nodes_.end();) {
+    bool replaced = std::any_of(to_add.begin(), to_add.end(), [&](const Pending& p) { return p.cfg->key == it->first; });
+    if (!wanted.count(it->first) || replaced) {
+      spdlog::info("{}: node 0x{:02X} {}", it->first, it->second.cfg.node_id, replaced ? "changed, restarting" : "removed");
+      (replaced ? changed : removed) += 1;
+      remove_node(it->second);
+      it = nodes_.erase(it);
+    } else {
+      ++it;
+    }
+  }
+  std::vector<io::NodeRef> fresh;
+  for (auto& p : to_add) {
+    const config::NodeConfig& n = *p.cfg;
+    Interface* iface = nullptr;
+    for (auto& i : interfaces_)
+      if (i->can.name() == n.interface) iface = i.get();
+    NodeSetup setup;
+    setup.layout = n.profile->layout;
+    setup.options = n.profile->options;
+    setup.node_id = n.node_id;
+    setup.bit_rate_index = rate_index(n.bit_rate_kbit);
+    auto storage = std::make_unique<FileStorage>(settings_.state_dir, n.key);
+    NodeEntry e;
+    e.cfg = n;
+    e.seed = seed;
+    e.bus_rate = rate_index(iface->bit_rate_kbit);
+    e.ref = core_.add_node(iface->bus, setup, std::move(p.app), std::move(storage));
+    if (setup.bit_rate_index != e.bus_rate)
+      spdlog::warn("{}: node runs at {} kbit/s but {} at {} kbit/s: it stays silent until its bit rate matches",
+                   n.key, n.bit_rate_kbit, n.interface, iface->bit_rate_kbit);
+    fresh.push_back(e.ref);
+    nodes_[n.key] = std::move(e);
+  }
+  for (auto& i : interfaces_)
+    if (!i->configured && i->can.is_open()) {
+      spdlog::info("{}: no longer configured, closed", i->can.name());
+      i->can.close();
+      i->in_epoll = false;
+    }
+  for (io::NodeRef ref : fresh) {
+    core_.power_on(ref, now);
+    if (auto* overlay = dynamic_cast<SerialOverlay*>(core_.app(ref))) overlay->apply(core_.node(ref));
+  }
+  spdlog::info("fleet: {} node(s) on {} interface(s); {} started, {} restarted, {} removed", nodes_.size(),
+               cfg.interfaces.size(), fresh.size() - changed, changed, removed);
+  check_bus_load();
+}
+
+void Daemon::reload(TimeUs now) {
+  notify("RELOADING=1\nMONOTONIC_USEC=" + std::to_string(now));
+  spdlog::info("SIGHUP: reloading the configuration");
+  try {
+    apply(settings_.load(), now);
+  } catch (const std::exception& e) {
+    spdlog::error("reload failed, keeping the running fleet: {}", e.what());
+  }
+  report_status(now);
+  notify("READY=1");
+}
+
+int Daemon::run() {
+  loop_.watch_signals({SIGINT, SIGTERM, SIGHUP});
+  TimeUs now = io::monotonic_now();
+  last_status_ = now;
+  apply(settings_.load(), now);
+  if (sd_watchdog_enabled(0, &watchdog_us_) <= 0) watchdog_us_ = 0;
+  next_watchdog_ = now;
+  housekeeping(now);  // opens the interfaces
+  sweep_interfaces(now);
+  report_status(now);
+  notify("READY=1");
+  int signal = 0;
+  for (;;) {
+    now = io::monotonic_now();
+    core_.run_due(now);
+    housekeeping(now);
+    sweep_interfaces(now);
+    loop_.arm_timer(std::min(core_.next_deadline(), housekeeping_deadline()));
+    bool timer = false;
+    loop_.wait(-1, timer, signal);
+    if (signal == SIGHUP) reload(io::monotonic_now());
+    else if (signal == SIGTERM || signal == SIGINT) break;
+  }
+  notify("STOPPING=1");
+  spdlog::info("{}: stopping, {} node(s) fall silent", strsignal(signal), nodes_.size());
+  for (auto& [key, e] : nodes_) remove_node(e);
+  nodes_.clear();
+  return 0;
+}
+
+}  // namespace cansim::daemon

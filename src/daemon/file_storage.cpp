@@ -1,0 +1,133 @@
+#include "daemon/file_storage.hpp"
+
+#include <fcntl.h>
+#include <spdlog/spdlog.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+
+#include "core/can_frame.hpp"
+
+namespace cansim::daemon {
+
+namespace {
+
+constexpr std::uint8_t kMagic[4] = {'C', 'S', 'N', 'S'};
+constexpr std::uint32_t kVersion = 1;
+constexpr std::size_t kHeader = 16;
+
+bool write_all(int fd, const std::uint8_t* p, std::size_t n) {
+  while (n > 0) {
+    ssize_t w = ::write(fd, p, n);
+    if (w < 0) {
+      if (errno == EINTR) continue;
+      return false;
+    }
+    p += w;
+    n -= std::size_t(w);
+  }
+  return true;
+}
+
+}  // namespace
+
+std::uint32_t crc32(std::span<const std::uint8_t> data) {
+  std::uint32_t crc = 0xFFFFFFFFu;
+  for (std::uint8_t b : data) {
+    crc ^= b;
+    for (int i = 0; i < 8; ++i) crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
+  }
+  return ~crc;
+}
+
+std::string FileStorage::file_name(const std::string& key) {
+  std::string out;
+  for (char c : key) {
+    auto u = static_cast<unsigned char>(c);
+    if (std::isalnum(u) || c == '-' || c == '_' || c == '.') out += c;
+    else if (c == '/') out += '@';
+    else {
+      char buf[4];
+      std::snprintf(buf, sizeof buf, "%%%02X", u);
+      out += buf;
+    }
+  }
+  return out + ".params";
+}
+
+FileStorage::FileStorage(std::string dir, const std::string& key)
+    : dir_(std::move(dir)), path_(dir_ + "/" + file_name(key)) {}
+
+bool FileStorage::read_file() {
+  cached_ = true;
+  cache_.clear();
+  int fd = ::open(path_.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return errno == ENOENT;
+  std::vector<std::uint8_t> raw;
+  std::uint8_t buf[4096];
+  for (;;) {
+    ssize_t n = ::read(fd, buf, sizeof buf);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) break;
+    raw.insert(raw.end(), buf, buf + n);
+  }
+  ::close(fd);
+  if (raw.size() < kHeader || std::memcmp(raw.data(), kMagic, 4) != 0 || get_u32(raw.data() + 4) != kVersion ||
+      get_u32(raw.data() + 8) != raw.size() - kHeader) {
+    error_ = path_ + ": not a cansimd parameter file (ignored)";
+    return false;
+  }
+  std::span<const std::uint8_t> blob(raw.data() + kHeader, raw.size() - kHeader);
+  if (crc32(blob) != get_u32(raw.data() + 12)) {
+    error_ = path_ + ": CRC mismatch (ignored)";
+    return false;
+  }
+  cache_.assign(blob.begin(), blob.end());
+  return true;
+}
+
+bool FileStorage::load(std::vector<std::uint8_t>& blob) {
+  if (!cached_ && !read_file()) spdlog::warn("{}", error_);
+  blob = cache_;
+  return !cache_.empty();
+}
+
+bool FileStorage::save(std::span<const std::uint8_t> blob) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir_, ec);
+  std::vector<std::uint8_t> file(kHeader + blob.size());
+  std::memcpy(file.data(), kMagic, 4);
+  put_u32(file.data() + 4, kVersion);
+  put_u32(file.data() + 8, std::uint32_t(blob.size()));
+  put_u32(file.data() + 12, crc32(blob));
+  if (!blob.empty()) std::memcpy(file.data() + kHeader, blob.data(), blob.size());
+
+  std::string tmp = path_ + ".tmp";
+  int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  bool ok = fd >= 0 && write_all(fd, file.data(), file.size()) && ::fsync(fd) == 0;
+  int err = errno;
+  if (fd >= 0) ::close(fd);
+  if (ok && ::rename(tmp.c_str(), path_.c_str()) != 0) {
+    ok = false;
+    err = errno;
+  }
+  if (!ok) {
+    error_ = path_ + ": cannot store parameters: " + std::strerror(err);
+    spdlog::error("{}", error_);
+    ::unlink(tmp.c_str());
+    return false;
+  }
+  // The rename is durable only once the directory entry is.
+  int dfd = ::open(dir_.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (dfd >= 0) {
+    ::fsync(dfd);
+    ::close(dfd);
+  }
+  cache_.assign(blob.begin(), blob.end());
+  cached_ = true;
+  return true;
+}
+
+}  // namespace cansim::daemon

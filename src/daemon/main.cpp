@@ -1,0 +1,64 @@
+// cansimd: simulated CANopen sensor fleet on SocketCAN. See `cansimd --help`.
+#include <spdlog/spdlog.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include "config/fleet.hpp"
+#include "daemon/cli.hpp"
+#include "daemon/daemon.hpp"
+#include "daemon/logging.hpp"
+
+#ifndef CANSIM_VERSION
+#define CANSIM_VERSION "unknown"
+#endif
+
+using namespace cansim;
+
+namespace {
+
+config::FleetConfig load(const daemon::CliOptions& o) {
+  if (!o.config.empty()) return config::load_fleet(o.config, daemon::profile_search(o.config));
+  return config::single_node_fleet(o.profile, o.interface, o.node_id, daemon::profile_search(""));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::vector<std::string> args(argv + 1, argv + argc);
+  daemon::CliResult cli = daemon::parse_cli(args, std::getenv("STATE_DIRECTORY"));
+  if (!cli.error.empty()) {
+    std::fprintf(stderr, "cansimd: %s\n\n%s", cli.error.c_str(), daemon::usage_text().c_str());
+    return 2;
+  }
+  const daemon::CliOptions& o = cli.options;
+  if (o.help) {
+    std::fputs(daemon::usage_text().c_str(), stdout);
+    return 0;
+  }
+  if (o.version) {
+    std::printf("cansimd %s\n", CANSIM_VERSION);
+    return 0;
+  }
+  daemon::setup_logging(o.log_level);
+  try {
+    if (o.check) {
+      config::FleetConfig fleet = load(o);
+      std::printf("%s\n", daemon::check_fleet(fleet).c_str());
+      return 0;
+    }
+    daemon::DaemonSettings settings;
+    settings.state_dir = o.state_dir;
+    settings.seed = o.seed;
+    settings.load = [o] { return load(o); };
+    spdlog::info("cansimd {} starting, stored parameters in {}", CANSIM_VERSION, o.state_dir);
+    daemon::Daemon d(std::move(settings));
+    return d.run();
+  } catch (const std::exception& e) {
+    if (o.check) std::fprintf(stderr, "%s\n", e.what());
+    else spdlog::critical("{}", e.what());
+    return 1;
+  }
+}
