@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <complex>
+#include <limits>
 #include <stdexcept>
 
 #include "physics/random.hpp"
@@ -144,30 +146,109 @@ struct CPulsation {
   }
 };
 
+// Response of a first/second-order system to a piecewise-linear setpoint, by superposition
+// of the step / ramp responses of every breakpoint. All free responses share the system's
+// modes, so the sum over past breakpoints collapses into a few modal coefficients relative
+// to the latest breakpoint t_ref; they are cached per segment between breakpoints (a pure
+// function of the segment, so the value depends only on t, not on the query history):
+//   y(t) = sp(t) - E_inf * slope(t) - sum_modes W_m * mode_m(t - t_ref)
 struct CResponse {
+  enum class Mode : std::uint8_t { First, Under, Critical, Over };
   Table sp;
-  bool second;
+  Mode mode = Mode::First;
   double T = 1, w = 1, zeta = 1;
+  double p1 = 0, p2 = 0;               // overdamped poles (rates)
+  std::complex<double> s{0, 0};        // underdamped pole -a + i b
+  std::complex<double> c{1, 0};        // free response = Re[c e^{s tau}]
   double window = 1;
   double e_inf = 0;
   double initial = kNaN;
-  double init_delta = 0;  // initial - base(0)
+  double init_delta = 0;  // initial - response(0) without the initial condition
+  // segment cache
+  mutable double seg_lo = std::numeric_limits<double>::infinity();
+  mutable double seg_hi = -std::numeric_limits<double>::infinity();
+  mutable double t_ref = 0, v_ref = 0, slope_ref = 0;
+  mutable double W1 = 0, W2 = 0;
+  mutable std::complex<double> Wc{0, 0};
 
   double free(double tau) const noexcept {
-    return second ? response::second_order_free(tau, w, zeta) : response::first_order_free(tau, T);
+    switch (mode) {
+      case Mode::First: return response::first_order_free(tau, T);
+      default: return response::second_order_free(tau, w, mode == Mode::Critical ? 1.0 : zeta);
+    }
   }
-  double integral(double tau) const noexcept {
-    return second ? response::second_order_integral(tau, w, zeta)
-                  : response::first_order_integral(tau, T);
+
+  // Adds one breakpoint (jump `step`, slope change `k`) that lies d >= 0 before t_ref.
+  void accumulate(double d, double step, double k) const noexcept {
+    switch (mode) {
+      case Mode::First: W1 += (step - k * T) * std::exp(-d / T); break;
+      case Mode::Under: {
+        const double e = std::exp(s.real() * d);
+        const std::complex<double> rot(e * std::cos(s.imag() * d), e * std::sin(s.imag() * d));
+        Wc += (step + k / s) * c * rot;
+        break;
+      }
+      case Mode::Critical: {
+        const double e = std::exp(-w * d);
+        const double A = step - 2.0 * k / w, B = step * w - k;
+        W1 += (A + B * d) * e;  // P
+        W2 += B * e;            // Q
+        break;
+      }
+      case Mode::Over:
+        W1 += p2 / (p2 - p1) * (step - k / p1) * std::exp(-p1 * d);
+        W2 += -p1 / (p2 - p1) * (step - k / p2) * std::exp(-p2 * d);
+        break;
+    }
   }
-  double base(double t) const noexcept {
-    double y = sp.value(t) - e_inf * sp.slope(t - window);
-    sp.for_each_event_back(t, window, kMaxEvents, [&](const TableEvent& ev) {
-      const double age = t - ev.t_s;
-      if (ev.step != 0.0) y -= ev.step * free(age);
-      if (ev.slope != 0.0) y -= ev.slope * integral(age);
+
+  double modes(double u) const noexcept {
+    switch (mode) {
+      case Mode::First: return W1 * std::exp(-u / T);
+      case Mode::Under: {
+        const double e = std::exp(s.real() * u);
+        return e * (Wc.real() * std::cos(s.imag() * u) - Wc.imag() * std::sin(s.imag() * u));
+      }
+      case Mode::Critical: return (W1 + W2 * u) * std::exp(-w * u);
+      case Mode::Over: return W1 * std::exp(-p1 * u) + W2 * std::exp(-p2 * u);
+    }
+    return 0.0;
+  }
+
+  void rebuild(double t) const noexcept {
+    constexpr double kInfT = std::numeric_limits<double>::infinity();
+    bool any = false;
+    sp.for_each_event_back(t, kInfT, 1, [&](const TableEvent& ev) {
+      t_ref = ev.t_s;
+      any = true;
     });
-    return y;
+    W1 = W2 = 0;
+    Wc = {0, 0};
+    if (!any) {  // before the first breakpoint: at rest at the first value
+      t_ref = t;
+      v_ref = sp.value(t);
+      slope_ref = 0;
+      seg_lo = -kInfT;
+      seg_hi = sp.next_event_time(t);
+      return;
+    }
+    const double tr = t_ref;
+    // Walk back from t (not from t_ref: the event times must come out of the same arithmetic).
+    sp.for_each_event_back(t, (t - tr) + window, kMaxEvents,
+                           [&](const TableEvent& ev) { accumulate(tr - ev.t_s, ev.step, ev.slope); });
+    seg_lo = t_ref;
+    seg_hi = sp.next_event_time(t);
+    // The setpoint is linear inside the segment: sample it at a point that depends only on
+    // the segment (not on t, and away from the breakpoints where rounding could pick a side).
+    const double probe = std::isfinite(seg_hi) ? 0.5 * (t_ref + seg_hi) : t_ref + 1.0;
+    slope_ref = sp.slope(probe);
+    v_ref = sp.value(probe) - slope_ref * (probe - t_ref);
+  }
+
+  double base(double t) const noexcept {
+    if (!(t >= seg_lo && t < seg_hi)) rebuild(t);
+    const double u = t - t_ref;
+    return v_ref + slope_ref * u - e_inf * slope_ref - modes(u);
   }
   double eval(double t) const noexcept {
     if (std::isnan(initial)) return base(t);
@@ -198,12 +279,16 @@ struct COU {
   std::uint64_t key;
   double x, t_last;
   std::uint64_t counter;
+  double last_dt = -1, e = 0, sd = 0;
   void reset() noexcept { x = std::isnan(s.initial) ? s.mean : s.initial; t_last = 0; counter = 0; }
   double eval(double t) noexcept {
     if (t > t_last) {
       const double dt = t - t_last;
-      const double e = std::exp(-dt / s.tau_s);
-      const double sd = s.sigma * std::sqrt(-std::expm1(-2.0 * dt / s.tau_s));
+      if (dt != last_dt) {  // exact AR(1) coefficients, cached for the usual constant step
+        last_dt = dt;
+        e = std::exp(-dt / s.tau_s);
+        sd = s.sigma * std::sqrt(-std::expm1(-2.0 * dt / s.tau_s));
+      }
       x = s.mean + (x - s.mean) * e + sd * counter_normal(key, counter++);
       t_last = t;
     }
@@ -234,16 +319,32 @@ template <class... Ts>
 overloaded(Ts...) -> overloaded<Ts...>;
 
 CResponse make_response(const TableSpec& sp, bool second, double T, double fn, double zeta, double initial) {
-  CResponse r{Table(sp), second};
+  CResponse r;
+  r.sp = Table(sp);
   if (second) {
-    r.w = kTwoPi * fn;
+    const double w = kTwoPi * fn;
+    r.w = w;
     r.zeta = zeta;
     double rate;
-    if (zeta < 1.0) rate = zeta * r.w;
-    else rate = r.w * r.w / (r.w * (zeta + std::sqrt(zeta * zeta - 1.0)));  // slowest pole
+    if (std::abs(zeta - 1.0) < 1e-9) {
+      r.mode = CResponse::Mode::Critical;
+      rate = w;
+    } else if (zeta < 1.0) {
+      r.mode = CResponse::Mode::Under;
+      const double a = zeta * w, b = w * std::sqrt(1.0 - zeta * zeta);
+      r.s = {-a, b};
+      r.c = {1.0, -a / b};
+      rate = a;
+    } else {
+      r.mode = CResponse::Mode::Over;
+      r.p2 = w * (zeta + std::sqrt(zeta * zeta - 1.0));
+      r.p1 = w * w / r.p2;
+      rate = r.p1;  // slowest pole
+    }
     r.window = kSettleDecades / rate;
-    r.e_inf = 2.0 * zeta / r.w;
+    r.e_inf = 2.0 * zeta / w;
   } else {
+    r.mode = CResponse::Mode::First;
     r.T = T;
     r.window = kSettleDecades * T;
     r.e_inf = T;

@@ -4,6 +4,7 @@
 #include <charconv>
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
@@ -143,6 +144,27 @@ double Table::slope(double t) const noexcept {
     if (tau < 0) tau = 0;
   }
   return cycle_slope(tau);
+}
+
+double Table::next_event_time(double t) const noexcept {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  if (knots_.empty()) return kInf;
+  auto first_after = [&](double x) {
+    return std::upper_bound(knots_.begin(), knots_.end(), x, [](double v, const Knot& k) { return v < k.tau; });
+  };
+  if (!loop_) {
+    auto it = first_after(t);
+    return it == knots_.end() ? kInf : it->tau;
+  }
+  if (t < t0_) return t0_;
+  const double cycles = std::floor((t - t0_) / period_);
+  double tau = (t - t0_) - cycles * period_;
+  if (tau < 0) tau = 0;
+  auto it = first_after(tau);
+  double te = it == knots_.end() ? t0_ + (cycles + 1) * period_ + knots_[0].tau
+                                 : t0_ + cycles * period_ + it->tau;
+  if (te <= t) te = std::nextafter(t, kInf);  // rounding guard
+  return te;
 }
 
 // ---------------------------------------------------------------- CSV

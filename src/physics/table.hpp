@@ -57,6 +57,9 @@ class Table {
   template <class F>
   void for_each_event_back(double t, double window, std::size_t max_events, F&& f) const;
 
+  /// Time of the first breakpoint strictly after t (+infinity if none).
+  double next_event_time(double t) const noexcept;
+
   bool empty() const noexcept { return pts_.empty(); }
 
  private:

@@ -370,3 +370,39 @@ TEST(PhysicsModels, InvalidSpecsAreRejected) {
   ok.pressure = {ConstantSpec{1}};
   EXPECT_EQ(validate(ok), "");
 }
+
+// Response terms cache modal coefficients per setpoint segment; the value must not depend on
+// the order of queries (pure function of t), and must match the direct superposition.
+TEST(PhysicsModels, ResponseValuesDoNotDependOnQueryOrder) {
+  for (double zeta : {0.15, 1.0, 2.5}) {
+    SecondOrderSpec s;
+    s.setpoint = table({{0.2, 1}, {0.7, 5}, {0.7, 2}, {1.5, 2}, {2.0, -3}}, Interpolation::Linear, true, 2.4);
+    s.natural_frequency_hz = 1.1;
+    s.damping = zeta;
+    auto fwd = pressure_model(s), rnd = pressure_model(s);
+    std::vector<double> times;
+    for (int i = 0; i < 400; ++i) times.push_back(i * 0.0371);
+    std::vector<double> v;
+    for (double t : times) v.push_back(p_at(fwd, t));
+    std::vector<std::size_t> order(times.size());
+    std::iota(order.begin(), order.end(), 0);
+    std::uint64_t x = 12345;
+    for (std::size_t i = order.size() - 1; i > 0; --i) {  // deterministic shuffle
+      x = x * 6364136223846793005ULL + 1442695040888963407ULL;
+      std::swap(order[i], order[(x >> 33) % (i + 1)]);
+    }
+    for (std::size_t i : order) EXPECT_EQ(p_at(rnd, times[i]), v[i]) << zeta << " t=" << times[i];
+    // Direct superposition with the closed-form helpers.
+    Table sp(s.setpoint);
+    const double w = 2 * kPi * s.natural_frequency_hz;
+    for (std::size_t i = 0; i < times.size(); i += 17) {
+      const double t = times[i];
+      double y = sp.value(t) - 2 * zeta / w * sp.slope(t - 200.0);
+      sp.for_each_event_back(t, 200.0, 100000, [&](const TableEvent& ev) {
+        y -= ev.step * response::second_order_free(t - ev.t_s, w, zeta) +
+             ev.slope * response::second_order_integral(t - ev.t_s, w, zeta);
+      });
+      EXPECT_NEAR(v[i], y, 1e-9) << zeta << " t=" << t;
+    }
+  }
+}
