@@ -28,6 +28,7 @@ struct Profile {
   YAML::Node sensor;                       // `sensor:` section
   YAML::Node faults;                       // `faults:` section
   YAML::Node root;                         // the whole document
+  std::shared_ptr<const void> prepared;    // set by personalities::prepare_profile
 };
 
 // Loads a profile file. Throws ConfigError naming file, line and key.

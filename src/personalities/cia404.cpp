@@ -9,6 +9,7 @@
 #include "config/physics_config.hpp"
 #include "config/yaml_util.hpp"
 #include "physics/quantize.hpp"
+#include "physics/random.hpp"
 
 namespace cansim::personalities {
 
@@ -397,6 +398,14 @@ std::shared_ptr<const Cia404Profile> Cia404Profile::build(const config::Where& w
 }
 
 // ---------------------------------------------------------------- source
+
+SensorSource::SensorSource(const physics::SensorSpec& sensor, const physics::ProcessSpec& process,
+                           std::span<const physics::FaultSpec> faults, std::uint64_t node_seed)
+    : faults_(std::make_unique<physics::FaultSet>(faults.size() + 4)),
+      sensor_(sensor, physics::ProcessModel(process, physics::derive_seed(node_seed, physics::hash_string("process"))),
+              physics::derive_seed(node_seed, physics::hash_string("sensor")), faults_.get()) {
+  for (const physics::FaultSpec& f : faults) faults_->add(f, 0);
+}
 
 MeasurementSource::Sample SensorSource::sample(physics::Channel ch, TimeUs now) {
   const physics::SensorReading& r = sensor_.read(now);

@@ -144,16 +144,20 @@ class MeasurementSource {
   virtual void reboot(TimeUs) {}
 };
 
+// The physics::Sensor of one node with its scheduled faults.
 class SensorSource : public MeasurementSource {
  public:
-  explicit SensorSource(physics::Sensor sensor) : sensor_(std::move(sensor)) {}
+  SensorSource(const physics::SensorSpec& sensor, const physics::ProcessSpec& process,
+               std::span<const physics::FaultSpec> faults, std::uint64_t node_seed);
   Sample sample(physics::Channel ch, TimeUs now) override;
   void set_filter(physics::Channel ch, const physics::FilterSpec& f) override { sensor_.set_filter(ch, f); }
   TimeUs sample_period_us(physics::Channel ch) const override;
   void reboot(TimeUs now) override { sensor_.reboot(now); }
   physics::Sensor& sensor() { return sensor_; }
+  physics::FaultSet& faults() { return *faults_; }
 
  private:
+  std::unique_ptr<physics::FaultSet> faults_;  // the sensor keeps a pointer to it
   physics::Sensor sensor_;
 };
 

@@ -1,13 +1,100 @@
 #include "personalities/registry.hpp"
 
+#include <algorithm>
+
+#include "personalities/generic.hpp"
+#include "physics/random.hpp"
+
 namespace cansim::personalities {
 
-void prepare_profile(config::Profile& profile) {
-  if (profile.personality != "generic")
-    throw config::ConfigError(profile.file + ": personality: unknown personality '" + profile.personality +
-                              "' (expected: generic)");
+namespace {
+
+struct Personality {
+  const char* name;
+  void (*prepare)(config::Profile&, PreparedProfile&);
+  std::unique_ptr<Application> (*make)(const config::Profile&, const PreparedProfile&, const NodeContext&);
+};
+
+// Device personalities add one line each.
+constexpr Personality kPersonalities[] = {
+    {"generic", generic::prepare, generic::make},
+};
+
+const Personality* find(const std::string& name) {
+  for (const Personality& p : kPersonalities)
+    if (name == p.name) return &p;
+  return nullptr;
 }
 
-std::unique_ptr<Application> make_application(const config::Profile&, const NodeContext&) { return nullptr; }
+std::string known_names() {
+  std::string s;
+  for (const Personality& p : kPersonalities) s += (s.empty() ? "" : ", ") + std::string(p.name);
+  return s;
+}
+
+IdentitySettings parse_identity(const config::Where& w, const YAML::Node& vendor) {
+  IdentitySettings id;
+  if (vendor && vendor.IsMap() && vendor["serial_number_base"]) {
+    id.serial_per_node = true;
+    id.serial_base = std::uint32_t(config::get_int(w.child("serial_number_base"), vendor["serial_number_base"], 0, 0xFFFFFFFF));
+  }
+  return id;
+}
+
+}  // namespace
+
+void check_vendor_keys(const config::Profile& profile, std::initializer_list<const char*> own) {
+  const YAML::Node& v = profile.personality_params;
+  config::Where w{profile.file, "vendor"};
+  if (!v || v.IsNull()) return;
+  if (!v.IsMap()) config::fail(w, v, "expected a mapping");
+  for (const auto& kv : v) {
+    const std::string k = kv.first.Scalar();
+    if (k == "cia404" || k == "serial_number_base") continue;
+    if (std::any_of(own.begin(), own.end(), [&](const char* x) { return k == x; })) continue;
+    std::string list = "cia404, serial_number_base";
+    for (const char* x : own) list += std::string(", ") + x;
+    config::fail(w.child(k), kv.first, "unknown key (expected one of: " + list + ")");
+  }
+}
+
+void prepare_profile(config::Profile& profile) {
+  const Personality* p = find(profile.personality);
+  if (!p) {
+    const YAML::Node n = profile.root && profile.root.IsMap() ? profile.root["personality"] : YAML::Node();
+    config::fail(config::Where{profile.file, "personality"}, n,
+                 "unknown personality '" + profile.personality + "' (expected: " + known_names() + ")");
+  }
+  auto prepared = std::make_shared<PreparedProfile>();
+  config::Where vendor{profile.file, "vendor"};
+  const YAML::Node& v = profile.personality_params;
+  const YAML::Node section = v && v.IsMap() ? v["cia404"] : YAML::Node();
+  prepared->cia404 = Cia404Profile::build(vendor.child("cia404"), section, *profile.layout);
+  prepared->identity = parse_identity(vendor, v);
+  prepared->physics = config::parse_physics_config(profile);
+  p->prepare(profile, *prepared);
+  profile.prepared = prepared;
+}
+
+std::unique_ptr<Application> make_application(const config::Profile& profile, const NodeContext& ctx) {
+  if (!profile.prepared) {
+    config::Profile copy = profile;  // shares the layout, so the hooks land on it
+    prepare_profile(copy);
+    return make_application(copy, ctx);
+  }
+  const Personality* p = find(profile.personality);
+  if (!p) return nullptr;
+  return p->make(profile, *std::static_pointer_cast<const PreparedProfile>(profile.prepared), ctx);
+}
+
+std::uint64_t node_seed(const NodeContext& ctx) {
+  const std::uint64_t key = ctx.key.empty() ? ctx.index : physics::hash_string(ctx.key);
+  return physics::derive_seed(ctx.fleet_seed, key);
+}
+
+std::unique_ptr<SensorSource> make_sensor_source(const PreparedProfile& prepared, const NodeContext& ctx) {
+  const config::PhysicsConfig& c = prepared.physics;
+  return std::make_unique<SensorSource>(c.sensor, c.process, c.faults, node_seed(ctx));
+}
 
 }  // namespace cansim::personalities

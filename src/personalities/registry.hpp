@@ -1,13 +1,22 @@
 // Personality registry: turns a profile's `personality:` name into the
 // Application that gives each node its vendor behaviour and measurements.
+//
+// A personality is two functions (see generic.hpp): `prepare` validates its
+// part of the `vendor:` section once per profile and `make` builds one node's
+// Application. The shared part — the CiA 404 chain settings (`vendor:
+// cia404:`), identity settings and the physics sections — is parsed here for
+// every personality into a PreparedProfile.
 #pragma once
 
 #include <cstdint>
+#include <initializer_list>
 #include <memory>
 #include <string>
 
+#include "config/physics_config.hpp"
 #include "config/profile.hpp"
 #include "core/application.hpp"
+#include "personalities/cia404.hpp"
 
 namespace cansim::personalities {
 
@@ -18,12 +27,29 @@ struct NodeContext {
   std::string key;                // stable name, e.g. "vcan0/dps-3"
 };
 
-// Checks the profile's personality name and vendor section, and marks the OD
-// entries the personality needs hooks on. Called once per profile, before
-// nodes are built. Throws config::ConfigError.
+// Parsed once per profile, shared by its nodes (Profile::prepared).
+struct PreparedProfile {
+  std::shared_ptr<const Cia404Profile> cia404;
+  config::PhysicsConfig physics;
+  IdentitySettings identity;
+  std::shared_ptr<const void> device;  // a device personality's own parsed data
+};
+
+// Checks the profile's personality name, vendor, physics, sensor and faults
+// sections, and marks the OD entries the personality needs hooks on. Called
+// once per profile, before nodes are built. Throws config::ConfigError.
 void prepare_profile(config::Profile& profile);
 
 // One Application per node (nullptr: plain CiA 301 node without measurements).
 std::unique_ptr<Application> make_application(const config::Profile& profile, const NodeContext& ctx);
+
+// ---- helpers for personalities
+// Vendor keys every personality accepts (cia404, serial_number_base).
+// Rejects keys that are neither these nor `own`.
+void check_vendor_keys(const config::Profile& profile, std::initializer_list<const char*> own);
+// The node's seed: fleet seed + node key (+ index when the key is empty).
+std::uint64_t node_seed(const NodeContext& ctx);
+// The node's physics (process + sensor + faults) from the prepared profile.
+std::unique_ptr<SensorSource> make_sensor_source(const PreparedProfile& prepared, const NodeContext& ctx);
 
 }  // namespace cansim::personalities
