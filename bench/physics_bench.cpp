@@ -1,0 +1,161 @@
+// Physics layer benchmarks: cost per value through the full chain, and the fleet cost.
+//
+//   BM_ProcessEval       one ProcessModel::at() of a composed process
+//   BM_ChainPerSample    sensor read every 1 ms: one new sample per channel per read
+//                        (ns_per_value = CPU time / channel samples)
+//   BM_ChainRead10ms     read every 10 ms: catch-up of 10 samples per channel
+//   BM_Fleet1000         1,000 nodes sampled at 1 kHz, each read every 10 ms; one iteration
+//                        = one simulated second, so the reported time (ms) IS the CPU cost
+//                        per simulated second. allocs counts operator new calls (must be 0).
+#include <benchmark/benchmark.h>
+
+#include <atomic>
+#include <cstdlib>
+#include <new>
+#include <vector>
+
+#include "physics/random.hpp"
+#include "physics/sensor.hpp"
+#include "physics/units.hpp"
+
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
+#endif
+
+namespace {
+std::atomic<long> g_allocations{0};
+}
+void* operator new(std::size_t n) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  if (void* p = std::malloc(n ? n : 1)) return p;
+  throw std::bad_alloc();
+}
+void* operator new[](std::size_t n) { return operator new(n); }
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+
+using namespace cansim::physics;
+
+namespace {
+
+constexpr TimeUs kMs = 1000;
+
+// A typical process: setpoint response (looped steps) + pump pulsation + OU drift;
+// temperature from a closed gas volume cooling towards ambient.
+ProcessSpec typical_process() {
+  ProcessSpec ps;
+  SecondOrderSpec so;
+  so.setpoint.points = {{0, 2e5}, {5, 8e5}, {12, 4e5}, {20, 2e5}};
+  so.setpoint.interpolation = Interpolation::Hold;
+  so.setpoint.loop = true;
+  so.setpoint.period_s = 30;
+  so.natural_frequency_hz = 0.8;
+  so.damping = 0.3;
+  ps.pressure = {so, PulsationSpec::piston_pump(1450, 3, 5000, 3), OrnsteinUhlenbeckSpec{0, 20, 2000}};
+  GasVolumeSpec g;
+  g.initial_temperature_k = 320;
+  g.ambient_k.points = {{0, 293.15}};
+  g.time_constant_s = 600;
+  add_gas_volume(ps, g);
+  ps.pressure.pop_back();  // keep the pressure from the setpoint response
+  return ps;
+}
+
+// A P92C-like chain: 0..25 bar, 1 kHz, ADC 0..30000, moving average 30, noise, errors,
+// temperature channel -40..125 degC with its own moving average.
+SensorSpec typical_sensor() {
+  SensorSpec s;
+  auto& p = s.pressure;
+  p.range_min = 0;
+  p.range_max = 25e5;
+  p.sample_rate_hz = 1000;
+  p.adc = AdcSpec::int16_field(30000);
+  p.noise_rms = 0.0003 * 25e5;
+  p.errors.nonlinearity = 0.001 * 25e5;
+  p.errors.hysteresis = 0.0005 * 25e5;
+  p.errors.total_error_band = 0.01 * 25e5;
+  p.response_time_constant_s = 0.002;
+  p.filter = {FilterType::MovingAverage, 30};
+  p.overload.safe_max = 100e5;
+  auto& t = s.temperature;
+  t.range_min = to_kelvin(-40, TemperatureUnit::degC);
+  t.range_max = to_kelvin(125, TemperatureUnit::degC);
+  t.sample_rate_hz = 1000;
+  t.adc = AdcSpec::int16_field(30000);
+  t.noise_rms = 0.05;
+  t.filter = {FilterType::MovingAverage, 10};
+  return s;
+}
+
+Sensor make_sensor(std::uint64_t node) {
+  const std::uint64_t seed = derive_seed(0xF1EE7, node);
+  return Sensor(typical_sensor(), ProcessModel(typical_process(), derive_seed(seed, 1)), derive_seed(seed, 2));
+}
+
+void BM_ProcessEval(benchmark::State& state) {
+  ProcessModel m(typical_process(), 1);
+  double t = 0, acc = 0;
+  for (auto _ : state) {
+    t += 0.001;
+    acc += m.at(t).pressure_pa;
+  }
+  benchmark::DoNotOptimize(acc);
+  state.counters["ns_per_eval"] =
+      benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_ProcessEval);
+
+void chain_bench(benchmark::State& state, TimeUs read_period) {
+  Sensor s = make_sensor(1);
+  TimeUs t = 0;
+  double acc = 0;
+  std::int64_t values = 0;
+  const long a0 = g_allocations.load();
+  for (auto _ : state) {
+    t += read_period;
+    const auto& r = s.read(t);
+    acc += r.pressure.value;
+    values += 2 * (read_period / kMs);  // new samples on both channels
+  }
+  const long allocs = g_allocations.load() - a0;  // before the counters map allocates
+  benchmark::DoNotOptimize(acc);
+  state.counters["ns_per_value"] =
+      benchmark::Counter(static_cast<double>(values), benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  state.counters["allocs"] = static_cast<double>(allocs);
+}
+void BM_ChainPerSample(benchmark::State& state) { chain_bench(state, 1 * kMs); }
+void BM_ChainRead10ms(benchmark::State& state) { chain_bench(state, 10 * kMs); }
+BENCHMARK(BM_ChainPerSample);
+BENCHMARK(BM_ChainRead10ms);
+
+void BM_Fleet1000(benchmark::State& state) {
+  const int nodes = 1000;
+  std::vector<Sensor> fleet;
+  fleet.reserve(nodes);
+  for (int i = 0; i < nodes; ++i) fleet.push_back(make_sensor(static_cast<std::uint64_t>(i)));
+  // Stagger the reads over the 10 ms period like an event loop would.
+  TimeUs sim = 0;
+  double acc = 0;
+  long allocs = 0;
+  for (auto _ : state) {
+    const long a0 = g_allocations.load();
+    for (TimeUs slot = 0; slot < 1000 * kMs; slot += kMs) {  // one simulated second in 1 ms ticks
+      const TimeUs now = sim + slot;
+      // nodes whose 10 ms read falls into this tick
+      for (int i = static_cast<int>((now / kMs) % 10); i < nodes; i += 10) acc += fleet[i].read(now).pressure.value;
+    }
+    sim += 1000 * kMs;
+    allocs += g_allocations.load() - a0;
+  }
+  benchmark::DoNotOptimize(acc);
+  state.counters["sim_s"] = static_cast<double>(state.iterations());
+  state.counters["reads_per_sim_s"] = nodes * 100.0;
+  state.counters["allocs"] = static_cast<double>(allocs);
+}
+BENCHMARK(BM_Fleet1000)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
+
+}  // namespace
+
+BENCHMARK_MAIN();
