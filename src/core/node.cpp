@@ -173,7 +173,7 @@ void Node::reset_values(ResetKind kind) {
 
 void Node::reset_services(TimeUs now) {
   for_each_service([&](auto& s) { s.reset(now); });
-  app_next_ = now;
+  app_next_ = app_ ? now : kNever;  // no application: no application deadline
   rx_changed();
 }
 
