@@ -5,16 +5,15 @@
 namespace cansim::io {
 
 namespace {
-constexpr std::uint32_t kCobInvalid = 0x80000000u;  // CiA 301 COB-ID bit 31
+constexpr std::uint32_t kRxExtended = 0x80000000u;  // CAN_EFF_FLAG position
 constexpr std::uint32_t kCobFrame29 = 0x20000000u;  // CiA 301 COB-ID bit 29
 constexpr std::uint32_t kId29Mask = 0x1FFFFFFFu;
 }  // namespace
 
-bool RxDispatch::key_of(std::uint32_t cob_id, std::uint32_t& key) {
-  if (cob_id & kCobInvalid) return false;
-  std::uint32_t id = cob_id & kId29Mask;
-  key = ((cob_id & kCobFrame29) || id > 0x7FF) ? (id | kExtendedKey) : id;
-  return true;
+std::uint32_t RxDispatch::key_of(std::uint32_t rx_id) {
+  std::uint32_t id = rx_id & kId29Mask;
+  bool extended = (rx_id & (kRxExtended | kCobFrame29)) || id > 0x7FF;
+  return extended ? (id | kExtendedKey) : id;
 }
 
 std::vector<std::uint32_t>& RxDispatch::list(std::uint32_t key) {
@@ -33,14 +32,11 @@ void RxDispatch::unlink(std::uint32_t slot, std::uint32_t key) {
   std::erase(standard_[key], slot);
 }
 
-void RxDispatch::set(std::uint32_t slot, std::span<const std::uint32_t> cob_ids) {
+void RxDispatch::set(std::uint32_t slot, std::span<const std::uint32_t> rx_ids) {
   remove(slot);
   if (by_slot_.size() <= slot) by_slot_.resize(slot + 1);
   auto& mine = by_slot_[slot];
-  for (std::uint32_t cob : cob_ids) {
-    std::uint32_t key = 0;
-    if (key_of(cob, key)) mine.push_back(key);
-  }
+  for (std::uint32_t id : rx_ids) mine.push_back(key_of(id));
   std::sort(mine.begin(), mine.end());
   mine.erase(std::unique(mine.begin(), mine.end()), mine.end());
   for (std::uint32_t key : mine) list(key).push_back(slot);

@@ -5,9 +5,9 @@
 // write). Broadcast identifiers (NMT 0x000, SYNC, TIME, LSS 0x7E5) are in
 // every node's set, so their lists hold every node of the bus.
 //
-// Identifier encoding in the rx sets follows the CiA 301 COB-ID layout: bit 29
-// set (or an identifier above 0x7FF) means a 29-bit frame; bit 31 ("not
-// valid") entries are ignored.
+// Identifier encoding in the rx sets is the services' (SocketCAN style): bit 31
+// (CAN_EFF_FLAG, pdo.hpp kRxIdExtended) marks a 29-bit identifier. A CiA 301
+// COB-ID with bit 29 set, or an identifier above 0x7FF, is taken as 29-bit too.
 #pragma once
 
 #include <cstdint>
@@ -25,16 +25,16 @@ class RxDispatch {
 
   // Replaces the identifiers `slot` listens to (duplicates are fine).
   // Allocates: called on (re)configuration, not per frame.
-  void set(std::uint32_t slot, std::span<const std::uint32_t> cob_ids);
+  void set(std::uint32_t slot, std::span<const std::uint32_t> rx_ids);
   void remove(std::uint32_t slot);
   // The slots listening to this frame's identifier, in registration order.
   std::span<const std::uint32_t> lookup(const CanFrame& frame) const;
   // Identifiers a slot is registered under (internal keys, for tests).
   std::span<const std::uint32_t> registered(std::uint32_t slot) const;
 
-  // Internal key of a CiA COB-ID: 11-bit ids as is, 29-bit ids | kExtendedKey.
+  // Internal key: 11-bit ids as is, 29-bit ids | kExtendedKey.
   static constexpr std::uint32_t kExtendedKey = 0x80000000u;
-  static bool key_of(std::uint32_t cob_id, std::uint32_t& key);
+  static std::uint32_t key_of(std::uint32_t rx_id);
 
  private:
   std::vector<std::uint32_t>& list(std::uint32_t key);
