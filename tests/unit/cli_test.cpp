@@ -1,0 +1,78 @@
+#include <gtest/gtest.h>
+
+#include "daemon/cli.hpp"
+
+namespace cansim::daemon {
+namespace {
+
+CliResult parse(std::vector<std::string> args, const char* env = nullptr) { return parse_cli(args, env); }
+
+TEST(Cli, SingleNodeWithDefaults) {
+  CliResult r = parse({"--profile", "generic-404"});
+  ASSERT_EQ(r.error, "");
+  EXPECT_EQ(r.options.profile, "generic-404");
+  EXPECT_EQ(r.options.interface, "vcan0");
+  EXPECT_FALSE(r.options.node_id);
+  EXPECT_EQ(r.options.state_dir, "state");
+  EXPECT_EQ(r.options.log_level, "info");
+}
+
+TEST(Cli, FleetWithEveryOptionInBothSpellings) {
+  CliResult r = parse({"--config=f.yaml", "--check", "--state-dir", "/s", "--log-level=debug", "--seed", "0x10"});
+  ASSERT_EQ(r.error, "");
+  EXPECT_EQ(r.options.config, "f.yaml");
+  EXPECT_TRUE(r.options.check);
+  EXPECT_EQ(r.options.state_dir, "/s");
+  EXPECT_EQ(r.options.log_level, "debug");
+  EXPECT_EQ(r.options.seed, 16u);
+}
+
+TEST(Cli, NodeIdAcceptsHexAndUnconfigured) {
+  EXPECT_EQ(parse({"--profile", "p", "--node-id", "0x7F", "--interface", "can1"}).options.node_id, 127);
+  EXPECT_EQ(parse({"--profile", "p", "--node-id", "255"}).options.node_id, 255);
+}
+
+TEST(Cli, StateDirectoryFromSystemd) {
+  EXPECT_EQ(parse({"--profile", "p"}, "/var/lib/cansimd").options.state_dir, "/var/lib/cansimd");
+  EXPECT_EQ(parse({"--profile", "p"}, "/var/lib/a:/var/lib/b").options.state_dir, "/var/lib/a");
+  EXPECT_EQ(parse({"--profile", "p", "--state-dir", "x"}, "/var/lib/a").options.state_dir, "x");
+}
+
+TEST(Cli, HelpAndVersionNeedNothingElse) {
+  EXPECT_TRUE(parse({"--help"}).options.help);
+  EXPECT_EQ(parse({"--help"}).error, "");
+  EXPECT_TRUE(parse({"--version"}).options.version);
+  EXPECT_NE(usage_text().find("--config FILE"), std::string::npos);
+}
+
+TEST(Cli, UsageErrors) {
+  struct Case {
+    std::vector<std::string> args;
+    std::string error;
+  };
+  std::vector<Case> cases = {
+      {{}, "expected --profile or --config"},
+      {{"--profile", "p", "--config", "c"}, "--profile and --config exclude each other"},
+      {{"--config", "c", "--node-id", "5"}, "--interface and --node-id go with --profile (a --config file names its own)"},
+      {{"--config", "c", "--interface", "vcan1"}, "--interface and --node-id go with --profile (a --config file names its own)"},
+      {{"--profile"}, "option --profile needs a value"},
+      {{"--profile", "p", "--node-id", "0"}, "--node-id: expected 1..127 or 255, got '0'"},
+      {{"--profile", "p", "--node-id", "128"}, "--node-id: expected 1..127 or 255, got '128'"},
+      {{"--profile", "p", "--node-id", "x"}, "--node-id: expected 1..127 or 255, got 'x'"},
+      {{"--profile", "p", "--log-level", "loud"},
+       "--log-level: expected trace, debug, info, warn, error, critical or off, got 'loud'"},
+      {{"--profile", "p", "--seed", "-1"}, "--seed: expected a non-negative integer, got '-1'"},
+      {{"--profile", "p", "--interface", "a-very-long-interface"}, "--interface: expected an interface name of 1..15 characters"},
+      {{"--profile", "p", "--bogus"}, "unknown option --bogus"},
+      {{"--profile", "p", "extra"}, "unexpected argument 'extra'"},
+      {{"--check=yes", "--profile", "p"}, "option --check takes no value"},
+  };
+  for (const Case& c : cases) {
+    std::string joined;
+    for (auto& a : c.args) joined += a + " ";
+    EXPECT_EQ(parse(c.args).error, c.error) << joined;
+  }
+}
+
+}  // namespace
+}  // namespace cansim::daemon

@@ -1,0 +1,137 @@
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "daemon/file_storage.hpp"
+#include "io/loop_core.hpp"
+#include "support/sim.hpp"
+
+namespace cansim::daemon {
+namespace {
+
+namespace fs = std::filesystem;
+using Bytes = std::vector<std::uint8_t>;
+
+class FileStorageTest : public ::testing::Test {
+ protected:
+  FileStorageTest() {
+    char tmpl[] = "/tmp/cansim-fs-XXXXXX";
+    dir = mkdtemp(tmpl);
+  }
+  ~FileStorageTest() override { fs::remove_all(dir); }
+  std::string dir;
+};
+
+TEST_F(FileStorageTest, FileNameIsTheEscapedKey) {
+  EXPECT_EQ(FileStorage::file_name("vcan0/dps/3"), "vcan0@dps@3.params");
+  EXPECT_EQ(FileStorage::file_name("can 0/a:b/0"), "can%200@a%3Ab@0.params");
+}
+
+TEST_F(FileStorageTest, NothingStoredYet) {
+  FileStorage s(dir, "vcan0/n/0");
+  Bytes blob{9};
+  EXPECT_FALSE(s.load(blob));
+  EXPECT_TRUE(blob.empty());
+}
+
+TEST_F(FileStorageTest, SaveThenReloadInAFreshInstance) {
+  Bytes data{1, 2, 3, 0xFF, 0};
+  {
+    FileStorage s(dir + "/sub", "vcan0/n/0");  // the directory is created
+    ASSERT_TRUE(s.save(data));
+    Bytes again;
+    ASSERT_TRUE(s.load(again));
+    EXPECT_EQ(again, data);
+  }
+  FileStorage fresh(dir + "/sub", "vcan0/n/0");
+  Bytes got;
+  ASSERT_TRUE(fresh.load(got));
+  EXPECT_EQ(got, data);
+  EXPECT_EQ(fs::file_size(fresh.path()), 16u + data.size());
+  EXPECT_FALSE(fs::exists(fresh.path() + ".tmp")) << "temp file left behind";
+  FileStorage other(dir + "/sub", "vcan0/n/1");
+  EXPECT_FALSE(other.load(got));
+}
+
+TEST_F(FileStorageTest, LoadIsServedFromTheCache) {
+  FileStorage s(dir, "k");
+  ASSERT_TRUE(s.save(Bytes{7, 7}));
+  fs::remove(s.path());
+  Bytes got;
+  ASSERT_TRUE(s.load(got));
+  EXPECT_EQ(got, (Bytes{7, 7}));
+}
+
+TEST_F(FileStorageTest, CorruptFileIsIgnored) {
+  FileStorage s(dir, "k");
+  ASSERT_TRUE(s.save(Bytes{1, 2, 3, 4}));
+  {
+    std::fstream f(s.path(), std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(17);
+    f.put(char(0x55));  // flip a payload byte: CRC mismatch
+  }
+  FileStorage fresh(dir, "k");
+  Bytes got{1};
+  EXPECT_FALSE(fresh.load(got));
+  EXPECT_TRUE(got.empty());
+  EXPECT_NE(fresh.error().find("CRC mismatch"), std::string::npos);
+  std::ofstream(s.path(), std::ios::binary) << "garbage";
+  FileStorage garbage(dir, "k");
+  EXPECT_FALSE(garbage.load(got));
+  EXPECT_NE(garbage.error().find("not a cansimd parameter file"), std::string::npos);
+}
+
+TEST_F(FileStorageTest, FailedSaveKeepsTheOldFileAndCache) {
+  FileStorage s(dir, "k");
+  ASSERT_TRUE(s.save(Bytes{1}));
+  // Make the rename fail: the target becomes a non-empty directory.
+  fs::remove(s.path());
+  fs::create_directories(s.path() + "/x");
+  EXPECT_FALSE(s.save(Bytes{2}));
+  EXPECT_NE(s.error().find("cannot store parameters"), std::string::npos);
+  EXPECT_FALSE(fs::exists(s.path() + ".tmp"));
+  Bytes got;
+  ASSERT_TRUE(s.load(got));
+  EXPECT_EQ(got, (Bytes{1}));
+}
+
+// The whole chain: 0x1010 "save" of a changed 0x1017 lands in the file and a
+// node rebuilt from the same key (daemon restart) boots with it.
+TEST_F(FileStorageTest, StoredHeartbeatSurvivesARestart) {
+  using test::F;
+  auto profile = test::load_repo_profile("generic-404");
+  NodeSetup setup;
+  setup.layout = profile.layout;
+  setup.options = profile.options;
+  setup.node_id = 0x10;
+  setup.bit_rate_index = 3;
+  {
+    io::LoopCore core;
+    io::MemoryTransport tx(&core.now());
+    io::BusId bus = core.add_bus("vcan0", tx, 3);
+    io::NodeRef n = core.add_node(bus, setup, nullptr, std::make_unique<FileStorage>(dir, "vcan0/generic/0"));
+    core.power_on(n, 0);
+    core.receive(bus, F(0x610, {0x2B, 0x17, 0x10, 0x00, 0xF4, 0x01, 0, 0}), 0);  // 500 ms
+    core.receive(bus, F(0x610, {0x23, 0x10, 0x10, 0x01, 's', 'a', 'v', 'e'}), 0);
+    auto sent = tx.take();
+    ASSERT_EQ(sent.size(), 3u);
+    EXPECT_EQ(sent[2].frame, F(0x590, {0x60, 0x10, 0x10, 0x01, 0, 0, 0, 0}));
+  }
+  io::LoopCore core;
+  io::MemoryTransport tx(&core.now());
+  io::BusId bus = core.add_bus("vcan0", tx, 3);
+  io::NodeRef n = core.add_node(bus, setup, nullptr, std::make_unique<FileStorage>(dir, "vcan0/generic/0"));
+  core.power_on(n, 0);
+  EXPECT_EQ(core.node(n).values().u(0x1017, 0), 500u);
+  core.run_until(ms(500));
+  auto sent = tx.take();
+  ASSERT_EQ(sent.size(), 2u);
+  EXPECT_EQ(sent[1].time, ms(500));
+  EXPECT_EQ(sent[1].frame, F(0x710, {0x7F}));
+}
+
+}  // namespace
+}  // namespace cansim::daemon
