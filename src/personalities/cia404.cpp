@@ -337,7 +337,8 @@ struct ProfileBuilder {
   }
 
   void channels() {
-    const YAML::Node list = section && section.IsMap() ? section["channels"] : YAML::Node();
+    YAML::Node list(YAML::NodeType::Undefined);
+    if (section && section.IsMap() && section["channels"]) list = section["channels"];
     Where wl = w.child("channels");
     std::vector<std::uint8_t> subs = discover_subs();
     if (list) {

@@ -1,0 +1,102 @@
+// Registry + generic personality: profile validation errors, serial numbers
+// per node, physics defaults, hooks set on the CiA 404 objects.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "personalities/registry.hpp"
+#include "support/sim.hpp"
+
+namespace cansim::test {
+namespace {
+
+using ::testing::HasSubstr;
+
+std::string prepare_error(config::Profile p) {
+  try {
+    personalities::prepare_profile(p);
+  } catch (const config::ConfigError& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+float read_f(SimNode& n, std::uint16_t i, std::uint8_t s, TimeUs now) {
+  std::span<const std::uint8_t> out;
+  EXPECT_EQ(n->read(i, s, now, out), SdoAbort::kNone);
+  return decode_f(DataType::kReal32, out.data());
+}
+
+TEST(Generic, UnknownPersonalityNamesFileLineAndKey) {
+  config::Profile p = config::parse_profile(
+      "name: t\npersonality: wizard\nobjects:\n  - {index: 0x1000, type: UNSIGNED32, access: ro}\n", "t.yaml");
+  EXPECT_EQ(prepare_error(p), "t.yaml:2:14: personality: unknown personality 'wizard' (expected: generic), got 'wizard'");
+}
+
+TEST(Generic, VendorSectionIsValidated) {
+  config::Profile p = load_repo_profile("generic-404");
+  p.personality_params = YAML::Load("{colour: red}");
+  EXPECT_THAT(prepare_error(p), HasSubstr("vendor.colour: unknown key (expected one of: cia404, serial_number_base)"));
+  p.personality_params = YAML::Load("{cia404: {limit_trigger: sometimes}}");
+  EXPECT_THAT(prepare_error(p), HasSubstr("vendor.cia404.limit_trigger: expected edge or level"));
+  p.personality_params = YAML::Load("{cia404: {channels: [{sub: 1, units: [parsec]}]}}");
+  EXPECT_THAT(prepare_error(p), HasSubstr("vendor.cia404.channels[0].units[0]: unknown unit"));
+  p.personality_params = YAML::Load("{cia404: {channels: [{sub: 2, quantity: temperature, units: [bar]}]}}");
+  EXPECT_THAT(prepare_error(p), HasSubstr("unit of the wrong quantity"));
+  p.personality_params = YAML::Load("{cia404: {channels: [{sub: 1, units: [atm]}]}}");
+  EXPECT_THAT(prepare_error(p), HasSubstr("this unit has no CiA 303-2 code built in: give 'code'"));
+}
+
+TEST(Generic, PhysicsErrorsComeFromTheProfileFile) {
+  config::Profile p = load_repo_profile("generic-404");
+  EXPECT_NO_THROW(personalities::prepare_profile(p));
+  p.sensor = YAML::Load("{pressure: {sample_rate: fast}}");
+  EXPECT_THAT(prepare_error(p), HasSubstr("sensor.pressure.sample_rate: expected a frequency"));
+}
+
+TEST(Generic, PrepareSetsHooksOnTheChainObjects) {
+  config::Profile p = load_repo_profile("generic-404");
+  // Delta / limits have no hook in the file; the chain needs them.
+  ASSERT_EQ(p.layout->find(0x6133, 1)->hooks, 0);
+  personalities::prepare_profile(p);
+  EXPECT_EQ(p.layout->find(0x6133, 1)->hooks, kHookWrite);
+  EXPECT_EQ(p.layout->find(0x6130, 2)->hooks, kHookRead);
+  EXPECT_EQ(p.layout->find(0x9130, 1)->hooks, kHookRead);
+  EXPECT_EQ(p.layout->find(0x6131, 1)->hooks, kHookWrite);
+}
+
+TEST(Generic, SerialNumberIsBasePlusIndex) {
+  config::Profile p = load_repo_profile("generic-404");
+  personalities::prepare_profile(p);
+  SimBus bus;
+  auto a0 = personalities::make_application(p, {1, 0, "a"});
+  auto a7 = personalities::make_application(p, {1, 7, "b"});
+  SimNode& n0 = bus.add(p, 0x10, a0.get());
+  SimNode& n7 = bus.add(p, 0x11, a7.get());
+  bus.power_on_all();
+  EXPECT_EQ(n0->values().u(0x1018, 4), 1u);
+  EXPECT_EQ(n7->values().u(0x1018, 4), 8u);
+  bus.inject(F(0x000, {0x82, 0x11}));  // reset communication keeps it
+  bus.run_for(ms(10));
+  EXPECT_EQ(n7->values().u(0x1018, 4), 8u);
+}
+
+TEST(Generic, MeasuresAroundFiveBarAndRoomTemperature) {
+  config::Profile p = load_repo_profile("generic-404");
+  SimBus bus;
+  auto app = personalities::make_application(p, {7, 0, "vcan0/g"});  // prepares on the fly
+  ASSERT_TRUE(app);
+  SimNode& n = bus.add(p, 0x10, app.get());
+  bus.power_on_all();
+  for (int k = 1; k <= 10; ++k) {
+    bus.run_until(ms(1000) * k);
+    const float bar = read_f(n, 0x6130, 1, bus.now());
+    const float degc = read_f(n, 0x6130, 2, bus.now());
+    EXPECT_GT(bar, 4.0f);
+    EXPECT_LT(bar, 6.0f);
+    EXPECT_GT(degc, 19.5f);
+    EXPECT_LT(degc, 25.5f);
+  }
+}
+
+}  // namespace
+}  // namespace cansim::test
