@@ -1,0 +1,172 @@
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "config/fleet.hpp"
+#include "daemon/daemon.hpp"
+
+namespace cansim::config {
+namespace {
+
+namespace fs = std::filesystem;
+
+class FleetTest : public ::testing::Test {
+ protected:
+  FleetTest() {
+    char tmpl[] = "/tmp/cansim-fleet-XXXXXX";
+    dir = mkdtemp(tmpl);
+    fs::create_directories(dir + "/profiles");
+    fs::copy_file(std::string(CANSIM_SOURCE_DIR) + "/profiles/generic-404.yaml", dir + "/profiles/generic-404.yaml");
+    search = default_search(dir + "/fleet.yaml", "");
+  }
+  ~FleetTest() override { fs::remove_all(dir); }
+  FleetConfig parse(const std::string& text) { return parse_fleet(text, dir + "/fleet.yaml", search); }
+  // The error message, with the temp dir replaced by "D".
+  std::string error_of(const std::string& text) {
+    try {
+      parse(text);
+    } catch (const ConfigError& e) {
+      std::string m = e.what();
+      for (auto p = m.find(dir); p != std::string::npos; p = m.find(dir)) m.replace(p, dir.size(), "D");
+      return m;
+    }
+    return "no error";
+  }
+  std::string dir;
+  ProfileSearch search;
+};
+
+const char* kIfaces = "interfaces:\n  vcan0: {bit_rate: 250}\n  vcan1: {}\n";
+
+TEST_F(FleetTest, CountReplicatesOverConsecutiveNodeIdsWithDistinctSerialsAndKeys) {
+  FleetConfig f = parse(std::string(kIfaces) +
+                        "nodes:\n"
+                        "  - {profile: generic-404, interface: vcan0, node_id: 0x10, count: 3, name: gen}\n"
+                        "  - {profile: generic-404, interface: vcan1, serial: 77}\n");
+  ASSERT_EQ(f.interfaces.size(), 2u);
+  EXPECT_EQ(f.interfaces[0].bit_rate_kbit, 250u);
+  EXPECT_EQ(f.interfaces[1].bit_rate_kbit, 0u);  // ask the kernel
+  ASSERT_EQ(f.nodes.size(), 4u);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_EQ(f.nodes[i].node_id, 0x10 + i);
+    EXPECT_EQ(f.nodes[i].key, "vcan0/gen/" + std::to_string(i));
+    EXPECT_EQ(f.nodes[i].serial, 1u + i);  // profile serial 1, +index
+    EXPECT_EQ(f.nodes[i].index, std::uint32_t(i));
+    EXPECT_EQ(f.nodes[i].profile, f.nodes[0].profile);  // shared
+  }
+  EXPECT_NE(f.nodes[0].fingerprint, f.nodes[1].fingerprint);
+  EXPECT_EQ(f.nodes[3].node_id, 0x10);  // the profile's, on another bus
+  EXPECT_EQ(f.nodes[3].key, "vcan1/generic-404-16/0");
+  EXPECT_EQ(f.nodes[3].serial, 77u);
+  EXPECT_EQ(f.nodes[3].profile, f.nodes[0].profile);
+  EXPECT_EQ(f.profiles.size(), 1u);
+  EXPECT_EQ(f.seed, 1u);
+}
+
+TEST_F(FleetTest, OptionAndVendorOverridesMakeAPrivateProfile) {
+  FleetConfig f = parse(std::string("seed: 42\n") + kIfaces +
+                        "nodes:\n"
+                        "  - {profile: generic-404, interface: vcan0, node_id: 1}\n"
+                        "  - profile: profiles/generic-404.yaml\n"
+                        "    interface: vcan0\n"
+                        "    node_id: 2\n"
+                        "    bit_rate: 125\n"
+                        "    options: {nmt_auto_start: true}\n"
+                        "    vendor: {x: 1}\n");
+  EXPECT_EQ(f.seed, 42u);
+  ASSERT_EQ(f.nodes.size(), 2u);
+  EXPECT_NE(f.nodes[0].profile, f.nodes[1].profile);
+  EXPECT_NE(f.nodes[0].profile->layout, f.nodes[1].profile->layout);
+  EXPECT_FALSE(f.nodes[0].profile->options->nmt_auto_start);
+  EXPECT_TRUE(f.nodes[1].profile->options->nmt_auto_start);
+  EXPECT_EQ(f.nodes[1].profile->personality_params["x"].as<int>(), 1);
+  EXPECT_EQ(f.nodes[1].bit_rate_kbit, 125u);
+  EXPECT_EQ(f.nodes[0].bit_rate_kbit, 250u);
+  EXPECT_EQ(f.profiles.size(), 2u);
+  EXPECT_FALSE(f.nodes[0].serial);
+}
+
+TEST_F(FleetTest, ProfilesAreFoundByNameOrPath) {
+  EXPECT_EQ(find_profile("generic-404", dir, search), dir + "/profiles/generic-404.yaml");
+  EXPECT_EQ(find_profile("profiles/generic-404.yaml", dir, search), dir + "/profiles/generic-404.yaml");
+  EXPECT_EQ(find_profile(dir + "/profiles/generic-404.yaml", "", search), dir + "/profiles/generic-404.yaml");
+  EXPECT_EQ(find_profile("nope", dir, search), "");
+}
+
+TEST_F(FleetTest, ErrorsNameFileLineKeyAndExpectation) {
+  struct Case {
+    std::string text;
+    std::string error;
+  };
+  const std::string n = "nodes:\n  - {profile: generic-404, interface: vcan0";
+  std::vector<Case> cases = {
+      {"bogus: 1\n", "D/fleet.yaml:1:1: bogus: unknown key (expected one of: seed, interfaces, nodes), got 'bogus'"},
+      {"nodes: []\n", "D/fleet.yaml:1:1: interfaces: missing required key 'interfaces'"},
+      {std::string(kIfaces), "D/fleet.yaml:1:1: nodes: missing required key 'nodes'"},
+      {"interfaces:\n  vcan0: {bitrate: 250}\nnodes: []\n",
+       "D/fleet.yaml:2:11: interfaces.vcan0.bitrate: unknown key (expected one of: bit_rate), got 'bitrate'"},
+      {"interfaces:\n  vcan0: {bit_rate: 300}\nnodes: []\n",
+       "D/fleet.yaml:2:21: interfaces.vcan0.bit_rate: expected a CiA bit rate in kbit/s: 1000, 800, 500, 250, 125, "
+       "50, 20 or 10, got '300'"},
+      {std::string(kIfaces) + "nodes:\n  - {interface: vcan0}\n",
+       "D/fleet.yaml:5:5: nodes[0].profile: missing required key 'profile'"},
+      {std::string(kIfaces) + "nodes:\n  - {profile: nope, interface: vcan0}\n",
+       "D/fleet.yaml:5:15: nodes[0].profile: expected a profile file or a profile name found in: D/profiles, /tmp/profiles, "
+       "profiles, got 'nope'"},
+      {std::string(kIfaces) + "nodes:\n  - {profile: generic-404, interface: vcan7}\n",
+       "D/fleet.yaml:5:39: nodes[0].interface: expected an interface declared under 'interfaces:' (vcan0, vcan1), "
+       "got 'vcan7'"},
+      {std::string(kIfaces) + n + ", node_id: 128}\n",
+       "D/fleet.yaml:5:55: nodes[0].node_id: expected a node-ID 1..127 or 255 (LSS-unconfigured), got '128'"},
+      {std::string(kIfaces) + n + ", node_id: 126, count: 3}\n",
+       "D/fleet.yaml:5:67: nodes[0].count: expected a count that keeps node-IDs within 1..127 (first node-ID 126), "
+       "got '3'"},
+      {std::string(kIfaces) + n + ", nodeid: 3}\n",
+       "D/fleet.yaml:5:46: nodes[0].nodeid: unknown key (expected one of: profile, interface, node_id, count, name, "
+       "serial, bit_rate, options, vendor), got 'nodeid'"},
+      {std::string(kIfaces) + n + ", name: 'a b'}\n",
+       "D/fleet.yaml:5:52: nodes[0].name: expected a name of letters, digits, '-', '_' or '.', got 'a b'"},
+      {std::string(kIfaces) + n + ", options: {no_such: 1}}\n",
+       "D/fleet.yaml:5:56: nodes[0].options.no_such: unknown option (see README, 'Profile options'), got 'no_such'"},
+      {std::string(kIfaces) + n + ", node_id: 5}\n" + "  - {profile: generic-404, interface: vcan0, node_id: 3, count: 3}\n",
+       "D/fleet.yaml:6:5: nodes[1].node_id: node-ID 5 (0x05) is already used on vcan0 by nodes[0]; expected a free "
+       "node-ID"},
+      {std::string(kIfaces) + n + ", name: a}\n" + "  - {profile: generic-404, interface: vcan0, node_id: 9, name: a}\n",
+       "D/fleet.yaml:6:5: nodes[1].name: expected a name unique on interface vcan0 ('a' is used twice)"},
+      {"interfaces: [\n", "D/fleet.yaml:2:1: YAML syntax error: end of sequence flow not found"},
+  };
+  for (const Case& c : cases) EXPECT_EQ(error_of(c.text), c.error) << c.text;
+}
+
+TEST_F(FleetTest, SameNodeIdOnOtherBusesAndSeveralUnconfiguredNodesAreFine) {
+  FleetConfig f = parse(std::string(kIfaces) +
+                        "nodes:\n"
+                        "  - {profile: generic-404, interface: vcan0, node_id: 5}\n"
+                        "  - {profile: generic-404, interface: vcan1, node_id: 5}\n"
+                        "  - {profile: generic-404, interface: vcan0, node_id: 255, count: 2, name: unconf}\n");
+  EXPECT_EQ(f.nodes.size(), 4u);
+}
+
+TEST_F(FleetTest, SingleNodeFleetUsesTheProfileBitRateAndNodeId) {
+  FleetConfig f = single_node_fleet(dir + "/profiles/generic-404.yaml", "can3", 0x22, search);
+  ASSERT_EQ(f.nodes.size(), 1u);
+  EXPECT_EQ(f.nodes[0].node_id, 0x22);
+  EXPECT_EQ(f.nodes[0].interface, "can3");
+  EXPECT_EQ(f.nodes[0].key, "can3/generic-404/0");
+  EXPECT_EQ(f.interfaces[0].bit_rate_kbit, 250u);
+  EXPECT_THROW(single_node_fleet("missing", "vcan0", {}, search), ConfigError);
+}
+
+TEST_F(FleetTest, CheckBuildsEveryNodeAndTheDemoConfigIsValid) {
+  FleetConfig f = parse(std::string(kIfaces) +
+                        "nodes:\n  - {profile: generic-404, interface: vcan0, count: 2, name: g}\n");
+  EXPECT_EQ(daemon::check_fleet(f), dir + "/fleet.yaml: ok, 2 node(s) on 2 interface(s)");
+  std::string demo = std::string(CANSIM_SOURCE_DIR) + "/config/cansimd.yaml";
+  FleetConfig d = load_fleet(demo, daemon::profile_search(demo));
+  EXPECT_GE(d.nodes.size(), 4u);
+  EXPECT_NO_THROW(daemon::check_fleet(d));
+}
+
+}  // namespace
+}  // namespace cansim::config
