@@ -174,28 +174,32 @@ void Daemon::sweep_interfaces(TimeUs now) {
   }
 }
 
+void Daemon::try_open(Interface& i, TimeUs now) {
+  if (i.can.open()) {
+    loop_.add(i.can.fd(), EPOLLIN, &i);
+    i.in_epoll = true;
+    i.mask = EPOLLIN;
+    i.retry_at = kNever;
+    if (i.reported_down)
+      spdlog::info("{}: interface is back, {} node(s) on the bus again", i.can.name(), core_.node_count(i.bus));
+    else
+      spdlog::info("{}: open, {} kbit/s", i.can.name(), i.bit_rate_kbit);
+    i.reported_down = false;
+    return;
+  }
+  i.retry_at = now + kRetryPeriod;
+  if (!i.reported_down || now - i.last_down_log >= kDownReminder) {
+    spdlog::warn("{}: {}; its {} node(s) keep running off the bus, retrying every second", i.can.name(),
+                 i.can.error(), core_.node_count(i.bus));
+    i.reported_down = true;
+    i.last_down_log = now;
+  }
+}
+
 void Daemon::housekeeping(TimeUs now) {
   for (auto& ip : interfaces_) {
     Interface& i = *ip;
-    if (i.retry_at <= now && i.configured && !i.can.is_open()) {
-      if (i.can.open()) {
-        loop_.add(i.can.fd(), EPOLLIN, &i);
-        i.in_epoll = true;
-        i.mask = EPOLLIN;
-        i.retry_at = kNever;
-        if (i.reported_down) spdlog::info("{}: interface is back, {} node(s) on the bus again", i.can.name(), core_.node_count(i.bus));
-        else spdlog::info("{}: open, {} kbit/s, {} node(s)", i.can.name(), i.bit_rate_kbit, core_.node_count(i.bus));
-        i.reported_down = false;
-      } else {
-        i.retry_at = now + kRetryPeriod;
-        if (!i.reported_down || now - i.last_down_log >= kDownReminder) {
-          spdlog::warn("{}: {}; its {} node(s) keep running off the bus, retrying every second", i.can.name(),
-                       i.can.error(), core_.node_count(i.bus));
-          i.reported_down = true;
-          i.last_down_log = now;
-        }
-      }
-    }
+    if (i.retry_at <= now && i.configured && !i.can.is_open()) try_open(i, now);
     if (i.drain_at <= now) {
       std::uint64_t before = i.can.stats().tx;
       i.can.drain();
@@ -338,6 +342,9 @@ void Daemon::apply(config::FleetConfig cfg, TimeUs now) {
       i->can.close();
       i->in_epoll = false;
     }
+  // Open new interfaces now, so the boot-up frames reach the bus.
+  for (auto& i : interfaces_)
+    if (i->configured && !i->can.is_open() && i->retry_at <= now) try_open(*i, now);
   for (io::NodeRef ref : fresh) {
     core_.power_on(ref, now);
     if (auto* overlay = dynamic_cast<SerialOverlay*>(core_.app(ref))) overlay->apply(core_.node(ref));

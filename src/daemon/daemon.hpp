@@ -83,6 +83,7 @@ class Daemon {
   void remove_node(NodeEntry& e);
   void on_can_events(Interface& iface, std::uint32_t events);
   void sweep_interfaces(TimeUs now);
+  void try_open(Interface& iface, TimeUs now);
   void housekeeping(TimeUs now);
   TimeUs housekeeping_deadline() const;
   void report_status(TimeUs now);

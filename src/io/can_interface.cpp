@@ -78,7 +78,7 @@ void CanInterface::close() {
   if (fd_ >= 0) ::close(fd_);
   fd_ = -1;
   // Frames waiting for a dead socket are lost, as on a bus that went away.
-  stats_.tx_dropped += queued_;
+  stats_.tx_offline += queued_;
   queued_ = 0;
   head_ = 0;
 }
@@ -113,7 +113,7 @@ bool CanInterface::send_now(const CanFrame& frame, bool& again) {
 
 void CanInterface::transmit(const CanFrame& frame) {
   if (fd_ < 0) {
-    ++stats_.tx_dropped;  // interface down: the frame goes nowhere
+    ++stats_.tx_offline;  // interface down: the frame goes nowhere
     return;
   }
   if (queued_ > 0) {  // keep the order: behind what already waits

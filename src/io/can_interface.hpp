@@ -22,7 +22,8 @@ namespace cansim::io {
 struct CanStats {
   std::uint64_t rx = 0;
   std::uint64_t tx = 0;
-  std::uint64_t tx_dropped = 0;
+  std::uint64_t tx_dropped = 0;   // kernel queue and our queue full
+  std::uint64_t tx_offline = 0;   // sent while the interface was down / missing
   std::uint64_t tx_queued = 0;
   std::uint64_t errors = 0;
 };
