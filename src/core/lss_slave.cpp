@@ -34,58 +34,21 @@ enum : std::uint8_t { kOk = 0, kOutOfRange = 1, kStoreFailed = 2, kManufacturer 
 
 bool is_node_id(std::uint8_t id) { return id >= 1 && id <= 127; }
 
-// What LSS "store configuration" saved.
-struct SavedLss {
-  bool valid = false;
-  std::uint8_t node_id = 0;
-  std::uint8_t bit_rate_index = 0;
-};
-
-// TEMPORARY adapter: uses StoreRestore::save_lss() / stored_lss() once the
-// store service provides them; until then keeps a 4-byte record of its own in
-// the NodeStorage blob. The fallback branches compile away with the real API.
-template <typename Store>
-bool save_lss(Store& store, NodeStorage* storage, const SavedLss& s) {
-  if constexpr (requires { store.save_lss({s.valid, s.node_id, s.bit_rate_index}); }) {
-    return store.save_lss({s.valid, s.node_id, s.bit_rate_index});
-  } else {
-    if (!storage) return false;
-    const std::uint8_t blob[4] = {'L', std::uint8_t(s.valid), s.node_id, s.bit_rate_index};
-    return storage->save(blob);
-  }
-}
-
-template <typename Store>
-SavedLss stored_lss(const Store& store, NodeStorage* storage) {
-  if constexpr (requires { store.stored_lss().bit_rate_index; }) {
-    const auto s = store.stored_lss();
-    return {s.valid, s.node_id, s.bit_rate_index};
-  } else {
-    std::vector<std::uint8_t> blob;
-    if (!storage || !storage->load(blob) || blob.size() != 4 || blob[0] != 'L') return {};
-    return {blob[1] != 0, blob[2], blob[3]};
-  }
-}
-
 }  // namespace
 
 // ---- lifecycle
 
 void LssSlave::prepare_reset(ResetKind kind, TimeUs) {
-  if (!rates_parsed_) rates_parsed_ = ByteSet::parse(node_.options().lss_bit_rates, rates_);
   if (kind != ResetKind::kPowerOn) {
     // The pending node-ID becomes the active one (CiA 305: at NMT reset
     // communication, which reset node includes).
     if (pending_node_id_ != node_.node_id()) node_.set_node_id(pending_node_id_);
     return;
   }
-  // Power-on: the CAN controller starts with what "store configuration" saved.
+  // Power-on: Node::power_on already took the stored node-ID / bit rate; an
+  // interrupted bit-rate switch is gone with the power.
   switch_phase_ = SwitchPhase::kIdle;
   next_ = kNever;
-  const SavedLss s = stored_lss(node_.store(), node_.storage());
-  if (!s.valid) return;
-  if (is_node_id(s.node_id) || s.node_id == kUnconfigured) node_.set_node_id(s.node_id);
-  if (rates_.has(s.bit_rate_index)) node_.set_bit_rate_index(s.bit_rate_index);
 }
 
 void LssSlave::reset(TimeUs) {
@@ -179,7 +142,7 @@ void LssSlave::enter_waiting(TimeUs now) {
   if (node_.options().lss_waiting_applies_stored_node_id) {
     // Vendor behaviour: unstored values are dropped; a stored node-ID other
     // than the active one takes effect at once.
-    const SavedLss s = stored_lss(node_.store(), node_.storage());
+    const LssStored s = node_.store().stored_lss();
     pending_node_id_ = s.valid ? s.node_id : active;
     pending_bit_rate_ = s.valid ? s.bit_rate_index : node_.bit_rate_index();
     reset_communication = pending_node_id_ != active;
@@ -252,7 +215,7 @@ void LssSlave::configure_bit_timing(const std::uint8_t* d) {
 void LssSlave::activate_bit_timing(const std::uint8_t* d, TimeUs now) {
   std::uint8_t target = pending_bit_rate_;
   if (node_.options().lss_activate_stored_bit_rate) {
-    const SavedLss s = stored_lss(node_.store(), node_.storage());
+    const LssStored s = node_.store().stored_lss();
     target = s.valid ? s.bit_rate_index : node_.bit_rate_index();
   }
   switch_target_rate_ = target;
@@ -290,7 +253,7 @@ void LssSlave::store_configuration() {
     reply(cs, kManufacturer, 1);
     return;
   }
-  const bool saved = save_lss(node_.store(), node_.storage(), {true, pending_node_id_, pending_bit_rate_});
+  const bool saved = node_.store().save_lss({true, pending_node_id_, pending_bit_rate_});
   if (saved) configured_since_store_ = false;
   reply(cs, saved ? kOk : kStoreFailed);
 }
@@ -303,7 +266,7 @@ void LssSlave::inquire(std::uint8_t cs) {
   }
   std::uint8_t id = node_.node_id();
   if (node_.options().lss_inquire_node_id_stored) {
-    const SavedLss s = stored_lss(node_.store(), node_.storage());
+    const LssStored s = node_.store().stored_lss();
     if (s.valid) id = s.node_id;
   }
   reply(kInquireNodeId, id);

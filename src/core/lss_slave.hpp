@@ -32,9 +32,9 @@ class LssSlave {
   enum class State : std::uint8_t { kWaiting = 0, kConfiguration = 1 };
 
   explicit LssSlave(Node& node) : node_(node) {}
-  // Called at the start of every reset, before the OD is reloaded: power-on
-  // takes the stored LSS node-ID / bit rate, reset node / communication
-  // activate the pending node-ID.
+  // Called at the start of every reset, before the OD is reloaded: reset node
+  // / communication activate the pending node-ID (power-on: Node::power_on
+  // applies what store configuration saved).
   void prepare_reset(ResetKind kind, TimeUs now);
   // Re-reads its configuration from the OD (after a reset / power-on).
   void reset(TimeUs now);
