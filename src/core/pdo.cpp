@@ -88,17 +88,34 @@ void get_bits(std::uint8_t* dst, const std::uint8_t* src, unsigned at, unsigned 
   }
 }
 
-// EMCY hand-off: the EMCY engineer provides raise(code, register bits,
-// manufacturer bytes, now). Until then the report is dropped (see the lead's notes).
+// EMCY hand-off: Emcy::raise(code, register bits, mfr, now) / clear(code, now).
+// Resolved at compile time so this file builds whatever state emcy.hpp is in.
 template <typename E>
 void raise_emcy(E& emcy, std::uint16_t code, TimeUs now) {
   if constexpr (requires(E& e) { e.raise(code, kCommunicationErrorBit, {}, now); }) {
     emcy.raise(code, kCommunicationErrorBit, {}, now);
-  } else if constexpr (requires(E& e) { e.raise(code, kCommunicationErrorBit, now); }) {
-    emcy.raise(code, kCommunicationErrorBit, now);
   } else {
-    // TODO(emcy): wire once Emcy::raise exists.
+    (void)emcy, (void)code, (void)now;  // no EMCY producer in this build
+  }
+}
+
+template <typename E>
+void clear_emcy(E& emcy, std::uint16_t code, TimeUs now) {
+  if constexpr (requires(E& e) { e.clear(code, now); }) {
+    emcy.clear(code, now);
+  } else {
     (void)emcy, (void)code, (void)now;
+  }
+}
+
+// Synchronous PDOs go out only inside the synchronous window 0x1007 (CiA 301 §7.2.5).
+template <typename S>
+bool sync_window_open(const S& sync, TimeUs now) {
+  if constexpr (requires(const S& s) { s.window_open(now); }) {
+    return sync.window_open(now);
+  } else {
+    (void)sync, (void)now;
+    return true;
   }
 }
 
@@ -138,9 +155,12 @@ void PdoEngine::reset(TimeUs now) {
   for (Rpdo& r : rpdos_) {
     load(r.cfg, false);
     arm(r);
+    r.short_reported = r.long_reported = r.timed_out = false;  // EMCY was reset too
   }
   update_deadline();
 }
+
+void PdoEngine::on_nmt_state(NmtState, TimeUs now) { on_nmt_state(now); }
 
 void PdoEngine::on_nmt_state(TimeUs now) {
   sync_state(now);
@@ -186,8 +206,6 @@ void PdoEngine::arm(Tpdo& t, TimeUs now) {
 void PdoEngine::arm(Rpdo& r) {
   r.timeout_due = kNever;
   r.buffered = false;
-  r.short_reported = false;
-  r.long_reported = false;
 }
 
 // ---------------------------------------------------------------------------
@@ -458,11 +476,11 @@ void PdoEngine::on_sync(std::uint8_t counter, TimeUs now) {
     // Synchronous RPDOs received before this SYNC are actuated now (CiA 301 §7.2.2.2).
     for (Rpdo& r : rpdos_)
       if (r.buffered) apply(r, now);
-    // TODO(sync): gate on node_.sync().window_open(now) (0x1007) once the SYNC
-    // consumer provides it; synchronous TPDOs are sent at the SYNC itself, so
-    // they are inside any non-zero window.
+    // Synchronous TPDOs are sampled and sent at the SYNC itself, so they fall
+    // inside the window unless it is closed already.
+    const bool window = sync_window_open(node_.sync(), now);
     for (Tpdo& t : tpdos_)
-      if (valid(t.cfg)) on_sync_tpdo(t, counter, now);
+      if (valid(t.cfg) && window) on_sync_tpdo(t, counter, now);
   }
   update_deadline();
 }
@@ -522,7 +540,8 @@ void PdoEngine::process(TimeUs now) {
     for (Rpdo& r : rpdos_) {
       if (r.timeout_due > now) continue;
       r.timeout_due = kNever;  // once per silence, re-armed by the next RPDO
-      emcy(kEmcyRpdoTimeout, now);
+      r.timed_out = true;
+      raise_emcy(node_.emcy(), kEmcyRpdoTimeout, now);
     }
   }
   update_deadline();
@@ -609,17 +628,18 @@ void PdoEngine::on_rpdo(Rpdo& r, const CanFrame& frame, TimeUs now) {
   // CiA 301 §7.2.2.1: too short → not processed, EMCY 0x8210; longer → the
   // mapped part is used, EMCY 0x8220. One EMCY per error episode.
   if (frame.dlc < need) {
-    if (!r.short_reported) emcy(kEmcyPdoLength, now);
+    if (!r.short_reported) raise_emcy(node_.emcy(), kEmcyPdoLength, now);
     r.short_reported = true;
     return;
   }
+  if (r.short_reported) clear_emcy(node_.emcy(), kEmcyPdoLength, now);
   r.short_reported = false;
-  if (frame.dlc > need && node_.options().rpdo_length_exceeded_emcy) {
-    if (!r.long_reported) emcy(kEmcyPdoLengthExceeded, now);
-    r.long_reported = true;
-  } else {
-    r.long_reported = false;
-  }
+  const bool too_long = frame.dlc > need && node_.options().rpdo_length_exceeded_emcy;
+  if (too_long && !r.long_reported) raise_emcy(node_.emcy(), kEmcyPdoLengthExceeded, now);
+  if (!too_long && r.long_reported) clear_emcy(node_.emcy(), kEmcyPdoLengthExceeded, now);
+  r.long_reported = too_long;
+  if (r.timed_out) clear_emcy(node_.emcy(), kEmcyRpdoTimeout, now);
+  r.timed_out = false;
   if (r.cfg.event_ms) r.timeout_due = now + ms(r.cfg.event_ms);
   r.buffer = frame;
   if (r.cfg.type <= kTypeLastCyclic) {
@@ -653,8 +673,6 @@ void PdoEngine::store_received(const OdEntry& e, std::span<const std::uint8_t> d
   node_.values().set_bytes(e, data);
   if (app) app->after_write(node_, e, now);
 }
-
-void PdoEngine::emcy(std::uint16_t code, TimeUs now) { raise_emcy(node_.emcy(), code, now); }
 
 void PdoEngine::collect_rx_ids(std::vector<std::uint32_t>& out) const {
   auto id_of = [](std::uint32_t cobid) {

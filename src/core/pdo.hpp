@@ -23,6 +23,7 @@
 namespace cansim {
 
 class Node;
+enum class NmtState : std::uint8_t;
 
 // COB-ID bits of 0x14xx:01 / 0x18xx:01 (CiA 301 Table 71 / 73).
 constexpr std::uint32_t kPdoCobInvalid = 0x80000000u;  // bit 31: PDO does not exist
@@ -70,6 +71,7 @@ struct Rpdo {
   bool buffered = false;        // synchronous RPDO waiting for the next SYNC
   bool short_reported = false;  // EMCY 0x8210 sent, until a good frame arrives
   bool long_reported = false;   // EMCY 0x8220 sent, until a good frame arrives
+  bool timed_out = false;       // EMCY 0x8250 sent, until the next RPDO
   CanFrame buffer;
 };
 
@@ -96,6 +98,7 @@ class PdoEngine {
   void on_sync(std::uint8_t counter, TimeUs now);
   // Called by NMT after a state change (optional: detected at the next advance).
   void on_nmt_state(TimeUs now);
+  void on_nmt_state(NmtState old, TimeUs now);
   // Application events (CiA 301 §7.2.2.2, types 0/254/255): 1-based TPDO number.
   // Without a time the PDO goes out at the next advance (it reports itself due).
   void raise_event(unsigned tpdo_number);
@@ -141,7 +144,6 @@ class PdoEngine {
   void on_rpdo(Rpdo& r, const CanFrame& frame, TimeUs now);
   void apply(Rpdo& r, TimeUs now);
   void store_received(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
-  void emcy(std::uint16_t code, TimeUs now);
 
   void update_deadline();
 
