@@ -74,6 +74,16 @@ inline double normal_from_bits(std::uint64_t bits) noexcept {
   return std::sqrt(-2.0 * std::log(u1)) * std::cos(kTwoPi * u2);
 }
 
+/// Both Box-Muller outputs (two independent standard normal deviates) from 64 bits.
+inline void normal_pair_from_bits(std::uint64_t bits, double& z_cos, double& z_sin) noexcept {
+  constexpr double kTwoPi = 6.283185307179586476925286766559;
+  const double u1 = (static_cast<double>(bits >> 32) + 1.0) * 0x1.0p-32;
+  const double u2 = static_cast<double>(bits & 0xFFFFFFFFULL) * 0x1.0p-32;
+  const double r = std::sqrt(-2.0 * std::log(u1));
+  z_cos = r * std::cos(kTwoPi * u2);
+  z_sin = r * std::sin(kTwoPi * u2);
+}
+
 /// Standard normal deviate, pure function of (key, counter).
 inline double counter_normal(std::uint64_t key, std::uint64_t counter) noexcept {
   return normal_from_bits(counter_hash(key, counter));

@@ -150,10 +150,12 @@ struct Sensor::ChannelState {
 
   std::int64_t index_at(TimeUs t, TimeUs boot) const noexcept {
     if (t < boot) return -1;
-    const __int128 d = static_cast<__int128>(t - boot) * rate_mhz;
-    return static_cast<std::int64_t>(d / 1000000000);
+    const std::int64_t dt = t - boot;
+    if (dt <= std::numeric_limits<std::int64_t>::max() / rate_mhz) return dt * rate_mhz / 1000000000;
+    return static_cast<std::int64_t>(static_cast<__int128>(dt) * rate_mhz / 1000000000);
   }
   TimeUs time_of(std::int64_t n, TimeUs boot) const noexcept {
+    if (n <= std::numeric_limits<std::int64_t>::max() / 1000000000) return boot + n * 1000000000 / rate_mhz;
     return boot + static_cast<TimeUs>(static_cast<__int128>(n) * 1000000000 / rate_mhz);
   }
   double seconds_of(std::int64_t n, TimeUs boot) const noexcept {
@@ -235,6 +237,20 @@ struct Sensor::ChannelState {
     }
     return c;
   }
+  // Standard normal for sample n: a pure function of (noise_key, n). Samples 2m and 2m+1 use
+  // the two outputs of one Box-Muller pair, computed once when processed in sequence.
+  std::int64_t pair_index = -1;
+  double pair_sin = 0.0;
+  double noise_normal(std::int64_t n) noexcept {
+    const std::int64_t m = n >> 1;
+    if ((n & 1) && m == pair_index) return pair_sin;
+    double zc, zs;
+    normal_pair_from_bits(counter_hash(noise_key, static_cast<std::uint64_t>(m)), zc, zs);
+    pair_index = m;
+    pair_sin = zs;
+    return (n & 1) ? zs : zc;
+  }
+
   void step(std::int64_t n, const Quantity& q, const MeasurementFaults& mf, TimeUs t_us) noexcept {
     const bool is_p = which == Channel::Pressure;
     const double t_sensor = q.temperature_k + mf.over_temperature_k;
@@ -266,7 +282,7 @@ struct Sensor::ChannelState {
     }
     x += mf.drift;
     const double sigma2 = spec.noise_rms * spec.noise_rms + mf.extra_noise_rms * mf.extra_noise_rms;
-    if (sigma2 > 0.0) x += std::sqrt(sigma2) * counter_normal(noise_key, static_cast<std::uint64_t>(n));
+    if (sigma2 > 0.0) x += std::sqrt(sigma2) * noise_normal(n);
     if (mf.spike_rate_hz > 0.0) {
       const std::uint64_t bits = counter_hash(spike_key, static_cast<std::uint64_t>(n));
       if (uniform01(bits) < mf.spike_rate_hz / rate_hz) x += (bits & 1) ? mf.spike_amplitude : -mf.spike_amplitude;

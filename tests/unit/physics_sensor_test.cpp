@@ -497,3 +497,24 @@ TEST(PhysicsSensor, InvalidSpecIsRejected) {
   spec.pressure.filter = {FilterType::FirstOrder, 1, 0.0};
   EXPECT_THROW(Sensor(spec, ProcessModel(), 1), std::invalid_argument);
 }
+
+TEST(PhysicsSensor, SampleGridIsExactOverLongRunsAndOddRates) {
+  auto spec = ideal_sensor();
+  Sensor s(spec, process({ConstantSpec{1e5}}), 1);
+  const TimeUs day = 86400LL * 1000000;
+  const auto& r = s.read(200 * day + 999);  // beyond the 64-bit fast path of index arithmetic
+  EXPECT_EQ(r.pressure.sample_index, 200LL * 86400 * 1000);
+  EXPECT_EQ(r.pressure.sample_time_us, 200 * day);
+  spec.pressure.sample_rate_hz = 3000;  // 333.33 us period
+  spec.temperature.sample_rate_hz = 10;
+  Sensor o(spec, process({ConstantSpec{1e5}}), 1, nullptr, 5000);  // booted at 5 ms
+  EXPECT_EQ(o.read(4999).pressure.sample_index, -1);  // before boot: nothing sampled
+  const auto& q = o.read(5000 + 1000);
+  EXPECT_EQ(q.pressure.sample_index, 3);
+  EXPECT_EQ(q.pressure.sample_time_us, 6000);
+  EXPECT_EQ(q.temperature.sample_index, 0);
+  const auto& q2 = o.read(5000 + 999999);
+  EXPECT_EQ(q2.pressure.sample_index, 2999);
+  EXPECT_EQ(q2.pressure.sample_time_us, 5000 + 999666);
+  EXPECT_EQ(q2.temperature.sample_index, 9);
+}
