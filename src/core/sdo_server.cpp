@@ -127,8 +127,9 @@ void SdoServer::load_cob_ids() {
   tx_id_ = tx & (tx_ext_ ? 0x1FFFFFFFu : 0x7FFu);
 }
 
+// 29-bit identifiers carry bit 31 (SocketCAN CAN_EFF_FLAG), as io/dispatch expects.
 void SdoServer::collect_rx_ids(std::vector<std::uint32_t>& out) const {
-  if (valid_) out.push_back(rx_id_);
+  if (valid_) out.push_back(rx_ext_ ? (rx_id_ | 0x80000000u) : rx_id_);
 }
 
 bool SdoServer::owns(std::uint16_t index) const { return index == 0x1200; }
