@@ -176,6 +176,8 @@ class ProcessModel {
 
   /// Pressure and temperature at simulated time t (seconds). Not const: stochastic terms advance.
   Quantity at(double t_s) noexcept;
+  /// Same, with the project's microsecond time base.
+  Quantity at_us(std::int64_t t_us) noexcept { return at(static_cast<double>(t_us) * 1e-6); }
 
   /// Restart stochastic terms (same seed -> same series again).
   void reset() noexcept;

@@ -28,6 +28,7 @@
 // read() never allocates.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <memory>
@@ -66,6 +67,17 @@ struct FilterSpec {
   std::uint32_t length = 1;
   /// FirstOrder only: time constant in seconds (> 0).
   double time_constant_s = 0.0;
+
+  /// Window given as a time (CMP 0x61A1: filter time in ms, temperature in 0.1 s):
+  /// length = max(1, round(window_s * sample_rate_hz)).
+  static FilterSpec from_time(FilterType type, double window_s, double sample_rate_hz) noexcept {
+    FilterSpec f;
+    f.type = type;
+    const double n = std::round(window_s * sample_rate_hz);
+    f.length = n < 1.0 ? 1u : (n > 4294967295.0 ? 4294967295u : static_cast<std::uint32_t>(n));
+    if (type == FilterType::FirstOrder) f.time_constant_s = window_s;
+    return f;
+  }
 };
 
 /// Linear ADC: range_min -> code_at_range_min, range_max -> code_at_range_max (codes may be

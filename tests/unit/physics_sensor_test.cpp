@@ -518,3 +518,26 @@ TEST(PhysicsSensor, SampleGridIsExactOverLongRunsAndOddRates) {
   EXPECT_EQ(q2.pressure.sample_time_us, 5000 + 999666);
   EXPECT_EQ(q2.temperature.sample_index, 9);
 }
+
+TEST(PhysicsSensor, FilterWindowFromTime) {
+  // CMP: pressure filter 1000 ms at 1 kHz -> 1000 samples; temperature 0.1 s units at 10 Hz.
+  EXPECT_EQ(FilterSpec::from_time(FilterType::MovingAverage, 1.0, 1000).length, 1000u);
+  EXPECT_EQ(FilterSpec::from_time(FilterType::MovingAverage, 0.0004, 1000).length, 1u);
+  EXPECT_EQ(FilterSpec::from_time(FilterType::MovingAverage, 6553.5, 10).length, 65535u);
+  const auto f = FilterSpec::from_time(FilterType::FirstOrder, 0.25, 100);
+  EXPECT_EQ(f.time_constant_s, 0.25);
+  // A 1000-sample window read every 10 ms equals brute force exactly.
+  auto spec = ideal_sensor();
+  spec.pressure.filter = FilterSpec::from_time(FilterType::MovingAverage, 1.0, 1000);
+  spec.pressure.noise_rms = 500;
+  Sensor brute(spec, process({SineSpec{1e5, 0.7, 0}, ConstantSpec{5e5}}), 3);
+  Sensor lazy(spec, process({SineSpec{1e5, 0.7, 0}, ConstantSpec{5e5}}), 3);
+  for (int n = 0; n <= 3000; ++n) {
+    const double b = brute.read(n * kMs).pressure.value;
+    if (n % 10 == 0 || n == 2345) {
+      EXPECT_EQ(lazy.read(n * kMs).pressure.value, b) << n;
+    }
+  }
+  ProcessModel m;
+  EXPECT_EQ(m.at_us(1500000).pressure_pa, m.at(1.5).pressure_pa);
+}
