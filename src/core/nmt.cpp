@@ -132,12 +132,15 @@ bool NmtSlave::on_frame(const CanFrame& f, TimeUs now) {
 
 void NmtSlave::collect_rx_ids(std::vector<std::uint32_t>& out) const { out.push_back(kNmtCobId); }
 
-bool NmtSlave::owns(std::uint16_t index) const { return index == 0x1F80; }
+bool NmtSlave::owns(std::uint16_t index) const { return index == 0x1F80 || index == 0x1029; }
 
-// 0x1F80 takes effect at the next boot (CiA 302-2).
+// 0x1029 error behaviour: 0 pre-op, 1 no change, 2 stopped, 3..127 reserved,
+// 128..255 manufacturer-specific (CiA 301 §7.5.2.32). 0x1F80 takes effect at
+// the next boot (CiA 302-2).
 SdoAbort NmtSlave::write(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs) {
   std::uint64_t v = decode_u(e.type, data.data());
-  if (!startup_values_any_ && (v > 0xFF || !startup_values_.has(std::uint8_t(v))))
+  if (e.index == 0x1029 && e.sub != 0 && v > 2 && v < 0x80) return SdoAbort::kInvalidValue;
+  if (e.index == 0x1F80 && !startup_values_any_ && (v > 0xFF || !startup_values_.has(std::uint8_t(v))))
     return SdoAbort::kInvalidValue;
   node_.values().set_bytes(e, data);
   return SdoAbort::kNone;

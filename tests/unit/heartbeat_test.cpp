@@ -31,6 +31,21 @@ TEST_F(Heartbeat, FirstBeatOnePeriodAfterBootUpAndNoDriftOver100Periods) {
   }
 }
 
+// Processing late (a busy loop) sends one beat and keeps the t0 + k·period
+// grid instead of restarting the period from the late time.
+TEST_F(Heartbeat, LateProcessingKeepsTheGrid) {
+  SimNode& n = add(5);
+  n->power_on(0);
+  ASSERT_EQ(wr16(n, 0x1017, 0, 100), SdoAbort::kNone);
+  take();
+  EXPECT_EQ(n->next_deadline(), ms(100));
+  n->advance(ms(130));
+  EXPECT_EQ(n->heartbeat().next_deadline(), ms(200));
+  n->advance(ms(455));
+  EXPECT_EQ(n->heartbeat().next_deadline(), ms(500));
+  EXPECT_EQ(bus.take().size(), 2u);
+}
+
 TEST_F(Heartbeat, StateByteFollowsNmtState) {
   SimNode& n = add(5, "{}", "");
   n->power_on(0);
@@ -157,6 +172,15 @@ TEST_F(Consumer, PreOperationalStaysWithBehaviourZero) {
   hb(0x20, 0x05);
   bus.run_until(ms(300));
   EXPECT_EQ(take(), S({{ms(100), F(0x85, {0x30, 0x81, 0x11, 0, 0, 0, 0, 0})}}));
+}
+
+TEST_F(Consumer, ErrorBehaviourValues) {
+  SimNode& n = start();
+  EXPECT_EQ(wr8(n, 0x1029, 1, 3), SdoAbort::kInvalidValue);
+  EXPECT_EQ(wr8(n, 0x1029, 1, 0x7F), SdoAbort::kInvalidValue);
+  EXPECT_EQ(wr8(n, 0x1029, 1, 0x80), SdoAbort::kNone);  // manufacturer-specific
+  EXPECT_EQ(wr8(n, 0x1029, 1, 2), SdoAbort::kNone);
+  EXPECT_EQ(rd(n, 0x1029, 1), 2u);
 }
 
 TEST_F(Consumer, NoErrorBehaviourObjectUsesTheOption) {
