@@ -25,6 +25,7 @@
 namespace {
 std::atomic<long> g_allocations{0};
 }
+#if !defined(__SANITIZE_ADDRESS__)  // ASan owns operator new: no counting there
 void* operator new(std::size_t n) {
   g_allocations.fetch_add(1, std::memory_order_relaxed);
   if (void* p = std::malloc(n ? n : 1)) return p;
@@ -35,6 +36,7 @@ void operator delete(void* p) noexcept { std::free(p); }
 void operator delete[](void* p) noexcept { std::free(p); }
 void operator delete(void* p, std::size_t) noexcept { std::free(p); }
 void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+#endif
 
 using namespace cansim::physics;
 
