@@ -243,6 +243,30 @@ TEST_F(Lss, PendingNodeIdBecomesActiveAtResetCommunication) {
   EXPECT_EQ(nmt(0x82, 0x0A), S({{t(), F(0x70A, {0x00})}}));
 }
 
+TEST_F(Lss, PendingNodeIdBecomesActiveAtResetNode) {
+  SimNode& n = add(5);
+  start();
+  req({0x04, 0x01});
+  req({0x11, 0x30});
+  bus.run_for(ms(2));
+  EXPECT_EQ(nmt(0x81, 0x05), S({{t(), F(0x730, {0x00})}}));
+  EXPECT_EQ(n->node_id(), 0x30);
+}
+
+// Configure node-ID 0xFF + reset communication: the node becomes unconfigured,
+// falls silent and is found again by identify non-configured.
+TEST_F(Lss, ConfiguringFfMakesTheNodeUnconfiguredAtReset) {
+  SimNode& n = add(5);
+  start();
+  req({0x04, 0x01});
+  req({0x11, 0xFF});
+  req({0x04, 0x00});
+  EXPECT_EQ(nmt(0x82, 0x05), "");  // no boot-up
+  EXPECT_EQ(n->node_id(), 0xFF);
+  EXPECT_EQ(n->state(), NmtState::kInitialising);
+  EXPECT_EQ(req({0x4C}), "0us 7E4 [8] 50 00 00 00 00 00 00 00\n");
+}
+
 // ---------------------------------------------------------------- unconfigured node
 
 TEST_F(Lss, UnconfiguredNodeBootsWithNewIdWhenSwitchedToWaiting) {
