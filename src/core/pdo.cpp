@@ -365,10 +365,13 @@ SdoAbort PdoEngine::check_map_count(const PdoConfig& cfg, bool tx, std::uint32_t
   if (count && n == node_.values().get_u(*count)) return SdoAbort::kNone;
   if (node_.options().pdo_mapping_needs_invalid && locked(cfg))
     return SdoAbort(node_.options().pdo_mapping_locked_abort);
+  // More entries than the mapping record has sub-indices.
+  if (n > PdoConfig::kMaxItems || (n > 0 && !node_.od().find(cfg.map_index, std::uint8_t(n))))
+    return SdoAbort::kValueTooHigh;
   unsigned bits = 0;
   for (unsigned i = 1; i <= n; ++i) {
     const OdEntry* e = node_.od().find(cfg.map_index, std::uint8_t(i));
-    if (!e || i > PdoConfig::kMaxItems) return SdoAbort::kValueTooHigh;
+    if (!e) return SdoAbort::kNotMappable;
     const std::uint32_t raw = std::uint32_t(node_.values().get_u(*e));
     if (raw == 0) return SdoAbort::kNotMappable;
     bits += map_bits(raw);

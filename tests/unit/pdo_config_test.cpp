@@ -169,7 +169,7 @@ TEST(PdoConfig, MappingCountChecksLengthAndEntries) {
   ASSERT_EQ(b.write(0x1A00, 3, 0x20050040), SdoAbort::kNone);  // U64
   EXPECT_EQ(b.write(0x1A00, 0, 3), SdoAbort::kPdoLength);       // 32 + 16 + 64 bits
   EXPECT_EQ(b.write(0x1A00, 0, 4), SdoAbort::kPdoLength);
-  EXPECT_EQ(b.write(0x1A00, 0, 9), SdoAbort::kPdoLength);
+  EXPECT_EQ(b.write(0x1A00, 0, 9), SdoAbort::kValueTooHigh);  // only subs 1..8 exist
   EXPECT_EQ(b.value(0x1A00, 0), 0u);
   ASSERT_EQ(b.write(0x1A00, 3, 0), SdoAbort::kNone);
   EXPECT_EQ(b.write(0x1A00, 0, 3), SdoAbort::kNotMappable);  // entry 3 is empty

@@ -343,3 +343,38 @@ TEST(Tpdo, BitGranularMappingPacksLsbFirst) {
 
 }  // namespace
 }  // namespace cansim::pdo_test
+
+namespace cansim::pdo_test {
+namespace {
+
+// The reference profile as shipped: TPDO1 event-driven 100 ms, TPDO2 every
+// SYNC, TPDO3 RTR-only, TPDO4 invalid.
+TEST(TpdoGeneric404, ReferenceProfileTransmits) {
+  config::Profile p = test::load_repo_profile("generic-404");
+  test::SimBus bus;
+  Node& n = bus.add(p, 0x10).node();
+  bus.power_on_all();
+  bus.run_for(ms(10));
+  bus.inject(F(0x000, {0x01, 0x10}));
+  const TimeUs t0 = bus.now();
+  bus.run_for(ms(100));
+  bus.inject(F(0x080, {}));
+  bus.inject(CanFrame::remote(0x390));
+  bus.inject(CanFrame::remote(0x490));  // TPDO4 invalid: no answer
+  std::vector<Sent> pdos;
+  for (const Sent& s : bus.take())
+    if (s.frame.id >= 0x180 && s.frame.id < 0x500) pdos.push_back(s);
+  ASSERT_EQ(pdos.size(), 3u) << test::to_string(pdos);
+  EXPECT_EQ(pdos[0].time, t0 + ms(100));
+  EXPECT_EQ(pdos[0].frame.id, 0x190u);
+  EXPECT_EQ(pdos[0].frame.dlc, 5);
+  EXPECT_EQ(pdos[1].frame.id, 0x290u);
+  EXPECT_EQ(pdos[1].frame.dlc, 4);
+  EXPECT_EQ(pdos[2].frame.id, 0x390u);
+  EXPECT_EQ(pdos[2].frame.dlc, 4);
+  EXPECT_EQ(n.pdo().tpdo_count(), 4u);
+  EXPECT_EQ(n.pdo().rpdo_count(), 1u);
+}
+
+}  // namespace
+}  // namespace cansim::pdo_test
