@@ -106,8 +106,8 @@ struct ProfileBuilder {
     ByteSet::parse("254-255", s.event_tpdo_types);
     if (!section || section.IsNull()) return;
     config::check_keys(w, section,
-                       {"event_check_period", "config_scan_period", "event_tpdo_types", "limit_trigger", "span_compare",
-                        "unit_informational", "digits_on_unit_change", "autozero_signature", "bad_unit_abort",
+                       {"event_check_period", "config_scan_period", "event_tpdo_types", "change_event_tpdo_types", "limit_trigger", "span_compare",
+                        "unit_informational", "digits_on_unit_change", "autozero_signature", "autozero_target", "bad_unit_abort",
                         "bad_autozero_abort", "digits_abort", "unit_digits_abort", "negative_abort", "channels"});
     auto time_us = [&](const char* key, TimeUs& field) {
       if (!section[key]) return;
@@ -118,10 +118,10 @@ struct ProfileBuilder {
     time_us("event_check_period", s.event_check_period_us);
     time_us("config_scan_period", s.config_scan_period_us);
     if (s.config_scan_period_us <= 0) fail(w.child("config_scan_period"), section["config_scan_period"], "expected a time > 0");
-    if (section["event_tpdo_types"]) {
-      s.event_tpdo_types = {};
-      if (!ByteSet::parse(config::get_string(w.child("event_tpdo_types"), section["event_tpdo_types"]), s.event_tpdo_types))
-        fail(w.child("event_tpdo_types"), section["event_tpdo_types"], "expected ranges like '254-255'");
+    for (auto [key, set] : {std::pair{"event_tpdo_types", &s.event_tpdo_types},
+                            std::pair{"change_event_tpdo_types", &s.change_event_tpdo_types}}) {
+      if (section[key] && !ByteSet::parse(config::get_string(w.child(key), section[key]), *set))
+        fail(w.child(key), section[key], "expected ranges like '254-255'");
     }
     if (section["limit_trigger"]) {
       std::string v = config::get_string(w.child("limit_trigger"), section["limit_trigger"]);
@@ -146,6 +146,11 @@ struct ProfileBuilder {
     }
     if (section["autozero_signature"])
       s.autozero_signature = std::uint32_t(config::get_int(w.child("autozero_signature"), section["autozero_signature"], 0, 0xFFFFFFFF));
+    if (section["autozero_target"]) {
+      std::string v = config::get_string(w.child("autozero_target"), section["autozero_target"]);
+      if (v != "offset" && v != "correction") fail(w.child("autozero_target"), section["autozero_target"], "expected offset or correction");
+      s.autozero_to_correction = v == "correction";
+    }
     struct AbortKey {
       const char* key;
       SdoAbort* field;
@@ -236,7 +241,7 @@ struct ProfileBuilder {
       if (n.IsScalar()) {
         name = n.Scalar();
       } else {
-        config::check_keys(wi, n, {"unit", "code", "max_digits"});
+        config::check_keys(wi, n, {"unit", "code", "max_digits", "scale_object"});
         if (!n["unit"]) fail(wi.child("unit"), n, "missing required key 'unit'");
         name = config::get_string(wi.child("unit"), n["unit"]);
         if (n["max_digits"]) u.max_digits = int(config::get_int(wi.child("max_digits"), n["max_digits"], 0, 18));
@@ -247,6 +252,11 @@ struct ProfileBuilder {
       if (scale->kind != c.kind) fail(n.IsScalar() ? wi : wi.child("unit"), at, "unit of the wrong quantity for this channel");
       u.scale = *scale;
       if (!n.IsScalar() && n["code"]) u.code = std::uint32_t(config::get_int(wi.child("code"), n["code"], 0, 0xFFFFFFFF));
+      if (!n.IsScalar() && n["scale_object"]) {
+        u.scale_object = layout.find(index_of(wi.child("scale_object"), n["scale_object"]), 0);
+        if (!u.scale_object || !is_real(u.scale_object->type))
+          fail(wi.child("scale_object"), n["scale_object"], "expected the index of a REAL32 / REAL64 VAR object");
+      }
       if (u.code == 0) fail(wi, n, "this unit has no CiA 303-2 code built in: give 'code'");
       c.units.push_back(u);
     }
@@ -277,18 +287,18 @@ struct ProfileBuilder {
     for (std::size_t i = 0; i < list.size(); ++i) {
       Where wi = wd.item(i);
       const YAML::Node& n = list[i];
-      YAML::Node idx = n;
       bool difference = false;
       if (n.IsMap()) {
         config::check_keys(wi, n, {"index", "difference"});
         if (!n["index"]) fail(wi.child("index"), n, "missing required key 'index'");
-        idx = n["index"];
         if (n["difference"]) difference = config::get_bool(wi.child("difference"), n["difference"]);
       } else if (const RoleInfo* r = role_by_name(n.Scalar())) {
         if (!r->valued) fail(wi, n, "this role has no unit-dependent value");
         mask |= 1u << unsigned(r->role);
         continue;
       }
+      // Not assigned after construction: yaml-cpp's operator= would overwrite the aliased list item.
+      const YAML::Node idx = n.IsMap() ? n["index"] : n;
       std::int64_t index = 0;
       if (!idx.IsScalar() || !config::parse_int_literal(idx.Scalar(), index) || index < 0x1000 || index > 0xFFFF)
         fail(wi, idx, "expected a role name (offset, delta, lower_limit, upper_limit, hysteresis, span_start, span_end) or an OD index");
@@ -333,7 +343,18 @@ struct ProfileBuilder {
     for (const RoleInfo& r : kRoles)
       if (r.valued) c.dependent_roles |= 1u << unsigned(r.role);
     if (m && m["unit_dependent"]) parse_dependents(wc.child("unit_dependent"), m["unit_dependent"], c, c.dependent_roles);
+    if (m && m["zero_correction"]) c.zero_object = zero_object(wc.child("zero_correction"), m["zero_correction"]);
     return c;
+  }
+
+  const OdEntry* zero_object(const Where& wz, const YAML::Node& n) {
+    if (!n.IsMap() || !n["index"]) fail(wz, n, "expected {index: <OD index>, sub: <sub-index>}");
+    config::check_keys(wz, n, {"index", "sub"});
+    const std::uint16_t index = index_of(wz.child("index"), n["index"]);
+    const auto sub = std::uint8_t(n["sub"] ? config::get_int(wz.child("sub"), n["sub"], 0, 254) : 0);
+    const OdEntry* e = layout.find(index, sub);
+    if (!e || !is_real(e->type)) fail(wz, n, "expected a REAL32 / REAL64 entry");
+    return e;
   }
 
   void channels() {
@@ -345,7 +366,7 @@ struct ProfileBuilder {
       if (!list.IsSequence()) fail(wl, list, "expected a list of channels");
       for (std::size_t i = 0; i < list.size(); ++i) {
         Where wi = wl.item(i);
-        config::check_keys(wi, list[i], {"sub", "quantity", "objects", "units", "fixed_unit", "unit_dependent"});
+        config::check_keys(wi, list[i], {"sub", "quantity", "objects", "units", "fixed_unit", "unit_dependent", "zero_correction"});
         if (!list[i]["sub"]) fail(wi.child("sub"), list[i], "missing required key 'sub'");
         std::uint8_t sub = std::uint8_t(config::get_int(wi.child("sub"), list[i]["sub"], 1, 254));
         for (const ChannelConfig& other : out.channels)
@@ -468,6 +489,12 @@ void Cia404Application::set(Node& node, std::size_t ch, Role role, double value)
   store_param(node, profile_->channels[ch].param(role), value, digits(node, ch));
 }
 
+UnitChoice Cia404Application::resolve(const Node& node, const UnitChoice& u) const {
+  UnitChoice r = u;
+  if (u.scale_object) r.scale.si_per_unit *= node.values().get_f(*u.scale_object);
+  return r;
+}
+
 const UnitChoice* Cia404Application::find_unit(const ChannelConfig& c, std::uint32_t code) const {
   for (const UnitChoice& u : c.units)
     if (u.code == code) return &u;
@@ -480,7 +507,7 @@ Cia404Application::Measurement Cia404Application::measure(Node& node, std::size_
   const MeasurementSource::Sample s = source_->sample(c.source, now);
   Measurement m;
   m.raw = s.raw;
-  m.input = input_value(c, s, st.unit.scale) + st.zero_correction;
+  m.input = input_value(c, s, st.unit.scale) + st.unit.scale.delta_from_si(st.zero_si);
   m.pv = m.input + get(node, ch, Role::kOffset);
   // 0x6150: bit 0 from the sensor; overload against the span objects when
   // the profile has them, else the sensor's own range check.
@@ -526,16 +553,17 @@ void Cia404Application::on_reset(Node& node, ResetKind kind, TimeUs now) {
     ChannelState& st = state_[ch];
     st.unit = c.fixed_unit;
     if (const OdEntry* u = c.param(Role::kUnit).views[0]; u && !profile_->settings.unit_informational) {
-      if (const UnitChoice* found = find_unit(c, std::uint32_t(node.values().get_u(*u)))) st.unit = *found;
+      if (const UnitChoice* found = find_unit(c, std::uint32_t(node.values().get_u(*u)))) st.unit = resolve(node, *found);
     }
+    if (c.zero_object) st.zero_si = c.fixed_unit.scale.delta_to_si(node.values().get_f(*c.zero_object));
     if (kind != ResetKind::kCommunication) {
-      st.zero_correction = 0.0;
+      if (!c.zero_object) st.zero_si = 0.0;
       apply_filter(node, ch);
     }
     st.have_ref = false;
     st.upper_armed = st.lower_armed = true;
   }
-  event_channels_ = 0;
+  event_channels_ = change_channels_ = 0;
   next_scan_ = now;
   next_check_ = now;
 }
@@ -612,7 +640,7 @@ SdoAbort Cia404Application::check_write(Node& node, const OdEntry& e, std::span<
       if (!u) return s.bad_unit_abort;
       if (s.digits_on_unit_change == DigitsOnUnitChange::kReject && u->max_digits >= 0 && dd > u->max_digits)
         return s.unit_digits_abort;
-      st.pending_unit = *u;
+      st.pending_unit = resolve(node, *u);
       capture(node, b.channel);
       return SdoAbort::kNone;
     }
@@ -645,9 +673,17 @@ void Cia404Application::after_param_write(Node& node, std::size_t ch, const Para
 
 void Cia404Application::autozero(Node& node, std::size_t ch, TimeUs now) {
   // CiA 404 0x6125: the offset is set so that the PV reads 0 now.
+  // Autozero target "correction" (or no offset object): a hidden correction,
+  // kept in SI so it survives unit changes.
   const Measurement m = measure(node, ch, now);
-  if (profile_->channels[ch].param(Role::kOffset).present()) set(node, ch, Role::kOffset, get(node, ch, Role::kOffset) - m.pv);
-  else state_[ch].zero_correction -= m.pv;
+  const ChannelConfig& c = profile_->channels[ch];
+  ChannelState& st = state_[ch];
+  if (c.param(Role::kOffset).present() && !profile_->settings.autozero_to_correction) {
+    set(node, ch, Role::kOffset, get(node, ch, Role::kOffset) - m.pv);
+  } else {
+    st.zero_si -= st.unit.scale.delta_to_si(m.pv);
+    if (c.zero_object) node.values().set_f(*c.zero_object, c.fixed_unit.scale.delta_from_si(st.zero_si));
+  }
   measure(node, ch, now);
 }
 
@@ -689,12 +725,12 @@ void Cia404Application::after_write(Node& node, const OdEntry& e, TimeUs now) {
 
 // ---- events (CiA 404 analogue-input interrupts, TPDO types 254/255)
 
-std::uint32_t Cia404Application::scan_event_channels(const Node& node) const {
+std::uint32_t Cia404Application::scan_event_channels(const Node& node, const ByteSet& types) const {
   std::uint32_t mask = 0;
   const OdValues& v = node.values();
   for (const Cia404Profile::Tpdo& t : profile_->tpdos) {
     if (v.get_u(*t.cob_id) & 0x80000000u) continue;  // PDO not valid
-    if (!profile_->settings.event_tpdo_types.has(std::uint8_t(v.get_u(*t.type)))) continue;
+    if (!types.has(std::uint8_t(v.get_u(*t.type)))) continue;
     const unsigned n = unsigned(std::min<std::uint64_t>(v.get_u(*t.count), 8));
     for (unsigned i = 0; i < n; ++i) {
       if (!t.map[i]) continue;
@@ -713,11 +749,31 @@ TimeUs Cia404Application::check_period(std::size_t ch) const {
   return p > 0 ? p : source_->sample_period_us(profile_->channels[ch].source);
 }
 
+// Change of state: the mapped PV or field value differs from the one of the
+// last change event (the first check after arming always fires).
+bool Cia404Application::changed(Node& node, std::size_t ch) {
+  const ChannelConfig& c = profile_->channels[ch];
+  ChannelState& st = state_[ch];
+  std::uint8_t bytes[8] = {};  // PV in bytes 0-3, field value in bytes 4-7
+  for (int i = 0; i < 2; ++i) {
+    if (const OdEntry* e = c.param(i ? Role::kFieldValue : Role::kPv).views[0]) {
+      const auto v = node.values().bytes(*e);
+      std::memcpy(bytes + 4 * i, v.data(), std::min<std::size_t>(4, v.size()));
+    }
+  }
+  std::uint64_t key = 0;
+  std::memcpy(&key, bytes, sizeof key);
+  if (st.have_change_ref && key == st.change_ref) return false;
+  st.change_ref = key;
+  st.have_change_ref = true;
+  return true;
+}
+
 bool Cia404Application::check_events(Node& node, std::size_t ch, TimeUs now) {
   const ChannelConfig& c = profile_->channels[ch];
   ChannelState& st = state_[ch];
   const double pv = measure(node, ch, now).pv;
-  bool fire = false;
+  bool fire = (change_channels_ >> ch) & 1 ? changed(node, ch) : false;
   // Delta: |PV - PV at the last event| > delta (delta 0 = off).
   const double delta = get(node, ch, Role::kDelta);
   if (c.param(Role::kDelta).present() && delta > 0) {
@@ -762,18 +818,22 @@ bool Cia404Application::check_events(Node& node, std::size_t ch, TimeUs now) {
 TimeUs Cia404Application::process(Node& node, TimeUs now) {
   const TimeUs scan = profile_->settings.config_scan_period_us;
   if (!node.allowed(Service::kPdo)) {
-    event_channels_ = 0;
-    return now + scan;  // woken earlier by on_nmt_state when the NMT layer reports it
+    event_channels_ = change_channels_ = 0;
+    next_scan_ = now;  // rescan once PDOs are allowed again
+    return kNever;     // on_nmt_state wakes the application on the next state change
   }
   if (now >= next_scan_) {
-    const std::uint32_t mask = scan_event_channels(node);
+    const std::uint32_t change = scan_event_channels(node, profile_->settings.change_event_tpdo_types);
+    const std::uint32_t mask = scan_event_channels(node, profile_->settings.event_tpdo_types) | change;
     for (std::size_t ch = 0; ch < state_.size() && ch < 32; ++ch) {
       if ((mask >> ch) & 1 && !((event_channels_ >> ch) & 1)) {
         state_[ch].have_ref = false;
         state_[ch].upper_armed = state_[ch].lower_armed = true;
       }
+      if ((change >> ch) & 1 && !((change_channels_ >> ch) & 1)) state_[ch].have_change_ref = false;
     }
     event_channels_ = mask;
+    change_channels_ = change;
     next_scan_ = now + scan;
   }
   if (!event_channels_) return next_scan_;
