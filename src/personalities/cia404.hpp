@@ -64,6 +64,9 @@ struct UnitChoice {
   std::uint32_t code = 0;
   UnitScale scale;
   int max_digits = -1;  // largest 0x6132 allowed with this unit (-1: OD limits only)
+  // User-scaled unit: one unit = (value of this REAL32 object) x `scale`,
+  // latched when the unit is selected (e.g. Gems 0x2032 "non-SI" pressure).
+  const OdEntry* scale_object = nullptr;
 };
 
 struct ChannelConfig {
@@ -75,6 +78,9 @@ struct ChannelConfig {
   std::uint32_t dependent_roles = 0;  // bit per Role converted on a unit change
   std::vector<UnitChoice> units;   // accepted 0x6131 values
   UnitChoice fixed_unit;           // unit when 0x6131 is absent
+  // Holds the autozero correction in fixed_unit (persisted like any entry);
+  // null: the correction lives in RAM until the next reset node.
+  const OdEntry* zero_object = nullptr;
   const Param& param(Role r) const { return params[std::size_t(r)]; }
 };
 
@@ -85,11 +91,13 @@ struct Cia404Settings {
   TimeUs event_check_period_us = 0;  // 0: the channel's sample period
   TimeUs config_scan_period_us = 100000;
   ByteSet event_tpdo_types;          // TPDO types whose mapped PVs get delta/limit events
+  ByteSet change_event_tpdo_types;   // TPDO types whose mapped PVs get an event on every change
   bool limit_level = false;          // false: one event per crossing (edge)
   bool span_compares_input = false;  // status compares the value before the offset
   bool unit_informational = false;   // 0x6131 accepts any code and converts nothing
   DigitsOnUnitChange digits_on_unit_change = DigitsOnUnitChange::kKeep;
   std::uint32_t autozero_signature = 0x6F72657A;  // "zero"
+  bool autozero_to_correction = false;  // autozero: hidden correction instead of the offset object
   SdoAbort bad_unit_abort = SdoAbort::kInvalidValue;
   SdoAbort bad_autozero_abort = SdoAbort::kInvalidValue;
   SdoAbort digits_abort = SdoAbort::kValueTooHigh;
@@ -215,21 +223,25 @@ class Cia404Application : public Application {
  private:
   struct ChannelState {
     UnitChoice unit;
-    double zero_correction = 0.0;  // autozero without an offset object
+    double zero_si = 0.0;  // autozero correction (SI difference), added to the input
     double delta_ref = 0.0;
     bool have_ref = false;
     bool upper_armed = true;
     bool lower_armed = true;
+    bool have_change_ref = false;
+    std::uint64_t change_ref = 0;  // PV and field value bytes at the last change event
     std::vector<double> captured;  // logical values during a unit / digits write
     UnitChoice pending_unit;
   };
   const UnitChoice* find_unit(const ChannelConfig& c, std::uint32_t code) const;
+  UnitChoice resolve(const Node& node, const UnitChoice& u) const;
   void apply_filter(Node& node, std::size_t ch);
   void capture(const Node& node, std::size_t ch);
   void rerender(Node& node, std::size_t ch, const UnitScale* from, const UnitScale* to);
   void after_param_write(Node& node, std::size_t ch, const Param& p, const OdEntry& written);
   void autozero(Node& node, std::size_t ch, TimeUs now);
-  std::uint32_t scan_event_channels(const Node& node) const;
+  std::uint32_t scan_event_channels(const Node& node, const ByteSet& types) const;
+  bool changed(Node& node, std::size_t ch);
   bool check_events(Node& node, std::size_t ch, TimeUs now);
   TimeUs check_period(std::size_t ch) const;
 
@@ -239,6 +251,7 @@ class Cia404Application : public Application {
   std::uint32_t node_index_;
   std::vector<ChannelState> state_;
   std::uint32_t event_channels_ = 0;  // bit per channel mapped into an event TPDO
+  std::uint32_t change_channels_ = 0;  // subset mapped into a change-event TPDO
   TimeUs next_scan_ = 0;
   TimeUs next_check_ = 0;
 };

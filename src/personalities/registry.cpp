@@ -2,6 +2,7 @@
 
 #include <algorithm>
 
+#include "personalities/dps.hpp"
 #include "personalities/generic.hpp"
 #include "physics/random.hpp"
 
@@ -18,6 +19,7 @@ struct Personality {
 // Device personalities add one line each.
 constexpr Personality kPersonalities[] = {
     {"generic", generic::prepare, generic::make},
+    {"honeywell-dps", dps::prepare, dps::make},
 };
 
 const Personality* find(const std::string& name) {

@@ -29,7 +29,7 @@ float read_f(SimNode& n, std::uint16_t i, std::uint8_t s, TimeUs now) {
 TEST(Generic, UnknownPersonalityNamesFileLineAndKey) {
   config::Profile p = config::parse_profile(
       "name: t\npersonality: wizard\nobjects:\n  - {index: 0x1000, type: UNSIGNED32, access: ro}\n", "t.yaml");
-  EXPECT_EQ(prepare_error(p), "t.yaml:2:14: personality: unknown personality 'wizard' (expected: generic), got 'wizard'");
+  EXPECT_THAT(prepare_error(p), HasSubstr("t.yaml:2:14: personality: unknown personality 'wizard' (expected: generic"));
 }
 
 TEST(Generic, VendorSectionIsValidated) {

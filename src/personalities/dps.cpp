@@ -1,0 +1,122 @@
+#include "personalities/dps.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "config/physics_config.hpp"
+
+namespace cansim::personalities::dps {
+
+namespace {
+
+// Manual Table 24: code and error register. The register's class bits come
+// from the code (0x2xxx current, 0x3xxx voltage); EEPROM adds the manufacturer bit.
+constexpr std::uint16_t kEmcySensorFailure = 0x2201;
+constexpr std::uint16_t kEmcySpanOverflow = 0x3201;
+constexpr std::uint16_t kEmcyEeprom = 0x5000;
+constexpr std::uint8_t kManufacturerBit = 0x80;
+
+Settings parse_settings(const config::Profile& profile) {
+  Settings s;
+  const YAML::Node& v = profile.personality_params;
+  if (!v || !v.IsMap()) return s;
+  const config::Where w{profile.file, "vendor"};
+  if (v["span_overflow_emcy"]) s.span_overflow_emcy = config::get_bool(w.child("span_overflow_emcy"), v["span_overflow_emcy"]);
+  if (v["autozero_shifts_span"])
+    s.autozero_shifts_span = config::get_bool(w.child("autozero_shifts_span"), v["autozero_shifts_span"]);
+  if (v["span_check_period"]) {
+    const double sec = config::get_quantity(w.child("span_check_period"), v["span_check_period"], config::Dim::kTime);
+    if (!(sec > 0)) config::fail(w.child("span_check_period"), v["span_check_period"], "expected a time > 0");
+    s.span_check_period_us = std::max<TimeUs>(1, TimeUs(std::llround(sec * 1e6)));
+  }
+  return s;
+}
+
+}  // namespace
+
+DpsApplication::DpsApplication(const PreparedProfile& prepared, std::unique_ptr<MeasurementSource> source,
+                               const physics::FaultSet* faults, std::uint32_t node_index)
+    : Cia404Application(prepared.cia404, std::move(source), prepared.identity, node_index),
+      settings_(prepared.device ? *std::static_pointer_cast<const Settings>(prepared.device) : Settings{}),
+      faults_(faults) {}
+
+void DpsApplication::on_reset(Node& node, ResetKind kind, TimeUs now) {
+  Cia404Application::on_reset(node, kind, now);
+  serial_ = node.od().find(0x1018, 4);
+  serial_copy_ = node.od().find(0x200E, 0);
+  overflows_ = node.od().find(0x2004, 0);
+  underflows_ = node.od().find(0x2005, 0);
+  if (serial_ && serial_copy_) node.values().set_u(*serial_copy_, node.values().get_u(*serial_));
+  span_ = Span::kInside;
+  sensor_failed_ = false;
+  next_check_ = now;
+  const bool eeprom_bad = node.store().corrupt() || (faults_ && faults_->active(physics::FaultKind::EepromError, now));
+  if (kind != ResetKind::kCommunication && eeprom_bad) node.emcy().raise(kEmcyEeprom, kManufacturerBit, now);
+  node.wake_app(now);
+}
+
+// Manual §10.5: autozero changes "all the objects associated with process
+// value" (Table 18), so span start / end move with the offset.
+void DpsApplication::after_write(Node& node, const OdEntry& e, TimeUs now) {
+  const Cia404Profile::Binding& b = profile().binding(e);
+  if (b.role != Role::kAutozero || !settings_.autozero_shifts_span) {
+    Cia404Application::after_write(node, e, now);
+    return;
+  }
+  const double before = get(node, b.channel, Role::kOffset);
+  Cia404Application::after_write(node, e, now);
+  const double delta = get(node, b.channel, Role::kOffset) - before;
+  for (Role r : {Role::kSpanStart, Role::kSpanEnd}) set(node, b.channel, r, get(node, b.channel, r) + delta);
+}
+
+TimeUs DpsApplication::process(Node& node, TimeUs now) {
+  const TimeUs next = Cia404Application::process(node, now);
+  if (now >= next_check_) {
+    check_span(node, now);
+    next_check_ = now + settings_.span_check_period_us;
+  }
+  return std::min(next, next_check_);
+}
+
+void DpsApplication::count(Node& node, const OdEntry* counter) {
+  if (!counter) return;
+  const std::uint64_t n = node.values().get_u(*counter);
+  if (n < 0xFFFFFFFFu) node.values().set_u(*counter, n + 1);
+}
+
+// 0x2004 / 0x2005 count crossings of span end / start (appendix); EMCY 0x3201
+// once per excursion and its reset when back inside (manual §9: "or a source
+// of error is removed").
+void DpsApplication::check_span(Node& node, TimeUs now) {
+  const Measurement m = measure(node, 0, now);
+  const bool failed = m.status & physics::kStatusInvalid;
+  if (failed != sensor_failed_) {
+    if (failed) node.emcy().raise(kEmcySensorFailure, 0, now);
+    else node.emcy().clear(kEmcySensorFailure, now);
+    sensor_failed_ = failed;
+  }
+  const Span s = (m.status & physics::kStatusPositiveOverload)   ? Span::kOver
+                 : (m.status & physics::kStatusNegativeOverload) ? Span::kUnder
+                                                                 : Span::kInside;
+  if (s == span_) return;
+  if (s == Span::kOver) count(node, overflows_);
+  if (s == Span::kUnder) count(node, underflows_);
+  if (settings_.span_overflow_emcy) {
+    if (span_ == Span::kInside) node.emcy().raise(kEmcySpanOverflow, 0, now);
+    else if (s == Span::kInside) node.emcy().clear(kEmcySpanOverflow, now);
+  }
+  span_ = s;
+}
+
+void prepare(config::Profile& profile, PreparedProfile& prepared) {
+  check_vendor_keys(profile, {"span_overflow_emcy", "autozero_shifts_span", "span_check_period"});
+  prepared.device = std::make_shared<const Settings>(parse_settings(profile));
+}
+
+std::unique_ptr<Application> make(const config::Profile&, const PreparedProfile& prepared, const NodeContext& ctx) {
+  auto source = make_sensor_source(prepared, ctx);
+  const physics::FaultSet* faults = &source->faults();
+  return std::make_unique<DpsApplication>(prepared, std::move(source), faults, ctx.index);
+}
+
+}  // namespace cansim::personalities::dps

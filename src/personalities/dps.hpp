@@ -1,0 +1,51 @@
+// `honeywell-dps` personality: Honeywell Model DPS digital pressure sensor
+// (manual 50085804 Rev. B). The CiA 404 chain does units, offset, autozero,
+// span and the type-0 change events; this adds what the manual adds on top:
+// span overflow / underflow counters 0x2004 / 0x2005 with EMCY 0x3201,
+// sensor failure EMCY 0x2201, EEPROM EMCY 0x5000, 0x200E = serial number,
+// and the autozero that shifts span start / end too (manual §10.5).
+// Device switches (vendor section): docs/devices/dps.md.
+#pragma once
+
+#include <memory>
+
+#include "personalities/registry.hpp"
+
+namespace cansim::personalities::dps {
+
+struct Settings {
+  bool span_overflow_emcy = true;    // EMCY 0x3201 while the PV is outside the span
+  bool autozero_shifts_span = true;  // autozero moves 0x6148 / 0x6149 by the offset change
+  TimeUs span_check_period_us = 1000;
+};
+
+class DpsApplication : public Cia404Application {
+ public:
+  DpsApplication(const PreparedProfile& prepared, std::unique_ptr<MeasurementSource> source,
+                 const physics::FaultSet* faults, std::uint32_t node_index);
+
+  void on_reset(Node& node, ResetKind kind, TimeUs now) override;
+  void after_write(Node& node, const OdEntry& e, TimeUs now) override;
+  TimeUs process(Node& node, TimeUs now) override;
+
+ private:
+  enum class Span : std::uint8_t { kInside, kOver, kUnder };
+  void check_span(Node& node, TimeUs now);
+  void count(Node& node, const OdEntry* counter);
+
+  Settings settings_;
+  const physics::FaultSet* faults_;
+  const OdEntry* serial_ = nullptr;     // 0x1018:04
+  const OdEntry* serial_copy_ = nullptr;  // 0x200E
+  const OdEntry* overflows_ = nullptr;  // 0x2004
+  const OdEntry* underflows_ = nullptr;  // 0x2005
+  Span span_ = Span::kInside;
+  bool sensor_failed_ = false;
+  TimeUs next_check_ = 0;
+};
+
+void prepare(config::Profile& profile, PreparedProfile& prepared);
+std::unique_ptr<Application> make(const config::Profile& profile, const PreparedProfile& prepared,
+                                  const NodeContext& ctx);
+
+}  // namespace cansim::personalities::dps
