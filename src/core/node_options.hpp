@@ -62,6 +62,9 @@ namespace cansim {
   X(int64_t, tpdo_bad_type_abort, 0x06090030, "abort code for a refused transmission type")      \
   X(int64_t, tpdo_min_event_timer_ms, 0, "smallest non-zero TPDO event timer accepted (0: any)")  \
   X(int64_t, tpdo_event_timer_low_abort, 0x06090032, "abort code for an event timer below the minimum")\
+  X(std::string, tpdo_event_timer_types, "254-255",                                               \
+    "TPDO types whose event timer expiry sends the PDO (others leave it to the application)")    \
+  X(bool, tpdo_send_empty_mapping, false, "a valid TPDO whose mapping has 0 entries sends DLC 0")  \
   X(bool, tpdo_send_on_start, false, "event-driven TPDOs send once on entering OPERATIONAL")      \
   X(bool, tpdo_rtr_supported, true, "answer RTRs on TPDO COB-IDs whose bit 30 is 0")              \
   X(bool, tpdo_rtr_any_type, true, "answer RTRs for every transmission type, not only 252/253")   \

@@ -142,6 +142,7 @@ PdoEngine::PdoEngine(Node& node) : node_(node) {
   rpdos_.shrink_to_fit();
   if (!ByteSet::parse(node_.options().tpdo_allowed_types, allowed_types_))
     ByteSet::parse("0-240,252-255", allowed_types_);
+  if (!ByteSet::parse(node_.options().tpdo_event_timer_types, timer_types_)) ByteSet::parse("254-255", timer_types_);
 }
 
 void PdoEngine::reset(TimeUs now) {
@@ -197,7 +198,7 @@ void PdoEngine::arm(Tpdo& t, TimeUs now) {
   if (!valid(t.cfg) || !event_driven(t.cfg.type)) return;
   if (node_.options().tpdo_send_on_start && t.cfg.item_count > 0) {
     send_event_driven(t, now, now);
-  } else if (t.cfg.event_ms > 0) {
+  } else if (timer_sends(t.cfg)) {
     t.event_due = now + ms(t.cfg.event_ms);
   }
 }
@@ -238,9 +239,11 @@ void PdoEngine::load(PdoConfig& cfg, bool tx) {
 void PdoEngine::load_mapping(PdoConfig& cfg, bool tx) {
   cfg.item_count = 0;
   cfg.bits = 0;
+  cfg.declared_empty = false;
   const OdEntry* count = node_.od().find(cfg.map_index, 0);
   if (!count) return;
   const auto n = unsigned(std::min<std::uint64_t>(node_.values().get_u(*count), PdoConfig::kMaxItems));
+  cfg.declared_empty = n == 0;
   unsigned bits = 0;
   for (unsigned i = 1; i <= n; ++i) {
     const OdEntry* e = node_.od().find(cfg.map_index, std::uint8_t(i));
@@ -436,14 +439,14 @@ void PdoEngine::after_config_change(PdoConfig& cfg, bool tx, std::uint8_t comm_s
   Tpdo& t = *find_tpdo(cfg);
   if (!operational_) return;
   if (comm_sub == kSubEvent) {
-    t.event_due = valid(cfg) && event_driven(cfg.type) && cfg.event_ms ? now + ms(cfg.event_ms) : kNever;
+    t.event_due = valid(cfg) && event_driven(cfg.type) && timer_sends(cfg) ? now + ms(cfg.event_ms) : kNever;
   } else if (comm_sub == kSubCobId || comm_sub == kSubType || comm_sub == 0) {
     const TimeUs inhibit = t.inhibit_until;
     t.event_due = kNever;
     t.event_pending = false;
     t.sampled = false;
     t.sync_phase = kPhaseUnarmed;
-    if (valid(cfg) && event_driven(cfg.type) && cfg.event_ms) t.event_due = now + ms(cfg.event_ms);
+    if (valid(cfg) && event_driven(cfg.type) && timer_sends(cfg)) t.event_due = now + ms(cfg.event_ms);
     t.inhibit_until = std::max(inhibit, now);
   }
 }
@@ -569,7 +572,7 @@ void PdoEngine::send_event_driven(Tpdo& t, TimeUs now, TimeUs timer_base) {
   transmit(t, now);
   t.inhibit_until = now + TimeUs(t.cfg.inhibit_100us) * 100;
   // The event timer restarts with every event-driven transmission.
-  t.event_due = t.cfg.event_ms ? timer_base + ms(t.cfg.event_ms) : kNever;
+  t.event_due = timer_sends(t.cfg) ? timer_base + ms(t.cfg.event_ms) : kNever;
 }
 
 void PdoEngine::raise_event(unsigned tpdo_number) {
@@ -598,9 +601,18 @@ void PdoEngine::raise_event_for(const OdEntry& e) {
   }
 }
 
+void PdoEngine::mapping_changed(unsigned tpdo_number, TimeUs now) {
+  sync_state(now);
+  for (Tpdo& t : tpdos_)
+    if (unsigned(t.cfg.comm_index - kTpdoComm + 1) == tpdo_number) after_config_change(t.cfg, true, 0, now);
+  node_.rx_changed();
+  update_deadline();
+}
+
 // Samples the mapped objects (live values through the application) into a frame.
 bool PdoEngine::build(Tpdo& t, TimeUs now, CanFrame& out) {
-  if (t.cfg.item_count == 0) return false;  // an empty mapping sends nothing
+  // An empty mapping sends nothing, unless the vendor sends DLC 0 frames for it.
+  if (t.cfg.item_count == 0 && !(t.cfg.declared_empty && node_.options().tpdo_send_empty_mapping)) return false;
   out = CanFrame{};
   out.id = can_id(t.cfg.cobid);
   if (t.cfg.cobid & kPdoCobFrame) out.flags = CanFrame::kExtended;

@@ -51,6 +51,7 @@ struct PdoConfig {
   std::uint8_t sync_start = 0;
   std::uint8_t item_count = 0;  // 0 when the stored mapping is empty or invalid
   std::uint8_t bits = 0;        // total mapped length
+  bool declared_empty = false;  // sub 0 of the mapping is 0 (not: an invalid mapping)
   std::array<PdoMapItem, kMaxItems> items{};
 };
 
@@ -105,6 +106,9 @@ class PdoEngine {
   void raise_event(unsigned tpdo_number, TimeUs now);
   // Raises an event on every valid event-driven/acyclic TPDO that maps `e`.
   void raise_event_for(const OdEntry& e);
+  // The application rewrote the mapping of a TPDO (vendor mapping modes):
+  // re-read it and restart the PDO as a mapping write does. 1-based number.
+  void mapping_changed(unsigned tpdo_number, TimeUs now);
 
   std::size_t tpdo_count() const { return tpdos_.size(); }
   std::size_t rpdo_count() const { return rpdos_.size(); }
@@ -132,6 +136,7 @@ class PdoEngine {
 
   // ---- TPDO
   static bool event_driven(std::uint8_t type) { return type >= 254; }
+  bool timer_sends(const PdoConfig& cfg) const { return cfg.event_ms && timer_types_.has(cfg.type); }
   void on_sync_tpdo(Tpdo& t, std::uint8_t counter, TimeUs now);
   void on_sync_cyclic(Tpdo& t, std::uint8_t counter, TimeUs now);
   void on_rtr(Tpdo& t, TimeUs now);
@@ -151,6 +156,7 @@ class PdoEngine {
   std::vector<Tpdo> tpdos_;  // sized once at construction
   std::vector<Rpdo> rpdos_;
   ByteSet allowed_types_;    // tpdo_allowed_types, parsed once
+  ByteSet timer_types_;      // tpdo_event_timer_types, parsed once
   TimeUs next_ = kNever;
   TimeUs last_now_ = 0;      // latest time seen; "due now" for state detection
   bool operational_ = false;  // node_.allowed(Service::kPdo) as last seen

@@ -57,7 +57,7 @@ const RoleInfo* role_by_name(const std::string& name) {
 }
 
 void add_view(Param& p, const OdEntry* e) {
-  if (!e || p.count == 3) return;
+  if (!e || p.count == 4) return;
   // The REAL view is the primary: it holds the value without rounding.
   if (is_real(e->type) && p.count && !is_real(p.views[0]->type)) {
     for (int i = p.count; i > 0; --i) p.views[i] = p.views[i - 1];
@@ -106,7 +106,7 @@ struct ProfileBuilder {
     ByteSet::parse("254-255", s.event_tpdo_types);
     if (!section || section.IsNull()) return;
     config::check_keys(w, section,
-                       {"event_check_period", "config_scan_period", "event_tpdo_types", "change_event_tpdo_types", "limit_trigger", "span_compare",
+                       {"event_check_period", "config_scan_period", "event_channels", "filter_type_without_object", "event_tpdo_types", "change_event_tpdo_types", "limit_trigger", "span_compare",
                         "unit_informational", "digits_on_unit_change", "autozero_signature", "autozero_target", "bad_unit_abort",
                         "bad_autozero_abort", "digits_abort", "unit_digits_abort", "negative_abort", "channels"});
     auto time_us = [&](const char* key, TimeUs& field) {
@@ -122,6 +122,19 @@ struct ProfileBuilder {
                             std::pair{"change_event_tpdo_types", &s.change_event_tpdo_types}}) {
       if (section[key] && !ByteSet::parse(config::get_string(w.child(key), section[key]), *set))
         fail(w.child(key), section[key], "expected ranges like '254-255'");
+    }
+    if (section["event_channels"]) {
+      std::string v = config::get_string(w.child("event_channels"), section["event_channels"]);
+      if (v != "mapped" && v != "all") fail(w.child("event_channels"), section["event_channels"], "expected mapped or all");
+      s.events_all_channels = v == "all";
+    }
+    if (section["filter_type_without_object"]) {
+      const YAML::Node& n = section["filter_type_without_object"];
+      std::string v = config::get_string(w.child("filter_type_without_object"), n);
+      if (v == "none") s.filter_type_without_object = 0;
+      else if (v == "moving_average") s.filter_type_without_object = 1;
+      else if (v == "repeating_average") s.filter_type_without_object = 2;
+      else fail(w.child("filter_type_without_object"), n, "expected none, moving_average or repeating_average");
     }
     if (section["limit_trigger"]) {
       std::string v = config::get_string(w.child("limit_trigger"), section["limit_trigger"]);
@@ -192,6 +205,7 @@ struct ProfileBuilder {
       add_view(p, entry(r.index, c.sub));
       if (r.twins) {
         add_view(p, entry(std::uint16_t(r.index + 0x1000), c.sub));
+        add_view(p, entry(std::uint16_t(r.index + 0x2000), c.sub));
         add_view(p, entry(std::uint16_t(r.index + 0x3000), c.sub));
       }
     }
@@ -224,7 +238,7 @@ struct ProfileBuilder {
         std::uint16_t index = index_of(wi, list[i]);
         const OdEntry* e = entry(index, c.sub);
         if (!e) fail(wi, list[i], "no such object for channel " + std::to_string(c.sub) + " in the objects list");
-        if (p.count == 3) fail(wi, list[i], "at most three views (REAL32 and two integer twins)");
+        if (p.count == 4) fail(wi, list[i], "at most four views (REAL32 and three integer twins)");
         add_view(p, e);
       }
     }
@@ -532,11 +546,12 @@ Cia404Application::Measurement Cia404Application::measure(Node& node, std::size_
 void Cia404Application::apply_filter(Node& node, std::size_t ch) {
   const ChannelConfig& c = profile_->channels[ch];
   const OdEntry* type = c.param(Role::kFilterType).views[0];
-  if (!type) return;
+  const std::uint64_t fallback = profile_->settings.filter_type_without_object;
+  if (!type && fallback == 0) return;
   const OdEntry* constant = c.param(Role::kFilterConstant).views[0];
   physics::FilterSpec f;
   // CiA 404 0x61A0: 0 none, 1 moving average, 2 repeating average.
-  switch (node.values().get_u(*type)) {
+  switch (type ? node.values().get_u(*type) : fallback) {
     case 1: f.type = physics::FilterType::MovingAverage; break;
     case 2: f.type = physics::FilterType::RepeatingAverage; break;
     default: f.type = physics::FilterType::None; break;
@@ -773,7 +788,7 @@ bool Cia404Application::check_events(Node& node, std::size_t ch, TimeUs now) {
   const ChannelConfig& c = profile_->channels[ch];
   ChannelState& st = state_[ch];
   const double pv = measure(node, ch, now).pv;
-  bool fire = (change_channels_ >> ch) & 1 ? changed(node, ch) : false;
+  unsigned events = (change_channels_ >> ch) & 1 && changed(node, ch) ? kEventChange : 0u;
   // Delta: |PV - PV at the last event| > delta (delta 0 = off).
   const double delta = get(node, ch, Role::kDelta);
   if (c.param(Role::kDelta).present() && delta > 0) {
@@ -781,7 +796,7 @@ bool Cia404Application::check_events(Node& node, std::size_t ch, TimeUs now) {
       st.delta_ref = pv;
       st.have_ref = true;
     } else if (std::fabs(pv - st.delta_ref) > delta) {
-      fire = true;
+      events |= kEventDelta;
     }
   }
   // Limits: one event per crossing; re-armed once back inside by the hysteresis.
@@ -790,29 +805,37 @@ bool Cia404Application::check_events(Node& node, std::size_t ch, TimeUs now) {
   if (c.param(Role::kUpperLimit).present()) {
     const double upper = get(node, ch, Role::kUpperLimit);
     if (pv > upper && (st.upper_armed || level)) {
-      fire = true;
+      events |= kEventUpperUp;
       st.upper_armed = false;
     } else if (pv <= upper - hyst) {
+      if (!st.upper_armed) events |= kEventUpperDown;
       st.upper_armed = true;
     }
   }
   if (c.param(Role::kLowerLimit).present()) {
     const double lower = get(node, ch, Role::kLowerLimit);
     if (pv < lower && (st.lower_armed || level)) {
-      fire = true;
+      events |= kEventLowerDown;
       st.lower_armed = false;
     } else if (pv >= lower + hyst) {
+      if (!st.lower_armed) events |= kEventLowerUp;
       st.lower_armed = true;
     }
   }
-  if (!fire) return false;
-  st.delta_ref = pv;  // the TPDO carries this value
-  st.have_ref = true;
+  if (events & kEventsRaising) {
+    st.delta_ref = pv;  // the TPDO carries this value
+    st.have_ref = true;
+  }
+  if (events) on_channel_events(node, ch, events, now);
+  return (events & kEventsRaising) != 0;
+}
+
+void Cia404Application::on_channel_events(Node& node, std::size_t ch, unsigned events, TimeUs) {
+  if (!(events & kEventsRaising)) return;
   for (Role r : {Role::kPv, Role::kFieldValue, Role::kStatus}) {
-    const Param& p = c.param(r);
+    const Param& p = profile_->channels[ch].param(r);
     for (int i = 0; i < p.count; ++i) raise_pdo_event(node, *p.views[i]);
   }
-  return true;
 }
 
 TimeUs Cia404Application::process(Node& node, TimeUs now) {
@@ -824,7 +847,9 @@ TimeUs Cia404Application::process(Node& node, TimeUs now) {
   }
   if (now >= next_scan_) {
     const std::uint32_t change = scan_event_channels(node, profile_->settings.change_event_tpdo_types);
-    const std::uint32_t mask = scan_event_channels(node, profile_->settings.event_tpdo_types) | change;
+    const std::uint32_t all = state_.size() >= 32 ? ~0u : (1u << state_.size()) - 1u;
+    const std::uint32_t mask =
+        (profile_->settings.events_all_channels ? all : scan_event_channels(node, profile_->settings.event_tpdo_types)) | change;
     for (std::size_t ch = 0; ch < state_.size() && ch < 32; ++ch) {
       if ((mask >> ch) & 1 && !((event_channels_ >> ch) & 1)) {
         state_[ch].have_ref = false;

@@ -2,8 +2,8 @@
 //
 // One chain per analogue-input channel (channel n = sub-index n of the 0x61xx
 // objects). A channel's logical values (PV, offset, span, limits, ...) are each
-// seen through up to three OD views: REAL32 (0x61xx) and the INTEGER16
-// (0x71xx) / INTEGER32 (0x91xx) twins, whose integers are value x 10^digits
+// seen through up to four OD views: REAL32 (0x61xx) and the INTEGER16
+// (0x71xx) / INTEGER24 (0x81xx) / INTEGER32 (0x91xx) twins, whose integers are value x 10^digits
 // (0x6132). Which objects exist, their types, the accepted units and which
 // objects follow a unit change are profile data; a device personality
 // derives from Cia404Application and overrides only what its manual says
@@ -53,7 +53,7 @@ constexpr std::size_t kRoleCount = std::size_t(Role::kExtra);
 // One logical value of a channel and its OD views; views[0] is the primary
 // (the REAL32 view when there is one).
 struct Param {
-  const OdEntry* views[3] = {};
+  const OdEntry* views[4] = {};
   std::uint8_t count = 0;
   bool difference = false;  // converted without zero shift on a unit change
 
@@ -84,6 +84,17 @@ struct ChannelConfig {
   const Param& param(Role r) const { return params[std::size_t(r)]; }
 };
 
+// What one event check of a channel found (Cia404Application::on_channel_events).
+enum : unsigned {
+  kEventChange = 0x01,     // the mapped value changed (change_event_tpdo_types)
+  kEventDelta = 0x02,      // |PV - reference| > delta
+  kEventUpperUp = 0x04,    // PV rose above the upper limit
+  kEventUpperDown = 0x08,  // PV fell back to upper limit - hysteresis (re-armed)
+  kEventLowerDown = 0x10,  // PV fell below the lower limit
+  kEventLowerUp = 0x20,    // PV rose back to lower limit + hysteresis (re-armed)
+  kEventsRaising = kEventChange | kEventDelta | kEventUpperUp | kEventLowerDown,
+};
+
 enum class DigitsOnUnitChange : std::uint8_t { kKeep, kReject, kClamp, kAdjust };
 
 // Chain settings (profile `vendor: cia404:`), default = CiA 404 behaviour.
@@ -92,6 +103,8 @@ struct Cia404Settings {
   TimeUs config_scan_period_us = 100000;
   ByteSet event_tpdo_types;          // TPDO types whose mapped PVs get delta/limit events
   ByteSet change_event_tpdo_types;   // TPDO types whose mapped PVs get an event on every change
+  bool events_all_channels = false;  // check delta / limits on every channel, mapped or not
+  std::uint8_t filter_type_without_object = 0;  // 0x61A0 value assumed when the profile has none
   bool limit_level = false;          // false: one event per crossing (edge)
   bool span_compares_input = false;  // status compares the value before the offset
   bool unit_informational = false;   // 0x6131 accepts any code and converts nothing
@@ -215,6 +228,10 @@ class Cia404Application : public Application {
   }
   // Raises a TPDO event for a mapped entry (CiA 301 §7.2.2.2).
   virtual void raise_pdo_event(Node& node, const OdEntry& e) { node.pdo().raise_event_for(e); }
+  // Delta / limit results of one check of channel `ch` (kEvent* bits). The
+  // default raises a TPDO event for the mapped PV, field value and status on
+  // kEventsRaising; vendors with their own event routing override it.
+  virtual void on_channel_events(Node& node, std::size_t ch, unsigned events, TimeUs now);
 
   double param_value(const Node& node, const Param& p, int digits) const;
   void store_param(Node& node, const Param& p, double value, int digits);

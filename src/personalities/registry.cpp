@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "personalities/dps.hpp"
+#include "personalities/cmp.hpp"
 #include "personalities/generic.hpp"
 #include "physics/random.hpp"
 
@@ -19,6 +20,7 @@ struct Personality {
 // Device personalities add one line each.
 constexpr Personality kPersonalities[] = {
     {"generic", generic::prepare, generic::make},
+    {"trafag-cmp", cmp::prepare, cmp::make},
     {"honeywell-dps", dps::prepare, dps::make},
 };
 

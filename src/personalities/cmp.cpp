@@ -1,0 +1,352 @@
+#include "personalities/cmp.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cstring>
+#include <string>
+
+#include "config/physics_config.hpp"
+
+namespace cansim::personalities::cmp {
+
+namespace {
+
+using config::fail;
+using config::Where;
+
+constexpr unsigned kPdoCount = 4;
+constexpr unsigned kMaxMode = 37;
+constexpr unsigned kMaxEntries = 4;  // 0x1A0x subs 1..4
+
+// Vendor objects (0x2001 is printed in the manual, the rest are placeholders).
+constexpr std::uint16_t kBaudRate = 0x2001;
+constexpr std::uint16_t kMappingMode = 0x2100;
+constexpr std::uint16_t kAutoStart = 0x2200;
+constexpr std::uint16_t kEventMask = 0x2201;
+constexpr std::uint16_t kSpecialMessages = 0x2210;  // P 0x2210..13, T 0x2214..17
+constexpr std::uint16_t kLimitEventType = 0x2220;
+constexpr std::uint16_t kLastNodeError = 0x2230;
+constexpr std::uint16_t kNodeSubError = 0x2231;
+constexpr std::uint16_t kMsCounter = 0x2240;
+constexpr std::uint16_t kActualMessage = 0x2245;  // P 0x2245, T 0x2246
+
+// LimitEventType values; special message object = kSpecialMessages + 4 * channel + value - 1.
+enum : std::uint8_t { kNoLimitEvent, kLowerLimitUp, kLowerLimitDown, kUpperLimitUp, kUpperLimitDown };
+
+// EMCY codes of the "Permanent Autotest" (manual, Error Messages).
+constexpr std::uint16_t kEmcyDeviceTemperature = 0x4200;
+constexpr std::uint16_t kEmcyDataSet = 0x6300;
+constexpr std::uint16_t kSubUserPageChecksums = 0x0030;  // EEPromUser{Comm,Appl}Page_Checksum
+constexpr std::size_t kSubCodeOffset = 3;                // NodeSubErrorCode in EMCY bytes 6-7
+
+constexpr std::uint16_t kBitRatesKbit[10] = {1000, 800, 500, 250, 125, 100, 50, 20, 10, 0};  // 9 = automatic
+constexpr TimeUs kFaultPoll = 10000;
+
+struct MappingMode {
+  bool defined = false;
+  std::uint8_t count = 0;
+  std::uint32_t entries[kMaxEntries] = {};
+  std::uint8_t event_mask = 0;
+};
+
+struct Settings {
+  std::array<MappingMode, kMaxMode + 1> modes;
+  TimeUs start_indication_delay = 250000;
+  std::uint8_t start_indication_node_id = 0;
+  bool timer_repeats_beyond_limits = true;  // the core timer does not send type 254
+};
+
+int bit_rate_index(std::uint64_t kbit) {
+  for (int i = 0; i < 10; ++i)
+    if (kBitRatesKbit[i] == kbit) return i;
+  return -1;
+}
+
+// EventMask bits (manual "EventMask-Bit-Allocation"): P lower 0, P upper 1,
+// T lower 2, T upper 3, P delta 4, T delta 5.
+std::uint8_t lower_bit(QuantityKind k) { return k == QuantityKind::kPressure ? 0x01 : 0x04; }
+std::uint8_t upper_bit(QuantityKind k) { return k == QuantityKind::kPressure ? 0x02 : 0x08; }
+std::uint8_t delta_bit(QuantityKind k) { return k == QuantityKind::kPressure ? 0x10 : 0x20; }
+
+void check_entry(const Where& w, const YAML::Node& n, const OdLayout& layout, std::uint32_t raw, unsigned& bits) {
+  const OdEntry* e = layout.find(std::uint16_t(raw >> 16), std::uint8_t(raw >> 8));
+  const unsigned len = raw & 0xFF;
+  if (!e || !e->pdo_mappable) fail(w, n, "expected a PDO-mappable object of this profile");
+  const bool fits = is_variable_size(e->type) ? len % 8 == 0 && len && len / 8 <= e->capacity : len == 8 * type_size(e->type);
+  if (!fits) fail(w, n, "the length in bits does not fit the object's type");
+  bits += len;
+}
+
+MappingMode parse_mode(const Where& w, const YAML::Node& m, const OdLayout& layout) {
+  config::check_keys(w, m, {"entries", "event_mask"});
+  MappingMode mode;
+  mode.defined = true;
+  const YAML::Node& list = m["entries"];
+  if (!list || !list.IsSequence()) fail(w.child("entries"), m, "expected a list of mapping entries");
+  if (list.size() > kMaxEntries) fail(w.child("entries"), list, "at most 4 entries (0x1A0x subs 1..4)");
+  unsigned bits = 0;
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const auto raw = std::uint32_t(config::get_int(w.child("entries").item(i), list[i], 1, 0xFFFFFFFF));
+    check_entry(w.child("entries").item(i), list[i], layout, raw, bits);
+    mode.entries[mode.count++] = raw;
+  }
+  if (bits > 64) fail(w.child("entries"), list, "more than 8 bytes");
+  if (m["event_mask"]) mode.event_mask = std::uint8_t(config::get_int(w.child("event_mask"), m["event_mask"], 0, 0x3F));
+  return mode;
+}
+
+Settings parse_settings(const config::Profile& profile) {
+  Settings s;
+  const YAML::Node& v = profile.personality_params;
+  const Where w{profile.file, "vendor"};
+  if (v && v.IsMap() && v["mapping_modes"]) {
+    const YAML::Node& modes = v["mapping_modes"];
+    const Where wm = w.child("mapping_modes");
+    if (!modes.IsMap()) fail(wm, modes, "expected a mapping of mode numbers to {entries, event_mask}");
+    for (const auto& kv : modes) {
+      const auto mode = unsigned(config::get_int(wm, kv.first, 1, kMaxMode));
+      s.modes[mode] = parse_mode(wm.child(kv.first.Scalar()), kv.second, *profile.layout);
+    }
+  }
+  if (v && v.IsMap() && v["start_indication_delay"]) {
+    const double t = config::get_quantity(w.child("start_indication_delay"), v["start_indication_delay"], config::Dim::kTime);
+    if (t < 0) fail(w.child("start_indication_delay"), v["start_indication_delay"], "expected a time >= 0");
+    s.start_indication_delay = TimeUs(t * 1e6 + 0.5);
+  }
+  if (v && v.IsMap() && v["start_indication_node_id"])
+    s.start_indication_node_id = std::uint8_t(config::get_int(w.child("start_indication_node_id"), v["start_indication_node_id"], 0, 127));
+  ByteSet timer_types;
+  s.timer_repeats_beyond_limits = ByteSet::parse(profile.options->tpdo_event_timer_types, timer_types) && !timer_types.has(254);
+  return s;
+}
+
+class CmpApplication : public Cia404Application {
+ public:
+  CmpApplication(std::shared_ptr<const Settings> settings, const PreparedProfile& prepared,
+                 std::unique_ptr<SensorSource> source, std::uint32_t node_index)
+      : CmpApplication(std::move(settings), prepared, &source->faults(), std::move(source), node_index) {}
+
+  void on_reset(Node& node, ResetKind kind, TimeUs now) override {
+    Cia404Application::on_reset(node, kind, now);
+    if (kind != ResetKind::kCommunication) apply_baud_rate(node);
+    for (unsigned n = 1; n <= kPdoCount; ++n) apply_mapping_mode(node, n, false, now);
+    limit_state_.fill(kNoLimitEvent);
+    repeat_due_.fill(kNever);
+    indication_due_ = kNever;
+    auto_resume_ = false;
+    auto_start_ = node.values().u(kAutoStart, 0) == 1;
+    if (kind != ResetKind::kCommunication) self_test_at_start_up(node, now);
+    // Auto-Start: OPERATIONAL after initialisation (NMT section); 0x1F80 bit 3
+    // is read by the core. A start-up fault holds the node in (AUTO-)PRE-OPERATIONAL.
+    const bool fault = node.emcy().active_count() != 0;
+    BootPlan& plan = node.nmt().boot_plan();
+    plan.self_start = !fault && (plan.self_start || auto_start_);
+    auto_resume_ = auto_start_ && fault;
+  }
+
+  void on_nmt_state(Node& node, NmtState state, TimeUs now) override {
+    Cia404Application::on_nmt_state(node, state, now);
+    const bool indication = (node.values().u(0x1F80, 0) & 0x02) != 0;
+    indication_due_ = state == NmtState::kOperational && indication ? now + settings_->start_indication_delay : kNever;
+    node.wake_app(now);
+  }
+
+  void refresh(Node& node, const OdEntry& e, TimeUs now) override {
+    switch (e.index) {
+      case kMsCounter: node.values().set_u(e, std::uint64_t(now / 1000) & 0xFF); return;
+      case kActualMessage:
+      case kActualMessage + 1: return render_special_message(node, e, e.index - kActualMessage);
+      case kLastNodeError: {
+        const std::uint64_t newest = node.emcy().active_count() ? node.values().u(0x1003, 1) & 0xFFFF : 0;
+        node.values().set_u(e, newest);
+        return;
+      }
+      default: Cia404Application::refresh(node, e, now);
+    }
+  }
+
+  SdoAbort check_write(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now) override {
+    if (e.index == kMappingMode) {
+      const std::uint64_t mode = decode_u(e.type, data.data());
+      return mode <= kMaxMode && settings_->modes[mode].defined ? SdoAbort::kNone : SdoAbort::kInvalidValue;
+    }
+    if (e.index == kBaudRate) return bit_rate_index(decode_u(e.type, data.data())) < 0 ? SdoAbort::kInvalidValue : SdoAbort::kNone;
+    return Cia404Application::check_write(node, e, data, now);
+  }
+
+  void after_write(Node& node, const OdEntry& e, TimeUs now) override {
+    if (e.index == kMappingMode) return apply_mapping_mode(node, e.sub, true, now);
+    if (e.index == kBaudRate) return;  // active after the next reset (like the LSS bit rate)
+    Cia404Application::after_write(node, e, now);
+  }
+
+  TimeUs process(Node& node, TimeUs now) override {
+    TimeUs next = Cia404Application::process(node, now);
+    check_faults(node, now);
+    if (indication_due_ <= now) {
+      indication_due_ = kNever;
+      node.send(CanFrame::make(0x000, {0x01, settings_->start_indication_node_id}));
+    }
+    next = std::min({next, repeat_beyond_limits(node, now), indication_due_, now + kFaultPoll});
+    return next;
+  }
+
+ protected:
+  // Delta and threshold events go to the PDOs whose EventMask selects them,
+  // for transmission types 0 and 254 only (manual, "Event Mask").
+  void on_channel_events(Node& node, std::size_t ch, unsigned events, TimeUs now) override {
+    const QuantityKind kind = profile().channels[ch].kind;
+    std::uint8_t bits = 0;
+    if (events & kEventDelta) bits |= delta_bit(kind);
+    if (events & (kEventUpperUp | kEventUpperDown)) bits |= upper_bit(kind);
+    if (events & (kEventLowerDown | kEventLowerUp)) bits |= lower_bit(kind);
+    if (events & kEventUpperUp) limit_state_[ch] = kUpperLimitUp;
+    if (events & kEventUpperDown) limit_state_[ch] = kUpperLimitDown;
+    if (events & kEventLowerDown) limit_state_[ch] = kLowerLimitDown;
+    if (events & kEventLowerUp) limit_state_[ch] = kLowerLimitUp;
+    node.values().set_u(kLimitEventType, std::uint8_t(ch + 1), limit_state_[ch]);
+    if (!bits) return;
+    for (unsigned n = 1; n <= kPdoCount; ++n) {
+      const std::uint64_t type = node.values().u(std::uint16_t(0x1800 + n - 1), 2);
+      if ((type == 0 || type == 254) && (node.values().u(kEventMask, std::uint8_t(n)) & bits)) {
+        node.pdo().raise_event(n, now);
+        repeat_due_[n - 1] = kNever;  // the timer counts from this transmission
+      }
+    }
+  }
+
+ private:
+  CmpApplication(std::shared_ptr<const Settings> settings, const PreparedProfile& prepared, physics::FaultSet* faults,
+                 std::unique_ptr<SensorSource>&& source, std::uint32_t node_index)
+      : Cia404Application(prepared.cia404, std::move(source), prepared.identity, node_index),
+        settings_(std::move(settings)),
+        faults_(faults) {}
+
+  // 0x2001 (kbit/s, 0 = automatic): a saved value is the bit rate from the next
+  // power-on / reset node on; the object then shows the active rate.
+  void apply_baud_rate(Node& node) {
+    const OdEntry* e = node.od().find(kBaudRate, 0);
+    if (!e) return;
+    std::uint64_t stored = 0;
+    if (node.store().stored_u(*e, stored) && bit_rate_index(stored) >= 0) node.set_bit_rate_index(std::uint8_t(bit_rate_index(stored)));
+    const std::uint8_t active = node.bit_rate_index();
+    node.values().set_u(*e, active < 10 ? kBitRatesKbit[active] : 0);
+  }
+
+  // Mirrors the PDO's mapping mode into 0x1A0x; a new mode also resets the
+  // EventMask to the table's standard value (manual, "Event Mask": Important).
+  void apply_mapping_mode(Node& node, unsigned n, bool reset_mask, TimeUs now) {
+    const auto mode = unsigned(node.values().u(kMappingMode, std::uint8_t(n)));
+    const MappingMode& m = settings_->modes[std::min(mode, kMaxMode)];
+    const auto map = std::uint16_t(0x1A00 + n - 1);
+    node.values().set_u(map, 0, m.count);
+    for (unsigned i = 0; i < kMaxEntries; ++i) node.values().set_u(map, std::uint8_t(i + 1), i < m.count ? m.entries[i] : 0);
+    if (reset_mask) node.values().set_u(kEventMask, std::uint8_t(n), m.event_mask);
+    node.pdo().mapping_changed(n, now);
+  }
+
+  void render_special_message(Node& node, const OdEntry& e, unsigned ch) {
+    std::uint8_t bytes[8] = {};
+    if (ch < limit_state_.size() && limit_state_[ch] != kNoLimitEvent) {
+      const auto index = std::uint16_t(kSpecialMessages + 4 * ch + limit_state_[ch] - 1);
+      if (const OdEntry* msg = node.od().find(index, 0)) {
+        const auto v = node.values().bytes(*msg);
+        std::memcpy(bytes, v.data(), std::min<std::size_t>(v.size(), sizeof bytes));
+      }
+    }
+    node.values().set_bytes(e, bytes);
+  }
+
+  // Type 254 with an event timer: "a transmission only takes place in case the
+  // actual measured value passes above the upper threshold or below the lower
+  // threshold" (manual, Transmission Type; table footnote *).
+  TimeUs repeat_beyond_limits(Node& node, TimeUs now) {
+    if (!settings_->timer_repeats_beyond_limits || !node.allowed(Service::kPdo)) {
+      repeat_due_.fill(kNever);
+      return kNever;
+    }
+    TimeUs next = kNever;
+    for (unsigned n = 1; n <= kPdoCount; ++n) {
+      TimeUs& due = repeat_due_[n - 1];
+      const auto comm = std::uint16_t(0x1800 + n - 1);
+      const std::uint64_t timer_ms = node.values().u(comm, 5);
+      if ((node.values().u(comm, 1) & 0x80000000u) || node.values().u(comm, 2) != 254 || !timer_ms ||
+          !beyond_limits(node.values().u(kEventMask, std::uint8_t(n)))) {
+        due = kNever;
+        continue;
+      }
+      if (due == kNever) {
+        due = now + ms(TimeUs(timer_ms));
+      } else if (due <= now) {
+        node.pdo().raise_event(n, now);
+        due = now + ms(TimeUs(timer_ms));
+      }
+      next = std::min(next, due);
+    }
+    return next;
+  }
+
+  bool beyond_limits(std::uint64_t mask) const {
+    for (std::size_t ch = 0; ch < limit_state_.size() && ch < profile().channels.size(); ++ch) {
+      const QuantityKind kind = profile().channels[ch].kind;
+      if ((mask & upper_bit(kind)) && limit_state_[ch] == kUpperLimitUp) return true;
+      if ((mask & lower_bit(kind)) && limit_state_[ch] == kLowerLimitDown) return true;
+    }
+    return false;
+  }
+
+  // "The contents of the memory (EEProm) are checked at start-up."
+  void self_test_at_start_up(Node& node, TimeUs now) {
+    std::uint16_t sub = 0;
+    if (node.store().corrupt() || faults_->active(physics::FaultKind::EepromError, now)) sub = kSubUserPageChecksums;
+    node.values().set_u(kNodeSubError, 0, sub);
+    if (sub) raise(node, kEmcyDataSet, sub, now);
+  }
+
+  void raise(Node& node, std::uint16_t code, std::uint16_t sub, TimeUs now) {
+    std::uint8_t mfr[5] = {};
+    mfr[kSubCodeOffset] = std::uint8_t(sub);
+    mfr[kSubCodeOffset + 1] = std::uint8_t(sub >> 8);
+    node.emcy().raise(code, 0, mfr, now);
+  }
+
+  // Permanent autotest: sensor temperature (over_temperature fault) and the
+  // bus (life guarding / heartbeat consumer, EMCY 0x8130 from the core). A
+  // fault forces PRE-OPERATIONAL; with Auto-Start the node returns to
+  // OPERATIONAL by itself once every fault is gone (AUTO-PRE-OPERATIONAL).
+  void check_faults(Node& node, TimeUs now) {
+    const bool hot = faults_->active(physics::FaultKind::OverTemperature, now);
+    if (hot && !node.emcy().active(kEmcyDeviceTemperature)) raise(node, kEmcyDeviceTemperature, 0, now);
+    if (!hot && node.emcy().active(kEmcyDeviceTemperature)) node.emcy().clear(kEmcyDeviceTemperature, now);
+    const bool fault = node.emcy().active_count() != 0;
+    if (fault) {
+      if (node.state() == NmtState::kOperational) node.nmt().command(kNmtEnterPreOperational, now);
+      if (auto_start_ && node.state() == NmtState::kPreOperational) auto_resume_ = true;
+    } else if (auto_resume_) {
+      auto_resume_ = false;
+      if (node.state() == NmtState::kPreOperational) node.nmt().command(kNmtStart, now);
+    }
+  }
+
+  std::shared_ptr<const Settings> settings_;
+  physics::FaultSet* faults_;
+  std::array<std::uint8_t, 2> limit_state_{};
+  std::array<TimeUs, kPdoCount> repeat_due_{};
+  TimeUs indication_due_ = kNever;
+  bool auto_start_ = false;
+  bool auto_resume_ = false;
+};
+
+}  // namespace
+
+void prepare(config::Profile& profile, PreparedProfile& prepared) {
+  check_vendor_keys(profile, {"mapping_modes", "start_indication_delay", "start_indication_node_id"});
+  prepared.device = std::make_shared<const Settings>(parse_settings(profile));
+}
+
+std::unique_ptr<Application> make(const config::Profile&, const PreparedProfile& prepared, const NodeContext& ctx) {
+  return std::make_unique<CmpApplication>(std::static_pointer_cast<const Settings>(prepared.device), prepared,
+                                          make_sensor_source(prepared, ctx), ctx.index);
+}
+
+}  // namespace cansim::personalities::cmp
