@@ -43,6 +43,8 @@ void LssSlave::prepare_reset(ResetKind kind, TimeUs) {
     // The pending node-ID becomes the active one (CiA 305: at NMT reset
     // communication, which reset node includes).
     if (pending_node_id_ != node_.node_id()) node_.set_node_id(pending_node_id_);
+    if (kind == ResetKind::kNode && node_.options().lss_reset_node_activates_bit_rate && node_.store().stored_lss().valid)
+      node_.set_bit_rate_index(node_.store().stored_lss().bit_rate_index);
     return;
   }
   // Power-on: Node::power_on already took the stored node-ID / bit rate; an
@@ -142,7 +144,7 @@ void LssSlave::enter_waiting(TimeUs now) {
   if (node_.options().lss_waiting_applies_stored_node_id) {
     // Vendor behaviour: unstored values are dropped; a stored node-ID other
     // than the active one takes effect at once.
-    const LssStored s = node_.store().stored_lss();
+    const LssStored s = stored_config();
     pending_node_id_ = s.valid ? s.node_id : active;
     pending_bit_rate_ = s.valid ? s.bit_rate_index : node_.bit_rate_index();
     reset_communication = pending_node_id_ != active;
@@ -215,7 +217,7 @@ void LssSlave::configure_bit_timing(const std::uint8_t* d) {
 void LssSlave::activate_bit_timing(const std::uint8_t* d, TimeUs now) {
   std::uint8_t target = pending_bit_rate_;
   if (node_.options().lss_activate_stored_bit_rate) {
-    const LssStored s = node_.store().stored_lss();
+    const LssStored s = stored_config();
     target = s.valid ? s.bit_rate_index : node_.bit_rate_index();
   }
   switch_target_rate_ = target;
@@ -253,7 +255,7 @@ void LssSlave::store_configuration() {
     reply(cs, kManufacturer, 1);
     return;
   }
-  const bool saved = node_.store().save_lss({true, pending_node_id_, pending_bit_rate_});
+  const bool saved = node_.store().save_lss({true, pending_node_id_, pending_bit_rate_}) && save_config_objects();
   if (saved) configured_since_store_ = false;
   reply(cs, saved ? kOk : kStoreFailed);
 }
@@ -266,7 +268,7 @@ void LssSlave::inquire(std::uint8_t cs) {
   }
   std::uint8_t id = node_.node_id();
   if (node_.options().lss_inquire_node_id_stored) {
-    const LssStored s = node_.store().stored_lss();
+    const LssStored s = stored_config();
     if (s.valid) id = s.node_id;
   }
   reply(kInquireNodeId, id);
@@ -339,6 +341,39 @@ void LssSlave::fastscan(const std::uint8_t* d) {
 }
 
 // ---- helpers
+
+// Vendor node-ID / bit-rate objects (options node_id_object / bit_rate_object)
+// show the stored values: store configuration writes and saves them.
+bool LssSlave::save_config_objects() {
+  const OdEntry* entries[2] = {node_.config_object(node_.options().node_id_object),
+                               node_.config_object(node_.options().bit_rate_object)};
+  const std::uint8_t values[2] = {pending_node_id_, pending_bit_rate_};
+  std::size_t n = 0;
+  for (int i = 0; i < 2; ++i) {
+    if (!entries[i]) continue;
+    node_.values().set_u(*entries[i], values[i]);
+    entries[n++] = entries[i];
+  }
+  return n == 0 || node_.store().save_entries(std::span<const OdEntry* const>(entries, n));
+}
+
+// What store configuration (or, with vendor objects, 0x1010 "save") left in
+// non-volatile memory; an object's default when nothing is stored for it.
+LssStored LssSlave::stored_config() const {
+  LssStored s = node_.store().stored_lss();
+  const OdEntry* id = node_.config_object(node_.options().node_id_object);
+  const OdEntry* rate = node_.config_object(node_.options().bit_rate_object);
+  if (!id && !rate) return s;
+  std::uint64_t v = 0;
+  if (id) s.node_id = node_.store().stored_u(*id, v) ? std::uint8_t(v) : node_.configured_node_id();
+  if (rate) s.bit_rate_index = node_.store().stored_u(*rate, v) ? std::uint8_t(v) : node_.configured_bit_rate_index();
+  if (!s.valid) {  // one object only: the other value is the active one
+    if (!id) s.node_id = node_.node_id();
+    if (!rate) s.bit_rate_index = node_.bit_rate_index();
+  }
+  s.valid = true;
+  return s;
+}
 
 bool LssSlave::unconfigured() const {
   return node_.node_id() == kUnconfigured && pending_node_id_ == kUnconfigured;

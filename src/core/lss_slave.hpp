@@ -18,6 +18,7 @@
 #include "core/can_frame.hpp"
 #include "core/node_options.hpp"
 #include "core/od.hpp"
+#include "core/store.hpp"
 
 namespace cansim {
 
@@ -67,6 +68,8 @@ class LssSlave {
   void reply_u32(std::uint8_t cs, std::uint32_t value);
   std::uint32_t lss_number(LssNumber which) const;
   bool unconfigured() const;
+  bool save_config_objects();
+  LssStored stored_config() const;
 
   // One handler per service; `d` is the 8-byte request.
   void switch_state_global(const std::uint8_t* d, TimeUs now);

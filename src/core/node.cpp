@@ -57,6 +57,8 @@ bool Node::allowed(Service s) const {
       return true;
     case NmtState::kPreOperational:
       return s != Service::kPdo;
+    case NmtState::kStopped:
+      return s == Service::kSdo && options().sdo_in_stopped;
     default:
       return false;
   }
@@ -163,12 +165,33 @@ void Node::nmt_state_changed(NmtState old, TimeUs now) {
 
 void Node::reset_values(ResetKind kind) {
   if (kind == ResetKind::kCommunication) {
-    values_.reset(node_id_, 0x1000, 0x1FFF);
+    values_.reset(default_node_id(), 0x1000, 0x1FFF);
     store_.apply_stored(0x1000, 0x1FFF);
-  } else {
-    values_.reset(node_id_);
-    store_.apply_stored(0x0000, 0xFFFF);
+    return;
   }
+  load_all_values();
+  // Vendor node-ID / bit-rate objects: what is stored there is active from
+  // power-on and reset node on; the $NODEID defaults then follow the new ID.
+  if (const OdEntry* e = config_object(options().bit_rate_object)) bit_rate_ = std::uint8_t(values_.get_u(*e));
+  if (const OdEntry* e = config_object(options().node_id_object)) {
+    const std::uint64_t id = values_.get_u(*e);
+    if (id >= 1 && id <= 127 && id != node_id_) {
+      node_id_ = std::uint8_t(id);
+      load_all_values();
+    }
+  }
+}
+
+void Node::load_all_values() {
+  values_.reset(default_node_id());
+  // Their default is the configured (factory) node-ID / bit rate of this node.
+  if (const OdEntry* e = config_object(options().node_id_object)) values_.set_u(*e, setup_.node_id);
+  if (const OdEntry* e = config_object(options().bit_rate_object)) values_.set_u(*e, setup_.bit_rate_index);
+  store_.apply_stored(0x0000, 0xFFFF);
+}
+
+const OdEntry* Node::config_object(std::int64_t index) const {
+  return index > 0 && index <= 0xFFFF ? od().find(std::uint16_t(index), 0) : nullptr;
 }
 
 void Node::reset_services(TimeUs now) {

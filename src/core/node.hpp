@@ -67,6 +67,9 @@ class Node {
   // at the next reset communication, as CiA 305 says.
   void set_node_id(std::uint8_t id) { node_id_ = id; }
   std::uint8_t configured_node_id() const { return setup_.node_id; }
+  // The node-ID that $NODEID defaults add (option node_id_defaults_follow_lss).
+  std::uint8_t default_node_id() const { return options().node_id_defaults_follow_lss ? node_id_ : setup_.node_id; }
+  std::uint8_t configured_bit_rate_index() const { return setup_.bit_rate_index; }
   NmtState state() const { return nmt_.state(); }
   bool allowed(Service s) const;
 
@@ -93,6 +96,8 @@ class Node {
   // `void prepare_reset(ResetKind, TimeUs)` run it (LSS: apply a pending node-ID).
   void prepare_reset(ResetKind kind, TimeUs now);
   void reset_values(ResetKind kind);    // defaults, then stored values
+  // The entry of a node_id_object / bit_rate_object option (null when 0 / absent).
+  const OdEntry* config_object(std::int64_t index) const;
   void reset_services(TimeUs now);      // services re-read their OD configuration
   // Called by NMT after every state change: services that define
   // `void on_nmt_state(NmtState old, TimeUs)` run it, then Application::on_nmt_state.
@@ -118,6 +123,7 @@ class Node {
   std::size_t memory_bytes() const { return sizeof(*this) + values_.memory_bytes(); }
 
  private:
+  void load_all_values();
   template <typename Fn>
   void for_each_service(Fn&& fn);
   template <typename Fn>

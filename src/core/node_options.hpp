@@ -42,6 +42,7 @@ namespace cansim {
   X(int64_t, sdo_min_request_dlc, 8, "ignore SDO requests shorter than this (missing bytes = 0)") \
   X(std::string, sdo_abort_map, "", "vendor abort codes: 'from=to,...' applied to every abort")  \
   X(bool, sdo_upload_response_0x60, false, "expedited upload responses use command byte 0x60")  \
+  X(bool, sdo_in_stopped, false, "the SDO server also answers in NMT STOPPED")                  \
   /* EMCY (CiA 301 §7.2.7) */                                                                    \
   X(int64_t, emcy_history_bad_write_abort, 0x06090030,                                            \
     "abort code for writing a non-zero value to 0x1003:00")                                       \
@@ -100,11 +101,23 @@ namespace cansim {
   X(bool, lss_boot_up_after_bit_rate_switch, false, "send a boot-up after the bit-rate switch")   \
   X(bool, lss_waiting_applies_stored_node_id, false,                                             \
     "switch to waiting: drop unstored values; a stored node-ID != active resets communication")  \
+  X(bool, lss_reset_node_activates_bit_rate, false,                                               \
+    "NMT reset node activates the stored bit rate, like a power cycle (vendor manuals)")         \
   X(bool, lss_configuration_blocks_nmt, false, "ignore NMT commands in LSS configuration state")  \
+  X(bool, node_id_defaults_follow_lss, true,                                                    \
+    "$NODEID defaults use the active node-ID (false: the configured one, so EMCY / PDO COB-IDs " \
+    "keep their values after an LSS or vendor node-ID change)")                                  \
+  X(int64_t, node_id_object, 0,                                                                 \
+    "OD index (sub 0) holding the node-ID: its stored value is applied at power-on and reset "   \
+    "node, LSS store configuration writes it (0: none)")                                         \
+  X(int64_t, bit_rate_object, 0,                                                                 \
+    "OD index (sub 0) holding the CiA 305 bit-rate index, like node_id_object (0: none)")        \
   /* SYNC consumer (CiA 301 §7.2.5) */                                                         \
   X(int64_t, sync_generate_bit_abort, 0x06090030,                                                 \
     "abort code for writing 0x1005 with bit 30 (generate) set; 0 accepts and ignores it")        \
   X(bool, sync_accept_any_dlc, false, "accept SYNC frames of any DLC instead of EMCY 0x8240")     \
+  X(int64_t, sync_cob_id_without_1005, 0,                                                         \
+    "SYNC COB-ID consumed when the profile has no 0x1005 (0: no SYNC consumer)")                 \
   /* Store / restore (CiA 301 §7.5.2.13-14) */                                                   \
   X(int64_t, store_bad_signature_abort, 0x08000020, "abort code for a wrong save/load signature")\
   X(std::string, restore_mode, "on_reset",                                                        \

@@ -98,7 +98,12 @@ void StoreRestore::apply_stored(std::uint16_t first, std::uint16_t last) {
   });
 }
 
-bool StoreRestore::rewrite(std::uint8_t drop_sub, bool add_current) {
+bool StoreRestore::rewrite(std::uint8_t drop_sub, bool add_current, std::span<const OdEntry* const> entries) {
+  auto listed = [&](std::uint16_t index, std::uint8_t sub) {
+    for (const OdEntry* e : entries)
+      if (e->index == index && e->sub == sub) return true;
+    return false;
+  };
   std::vector<std::uint8_t> out(kMagic, kMagic + 4);
   out.push_back(kVersion);
   out.push_back(lss_.valid ? 1 : 0);
@@ -107,16 +112,20 @@ bool StoreRestore::rewrite(std::uint8_t drop_sub, bool add_current) {
   append_u16(out, 0);
   unsigned count = 0;
   for_each_record([&](const Record& r) {
-    if (in_group(drop_sub, r.group)) return;
+    if (in_group(drop_sub, r.group) || listed(r.index, r.sub)) return;
     append_record(out, r.index, r.sub, r.group, r.bytes);
     ++count;
   });
   if (add_current) {
     for (const OdEntry& e : node_.od().entries()) {
-      if (!in_group(drop_sub, e.persist)) continue;
+      if (!in_group(drop_sub, e.persist) || listed(e.index, e.sub) || holds_node_id_default(e)) continue;
       append_record(out, e.index, e.sub, e.persist, node_.values().bytes(e));
       ++count;
     }
+  }
+  for (const OdEntry* e : entries) {
+    append_record(out, e->index, e->sub, e->persist, node_.values().bytes(*e));
+    ++count;
   }
   put_u16(out.data() + 8, std::uint16_t(count));
   std::uint32_t crc = crc32(out);
@@ -155,6 +164,23 @@ void StoreRestore::defaults_to_ram(std::uint8_t sub) {
     last_index = e.index;
     any = true;
   }
+}
+
+bool StoreRestore::holds_node_id_default(const OdEntry& e) const {
+  if (!e.default_plus_node_id || e.default_bytes.size() != type_size(e.type) || is_variable_size(e.type)) return false;
+  return node_.values().get_u(e) == decode_u(e.type, e.default_bytes.data()) + node_.default_node_id();
+}
+
+bool StoreRestore::save_entries(std::span<const OdEntry* const> entries) { return rewrite(0, false, entries); }
+
+bool StoreRestore::stored_u(const OdEntry& e, std::uint64_t& out) const {
+  bool found = false;
+  for_each_record([&](const Record& r) {
+    if (r.index != e.index || r.sub != e.sub || r.bytes.size() != type_size(e.type) || is_variable_size(e.type)) return;
+    out = decode_u(e.type, r.bytes.data());
+    found = true;
+  });
+  return found;
 }
 
 bool StoreRestore::save_lss(const LssStored& lss) {

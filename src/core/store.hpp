@@ -12,6 +12,8 @@
 // preceding bytes. Loading skips records whose entry no longer exists, is no
 // longer persistent or has another size; a bad magic / version / CRC drops the
 // whole blob (corrupt() tells the personality, e.g. for a vendor EMCY).
+// An entry with a $NODEID default that holds that default is not stored, so
+// the pre-defined connection set follows a later node-ID change.
 #pragma once
 
 #include <span>
@@ -47,6 +49,11 @@ class StoreRestore {
   // LSS store configuration, kept in the same blob as the parameters.
   bool save_lss(const LssStored& lss);
   LssStored stored_lss() const { return lss_; }
+  // Saves the current values of these entries only (LSS store of vendor
+  // node-ID / bit-rate objects); other records stay as they are.
+  bool save_entries(std::span<const OdEntry* const> entries);
+  // The stored value of a numeric entry; false when nothing is stored for it.
+  bool stored_u(const OdEntry& e, std::uint64_t& out) const;
   bool corrupt() const { return corrupt_; }
 
   // Re-reads its configuration from the OD (after a reset / power-on).
@@ -75,8 +82,10 @@ class StoreRestore {
   void for_each_record(Fn&& fn) const;
   // Rebuilds the blob from the kept cached records plus the current values of
   // entries in `groups`, and saves it.
-  bool rewrite(std::uint8_t drop_sub, bool add_current);
+  // `entries` are replaced by their current values whatever their group.
+  bool rewrite(std::uint8_t drop_sub, bool add_current, std::span<const OdEntry* const> entries = {});
   void defaults_to_ram(std::uint8_t sub);
+  bool holds_node_id_default(const OdEntry& e) const;
 
   Node& node_;
   TimeUs next_ = kNever;

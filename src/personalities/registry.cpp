@@ -5,6 +5,7 @@
 #include "personalities/dps.hpp"
 #include "personalities/cmp.hpp"
 #include "personalities/generic.hpp"
+#include "personalities/p92c.hpp"
 #include "physics/random.hpp"
 
 namespace cansim::personalities {
@@ -20,6 +21,7 @@ struct Personality {
 // Device personalities add one line each.
 constexpr Personality kPersonalities[] = {
     {"generic", generic::prepare, generic::make},
+    {"danfoss-p92c", p92c::prepare, p92c::make},
     {"trafag-cmp", cmp::prepare, cmp::make},
     {"honeywell-dps", dps::prepare, dps::make},
 };

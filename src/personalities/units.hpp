@@ -46,8 +46,8 @@ struct UnitScale {
 // degF, K, with any prefix). nullopt for other codes.
 std::optional<UnitScale> builtin_unit(std::uint32_t code);
 
-// A unit by name as written in profiles: "bar", "mbar", "kPa", "MPa", "hPa",
-// "Pa", "psi", "atm", "at", "mmHg", "degC", "degF", "K" (physics/units.hpp
+// A unit by name as written in profiles: "bar", "dbar", "cbar", "mbar", "kPa",
+// "MPa", "hPa", "Pa", "psi", "dpsi", "cpsi", "mpsi", "atm", "at", "mmHg", "degC", "degF", "K" (physics/units.hpp
 // spellings). `code` receives the CiA 303-2 code when the unit has a built-in
 // one (0 for atm / at / mmHg, whose codes a profile must give).
 std::optional<UnitScale> named_unit(std::string_view name, std::uint32_t* code = nullptr);

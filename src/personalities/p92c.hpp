@@ -1,0 +1,51 @@
+// `danfoss-p92c` personality: Danfoss DST P92C CANopen pressure transmitter
+// (profiles/p92c.yaml, docs/devices/p92c.md). The CiA 404 chain does the
+// measurement; this adds what the manual describes beyond it: the serial
+// number object 0x4E00, the bit-rate object's value set (0x4F00), the
+// over/underflow counters 0x3000-0x3003 and the vendor EMCY codes.
+#pragma once
+
+#include <memory>
+
+#include "personalities/registry.hpp"
+
+namespace cansim::personalities::p92c {
+
+// `vendor:` keys besides cia404 / serial_number_base.
+struct Settings {
+  std::uint8_t serial_part1 = 11;      // 0x4E00:01
+  std::uint16_t serial_part3 = 5566;   // 0x4E00:03
+  bool overload_counters = true;       // 0x3000-0x3003
+  bool sensor_fault_emcy = true;       // 0xF011 / 0x4000 while a channel is invalid
+  bool overload_emcy = false;          // ... and while it is overloaded
+  bool boot_emcys = true;              // 0x6161 / 0x6363 / 0x6300 after the boot-up
+  TimeUs monitor_period_us = 10000;
+};
+
+class P92cApplication : public Cia404Application {
+ public:
+  P92cApplication(std::shared_ptr<const Cia404Profile> profile, std::unique_ptr<MeasurementSource> source,
+                  const Settings& settings, IdentitySettings identity = {}, std::uint32_t node_index = 0);
+
+  void on_reset(Node& node, ResetKind kind, TimeUs now) override;
+  SdoAbort check_write(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now) override;
+  TimeUs process(Node& node, TimeUs now) override;
+
+ private:
+  void fill_serial(Node& node);
+  void boot_checks(Node& node, ResetKind kind, TimeUs now);
+  bool stored_mapping_valid(const Node& node) const;
+  void supervise(Node& node, TimeUs now);
+  void count_edge(Node& node, std::uint16_t counter);
+
+  Settings settings_;
+  std::uint8_t last_status_[2] = {};
+  bool error_[2] = {};
+  TimeUs next_supervision_ = 0;
+};
+
+void prepare(config::Profile& profile, PreparedProfile& prepared);
+std::unique_ptr<Application> make(const config::Profile& profile, const PreparedProfile& prepared,
+                                  const NodeContext& ctx);
+
+}  // namespace cansim::personalities::p92c
