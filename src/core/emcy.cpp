@@ -98,6 +98,11 @@ void Emcy::report(std::uint16_t code, std::uint8_t reg_bits, const std::uint8_t 
   emit(code, reg, mfr, now);
 }
 
+void Emcy::restore_active(std::uint16_t code, std::uint8_t reg_bits) {
+  if (!active(code) && active_n_ < kMaxActive) active_[active_n_++] = Active{code, reg_bits};
+  update_register();
+}
+
 void Emcy::clear(std::uint16_t code, TimeUs now) {
   std::size_t i = 0;
   while (i < active_n_ && active_[i].code != code) ++i;

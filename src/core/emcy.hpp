@@ -38,6 +38,9 @@ class Emcy {
   void raise(std::uint16_t code, std::uint8_t reg_bits, TimeUs now) { raise(code, reg_bits, nullptr, now); }
   // A one-shot error event: sent and recorded in 0x1003, not kept active.
   void report(std::uint16_t code, std::uint8_t reg_bits, const std::uint8_t mfr[5], TimeUs now);
+  // Marks an error active again without sending or recording it (an error a
+  // vendor keeps latched across a soft reset, e.g. until power-off).
+  void restore_active(std::uint16_t code, std::uint8_t reg_bits);
   void clear(std::uint16_t code, TimeUs now);
   void clear_all(TimeUs now);
   std::size_t active_count() const { return active_n_; }

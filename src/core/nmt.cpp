@@ -14,11 +14,16 @@ constexpr std::uint8_t kUnconfigured = 0xFF;  // CiA 305 LSS node-ID
 
 void NmtSlave::power_on(TimeUs now) { restart(ResetKind::kPowerOn, now); }
 
-void NmtSlave::restart(ResetKind kind, TimeUs now) {
+void NmtSlave::reboot_keeping_values(TimeUs now) { restart(ResetKind::kCommunication, now, false); }
+
+void NmtSlave::restart(ResetKind kind, TimeUs now, bool reload) {
   set_state(NmtState::kInitialising, now);
   booted_ = false;
-  node_.prepare_reset(kind, now);
-  node_.reset_values(kind);
+  ++resets_;
+  if (reload) {
+    node_.prepare_reset(kind, now);
+    node_.reset_values(kind);
+  }
   node_.reset_services(now);  // includes reset() below: builds plan_
   if (Application* app = node_.app()) app->on_reset(node_, kind, now);
   if (node_.node_id() == kUnconfigured) return;  // waits for LSS (CiA 305)

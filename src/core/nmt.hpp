@@ -62,6 +62,11 @@ class NmtSlave {
   // Communication error reaction per 0x1029:01 (heartbeat consumer timeout,
   // life-guarding event; CiA 301 §7.5.2.32).
   void communication_error(TimeUs now);
+  // A vendor reboot (e.g. a node-ID object, "simulates a complete reboot"):
+  // like reset communication, but no value is reloaded from defaults or storage.
+  void reboot_keeping_values(TimeUs now);
+  // Counts resets: the SDO server does not confirm a write that reset the node.
+  std::uint32_t reset_count() const { return resets_; }
   BootPlan& boot_plan() { return plan_; }
   // True once the boot-up of the current reset cycle happened.
   bool booted() const { return booted_; }
@@ -81,7 +86,7 @@ class NmtSlave {
   SdoAbort write(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
 
  private:
-  void restart(ResetKind kind, TimeUs now);
+  void restart(ResetKind kind, TimeUs now, bool reload = true);
   void boot_up(TimeUs now);
   void send_start_all(TimeUs now);
   void set_state(NmtState s, TimeUs now);
@@ -94,6 +99,7 @@ class NmtSlave {
   TimeUs start_all_at_ = kNever;
   NmtState state_ = NmtState::kInitialising;
   bool booted_ = false;
+  std::uint32_t resets_ = 0;
   BootPlan plan_;
   ByteSet startup_values_;
   bool startup_values_any_ = true;

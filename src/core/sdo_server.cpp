@@ -296,8 +296,10 @@ void SdoServer::initiate_download(Bytes d, TimeUs now) {
   if (!e) return;
   if (d[0] & kExpedited) {
     std::size_t n = (d[0] & kSizeBit) ? 4u - ((d[0] >> 2) & 0x03u) : unspecified_length(*e, d + 4);
+    const std::uint32_t resets = node_.nmt().reset_count();
     SdoAbort result = node_.write(*e, {d + 4, n}, now);
     if (!ok(result)) return abort(result);
+    if (node_.nmt().reset_count() != resets) return;  // the write rebooted the node: no answer
     return send_initiate_response(0x60);
   }
   entry_ = e;

@@ -800,7 +800,7 @@ bool Cia404Application::check_events(Node& node, std::size_t ch, TimeUs now) {
     }
   }
   // Limits: one event per crossing; re-armed once back inside by the hysteresis.
-  const double hyst = get(node, ch, Role::kHysteresis);
+  const double hyst = limit_hysteresis(node, ch);
   const bool level = profile_->settings.limit_level;
   if (c.param(Role::kUpperLimit).present()) {
     const double upper = get(node, ch, Role::kUpperLimit);

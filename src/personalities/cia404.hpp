@@ -226,6 +226,8 @@ class Cia404Application : public Application {
     (void)c;
     return unit.from_si(s.si);
   }
+  // Hysteresis of the limit interrupts (CiA 404 0x6136; vendors may derive it).
+  virtual double limit_hysteresis(const Node& node, std::size_t ch) const { return get(node, ch, Role::kHysteresis); }
   // Raises a TPDO event for a mapped entry (CiA 301 §7.2.2.2).
   virtual void raise_pdo_event(Node& node, const OdEntry& e) { node.pdo().raise_event_for(e); }
   // Delta / limit results of one check of channel `ch` (kEvent* bits). The

@@ -6,6 +6,7 @@
 #include "personalities/cmp.hpp"
 #include "personalities/generic.hpp"
 #include "personalities/p92c.hpp"
+#include "personalities/smc.hpp"
 #include "physics/random.hpp"
 
 namespace cansim::personalities {
@@ -22,6 +23,7 @@ struct Personality {
 constexpr Personality kPersonalities[] = {
     {"generic", generic::prepare, generic::make},
     {"danfoss-p92c", p92c::prepare, p92c::make},
+    {"adz-smc", smc::prepare, smc::make},
     {"trafag-cmp", cmp::prepare, cmp::make},
     {"honeywell-dps", dps::prepare, dps::make},
 };

@@ -1,0 +1,410 @@
+#include "personalities/smc.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "config/physics_config.hpp"
+#include "core/nmt.hpp"
+#include "physics/quantize.hpp"
+
+namespace cansim::personalities::smc {
+
+namespace {
+
+// Magic signatures, wire order "zero" / "rset" (§11.1 of the spec, manual fn 11, 12).
+constexpr std::uint32_t kZero = 0x6F72657A;
+constexpr std::uint32_t kRset = 0x74657372;
+constexpr std::uint16_t kEmcySensor = 0x5030;  // §4.8
+constexpr std::uint8_t kInvalidBit = 0x01;     // 0x6150 bit 0 / 0x1001 bit 0
+constexpr float kFltMax = std::numeric_limits<float>::max();
+constexpr std::uint32_t kKeepBits = 0xC0000000u;  // 0x4001:02 preserves COB-ID bits 31, 30 (§6.3.7)
+
+bool is_field_or_process_value(std::uint16_t index) {
+  return index == 0x6130 || index == 0x7100 || index == 0x7130 || index == 0x9130;
+}
+
+std::size_t channel_of(std::uint8_t sub) { return sub >= 2 ? 1 : 0; }
+
+}  // namespace
+
+void SmcApplication::MinMax::add(std::int32_t v) {
+  if (!any) min = max = v;
+  min = std::min(min, v);
+  max = std::max(max, v);
+  any = true;
+}
+
+float SmcApplication::Chain::scale(double fv) const {
+  const float x = float(fv) - offset;
+  return std::clamp(gain * x + pv1, cmin, cmax);
+}
+
+SmcApplication::SmcApplication(std::shared_ptr<const Cia404Profile> profile, std::unique_ptr<MeasurementSource> source,
+                               const Settings& settings, IdentitySettings identity, std::uint32_t node_index)
+    : Cia404Application(std::move(profile), std::move(source), identity, node_index), settings_(settings) {}
+
+// ---------------------------------------------------------------- measurement chain (§5)
+
+void SmcApplication::load_chain(const Node& node) {
+  for (std::uint8_t sub = 1; sub <= 2; ++sub) {
+    Chain& c = chain_[sub - 1];
+    c.gain = float(node.values().get_f(*node.od().find(0x6126, sub)));
+    c.pv1 = float(node.values().get_f(*node.od().find(0x6127, sub)));
+    c.offset = float(node.values().get_f(*node.od().find(0x3125, sub)));
+    c.cmin = float(node.values().get_f(*node.od().find(0x3201, sub)));
+    c.cmax = float(node.values().get_f(*node.od().find(0x3202, sub)));
+    if (!(c.cmin <= c.cmax)) c.cmax = c.cmin;
+  }
+}
+
+// FV of the filtered sensor value; the chain then subtracts the input
+// offset, scales and clamps (figure 1 of §5 is missing; order per spec §3).
+double SmcApplication::input_value(const ChannelConfig& c, const MeasurementSource::Sample& s, const UnitScale&) {
+  const std::size_t ch = channel_of(c.sub);
+  const double fv = (s.si - settings_.range_min[ch]) / (settings_.range_max[ch] - settings_.range_min[ch]) * kFieldSpan;
+  return chain_[ch].scale(fv);
+}
+
+// §6.2.9: "hysteresis equals 1 % of the total measuring span" (|PV2 - PV1|).
+double SmcApplication::limit_hysteresis(const Node& node, std::size_t ch) const {
+  const std::uint8_t sub = std::uint8_t(ch + 1);
+  return 0.01 * std::fabs(node.values().get_f(*node.od().find(0x6123, sub)) -
+                          node.values().get_f(*node.od().find(0x6121, sub)));
+}
+
+// ---------------------------------------------------------------- reset
+
+void SmcApplication::on_reset(Node& node, ResetKind kind, TimeUs now) {
+  Cia404Application::on_reset(node, kind, now);
+  OdValues& v = node.values();
+  factory_serial_ = std::uint32_t(v.u(0x1018, 4));
+  if (v.u(0x4030, 1) == 0) v.set_u(0x4030, 1, factory_serial_);
+  v.set_u(0x1018, 4, v.u(0x4030, 1));
+  if (kind != ResetKind::kCommunication) {
+    boot_time_ = now;
+    uptime_[0] = uptime_[1] = MinMax{};
+  }
+  if (kind == ResetKind::kPowerOn || (kind == ResetKind::kNode && settings_.reset_node_clears_error_register)) {
+    latched_error_ = false;
+    latched_status_[0] = latched_status_[1] = 0;
+  } else if (latched_error_) {
+    node.emcy().restore_active(kEmcySensor, kInvalidBit);  // §6.1.2: until power-off
+  }
+  refresh_device_name(node);
+  load_chain(node);
+  next_supervision_ = now;
+}
+
+// ---------------------------------------------------------------- reads
+
+void SmcApplication::refresh(Node& node, const OdEntry& e, TimeUs now) {
+  load_chain(node);
+  OdValues& v = node.values();
+  switch (e.index) {
+    case 0x1002: {  // §6.1.3: bits 15..8 = 0x6150:02, bits 7..0 = 0x6150:01
+      std::uint32_t reg = 0;
+      for (std::size_t ch = 0; ch < 2; ++ch)
+        reg |= std::uint32_t(measure(node, ch, now).status | latched_status_[ch]) << (8 * ch);
+      v.set_u(e, reg);
+      return;
+    }
+    case 0x1008:
+    case 0x4022:
+      return refresh_device_name(node);
+    case 0x3130:
+    case 0x3131: {  // min / max FV, reported through the current offset, scaling and clamping
+      if (e.sub == 0) return;
+      const std::size_t ch = (e.sub - 1u) / 2;
+      const MinMax& m = (e.index == 0x3130 ? uptime_ : lifetime_)[ch];
+      const std::int32_t fv = (e.sub - 1u) % 2 ? m.max : m.min;
+      v.set_f(e, m.any ? chain_[ch].scale(fv) : 0.0);
+      return;
+    }
+    case 0x3140:
+    case 0x3141: {  // internal millisecond clock from the boot (no TIME consumer yet)
+      const TimeUs ms_total = (now - boot_time_) / 1000;
+      v.set_u(e, e.index == 0x3140 ? std::uint64_t(ms_total / 86400000) : std::uint64_t(ms_total % 86400000));
+      return;
+    }
+    case 0x3200: {
+      const Chain& c = chain_[channel_of(e.sub)];
+      v.set_u(e, c.cmin != -kFltMax || c.cmax != kFltMax ? 1 : 0);
+      return;
+    }
+    case 0x4001:
+      v.set_u(e, node.node_id());
+      return;
+    case 0x4030:
+      if (v.get_u(e) == 0) v.set_u(e, v.u(0x1018, 4));
+      return;
+    default:
+      break;
+  }
+  Cia404Application::refresh(node, e, now);
+  if (e.index == 0x6150 && e.sub >= 1 && e.sub <= 2) v.set_u(e, v.get_u(e) | latched_status_[e.sub - 1]);
+  swap_if_big_endian(node, e);
+}
+
+// §6.3.6: 0x4000 = 1 sends field and process values big-endian (SDO and TPDO).
+void SmcApplication::swap_if_big_endian(Node& node, const OdEntry& e) {
+  if (!is_field_or_process_value(e.index) || e.sub == 0 || node.values().u(0x4000, 0) != 1) return;
+  const auto bytes = node.values().bytes(e);
+  std::uint8_t swapped[8] = {};
+  const std::size_t n = std::min<std::size_t>(bytes.size(), sizeof swapped);
+  std::reverse_copy(bytes.begin(), bytes.begin() + std::ptrdiff_t(n), swapped);
+  node.values().set_bytes(e, {swapped, n});
+}
+
+// §6.1.6 / §6.3.11: 0x1008 is the text of the character array 0x4022:1..60.
+void SmcApplication::fill_device_name_chars(Node& node) {
+  const OdEntry* name = node.od().find(0x1008, 0);
+  if (!name) return;
+  const auto& factory = name->default_bytes;
+  for (std::uint8_t k = 1; k <= 60; ++k)
+    node.values().set_u(0x4022, k, k <= factory.size() ? factory[k - 1] : 0);
+}
+
+void SmcApplication::refresh_device_name(Node& node) {
+  if (node.values().u(0x4022, 1) == 0) fill_device_name_chars(node);
+  const OdEntry* name = node.od().find(0x1008, 0);
+  if (!name) return;
+  char text[60];
+  std::size_t n = 0;
+  while (n < sizeof text) {
+    const auto c = char(node.values().u(0x4022, std::uint8_t(n + 1)));
+    if (c == 0) break;
+    text[n++] = c;
+  }
+  node.values().set_string(*name, std::string_view(text, n));
+}
+
+// ---------------------------------------------------------------- writes
+
+SdoAbort SmcApplication::check_write(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now) {
+  const std::uint64_t v = data.size() >= type_size(e.type) ? decode_u(e.type, data.data()) : 0;
+  switch (e.index) {
+    case 0x1012:  // a TIME consumer or producer, never both
+      return (v & 0xC0000000u) == 0xC0000000u ? SdoAbort::kInvalidValue : SdoAbort::kNone;
+    case 0x3126: {  // §6.3.1 fn 10: autozero only within +-10 % (2000 counts) of zero
+      if (v != kZero) return SdoAbort::kDataTransfer;
+      const std::int32_t fv = measure(node, channel_of(e.sub), now).raw;
+      return std::abs(fv) <= 2000 ? SdoAbort::kNone : SdoAbort::kDataTransfer;
+    }
+    case 0x3130:
+    case 0x3131:
+      return e.sub == 0 && v == kRset ? SdoAbort::kNone : SdoAbort::kDataTransfer;
+    case 0x3200:  // §6.3.4: writing 0 disables; enabling is done by writing min / max
+      return v == 0 ? SdoAbort::kNone : SdoAbort::kInvalidValue;
+    case 0x4001:
+      return v >= 1 && v <= 127 ? SdoAbort::kNone : SdoAbort::kInvalidValue;
+    case 0x4010:
+      return v == 1 && node.values().u(0x4010, 1) == 0 ? SdoAbort::kInvalidValue : SdoAbort::kNone;
+    case 0x4022:
+      if (node.values().u(0x4022, 1) == 0) fill_device_name_chars(node);
+      return SdoAbort::kNone;
+    default:
+      return Cia404Application::check_write(node, e, data, now);
+  }
+}
+
+void SmcApplication::after_write(Node& node, const OdEntry& e, TimeUs now) {
+  OdValues& v = node.values();
+  const std::size_t ch = channel_of(e.sub);
+  switch (e.index) {
+    case 0x3124:  // one input-offset register, two views
+      v.set_f(*node.od().find(0x3125, e.sub), double(v.get_i(e)));
+      break;
+    case 0x3125:
+      v.set_i(*node.od().find(0x3124, e.sub), physics::to_decimal_i16(v.get_f(e), 0).value);
+      break;
+    case 0x3126: {  // "recent Field Value copied into the Input Offset register"
+      const std::int32_t fv = measure(node, ch, now).raw;
+      v.set_f(*node.od().find(0x3125, e.sub), fv);
+      v.set_i(*node.od().find(0x3124, e.sub), fv);
+      break;
+    }
+    case 0x3130:
+    case 0x3131:
+      for (MinMax& m : e.index == 0x3130 ? uptime_ : lifetime_) m = MinMax{};
+      v.set_u(e, 4);
+      break;
+    case 0x3200:  // "least and largest possible float32 values" to min / max
+      v.set_f(*node.od().find(0x3201, e.sub), -kFltMax);
+      v.set_f(*node.od().find(0x3202, e.sub), kFltMax);
+      break;
+    case 0x4001:
+      return change_node_id(node, e.sub, std::uint8_t(v.get_u(e)), now);
+    case 0x4022:
+      refresh_device_name(node);
+      break;
+    case 0x4030:  // §6.3.12: writing the low part clears the high part; low = 0x1018:04 = LSS serial
+      if (e.sub == 1) {
+        v.set_u(0x4030, 2, 0);
+        v.set_u(0x1018, 4, v.get_u(e));
+      }
+      break;
+    case 0x4031:
+      if (e.sub == 1) v.set_u(0x4031, 2, 0);
+      break;
+    case 0x6121:
+    case 0x6123:
+    case 0x6126:
+    case 0x6127:
+    case 0x9121:
+    case 0x9123:
+      after_scaling_write(node, e);
+      break;
+    default:
+      Cia404Application::after_write(node, e, now);
+      if (e.index == 0x6132) write_scaling(node, ch, float(v.get_f(*node.od().find(0x6121, e.sub))),
+                                           float(v.get_f(*node.od().find(0x6123, e.sub))));
+      break;
+  }
+  load_chain(node);
+}
+
+// §6.2.6: PV1 / PV2 are the state; "always write the Offset value at first":
+// an offset write moves PV1, a gain write moves PV2 using the current offset.
+void SmcApplication::after_scaling_write(Node& node, const OdEntry& e) {
+  OdValues& v = node.values();
+  const std::uint8_t sub = e.sub;
+  const std::size_t ch = channel_of(sub);
+  float pv1 = float(v.get_f(*node.od().find(0x6121, sub)));
+  float pv2 = float(v.get_f(*node.od().find(0x6123, sub)));
+  const double pow10 = std::pow(10.0, double(std::min<std::uint64_t>(v.u(0x6132, sub), 9)));
+  switch (e.index) {
+    case 0x9121: pv1 = float(double(v.get_i(e)) / pow10); break;
+    case 0x9123: pv2 = float(double(v.get_i(e)) / pow10); break;
+    case 0x6127: pv1 = float(v.get_f(e)); break;
+    case 0x6126: {
+      const float gain = float(v.get_f(e));
+      pv2 = float(v.get_f(*node.od().find(0x6127, sub))) + gain * float(kFieldSpan);
+      write_scaling(node, ch, pv1, pv2);
+      v.set_f(e, gain);  // reads back exactly as written
+      return;
+    }
+    default: break;
+  }
+  write_scaling(node, ch, pv1, pv2);
+}
+
+void SmcApplication::write_scaling(Node& node, std::size_t ch, float pv1, float pv2) {
+  OdValues& v = node.values();
+  const auto sub = std::uint8_t(ch + 1);
+  const int dd = int(std::min<std::uint64_t>(v.u(0x6132, sub), 9));
+  v.set_f(*node.od().find(0x6121, sub), pv1);
+  v.set_f(*node.od().find(0x6123, sub), pv2);
+  v.set_i(*node.od().find(0x9121, sub), physics::to_decimal_i32(pv1, dd).value);
+  v.set_i(*node.od().find(0x9123, sub), physics::to_decimal_i32(pv2, dd).value);
+  v.set_f(*node.od().find(0x6126, sub), (pv2 - pv1) / float(kFieldSpan));
+  v.set_f(*node.od().find(0x6127, sub), pv1);
+}
+
+// §6.3.7 / §8.3: the new node-ID is applied at once, no SDO answer, a boot-up
+// on the new ID; sub 2 also sets the pre-defined COB-IDs (bits 31, 30 kept).
+void SmcApplication::change_node_id(Node& node, std::uint8_t sub, std::uint8_t id, TimeUs now) {
+  if (sub == 2) {
+    struct Cob {
+      std::uint16_t index;
+      std::uint8_t sub;
+      std::uint32_t id;
+    };
+    for (Cob c : {Cob{0x1005, 0, 0x80u}, Cob{0x1012, 0, 0x100u}, Cob{0x1014, 0, 0x80u + id},
+                  Cob{0x1800, 1, 0x180u + id}, Cob{0x1801, 1, 0x280u + id}}) {
+      const OdEntry* e = node.od().find(c.index, c.sub);
+      if (e) node.values().set_u(*e, (node.values().get_u(*e) & kKeepBits) | c.id);
+    }
+  }
+  node.set_node_id(id);
+  node.nmt().reboot_keeping_values(now);
+}
+
+// ---------------------------------------------------------------- supervision
+
+TimeUs SmcApplication::process(Node& node, TimeUs now) {
+  load_chain(node);
+  const TimeUs next = Cia404Application::process(node, now);
+  if (now >= next_supervision_) {
+    supervise(node, now);
+    next_supervision_ = now + settings_.stay_set_period_us;
+  }
+  return std::min(next, next_supervision_);
+}
+
+// Stay-set capture of the raw FV (before the input offset, §6.3.2) and the
+// A/D fault detection, in every NMT state.
+void SmcApplication::supervise(Node& node, TimeUs now) {
+  for (std::size_t ch = 0; ch < 2 && ch < profile().channels.size(); ++ch) {
+    const Measurement m = measure(node, ch, now);
+    if (m.status & kInvalidBit) {
+      if (!latched_status_[ch]) {
+        latched_status_[ch] = kInvalidBit;
+        sensor_error(node, now);
+      }
+      continue;
+    }
+    uptime_[ch].add(m.raw);
+    lifetime_[ch].add(m.raw);
+  }
+}
+
+// §4.8, §6.1.2, §6.1.17: EMCY 0x5030 + add-info, 0x1001 bit 0 latched, 0x1029:03.
+void SmcApplication::sensor_error(Node& node, TimeUs now) {
+  latched_error_ = true;
+  const std::uint8_t mfr[5] = {std::uint8_t(settings_.ad_fault_info), std::uint8_t(settings_.ad_fault_info >> 8)};
+  node.emcy().raise(kEmcySensor, kInvalidBit, mfr, now);
+  if (!settings_.analog_error_reaction) return;
+  switch (node.values().u(0x1029, 3)) {
+    case 0:
+      if (node.state() == NmtState::kOperational) node.nmt().command(kNmtEnterPreOperational, now);
+      break;
+    case 2:
+      node.nmt().command(kNmtStop, now);
+      break;
+    default:
+      break;
+  }
+}
+
+// ---------------------------------------------------------------- registry
+
+namespace {
+
+Settings parse_settings(const config::Profile& profile, const PreparedProfile& prepared) {
+  Settings s;
+  const physics::SensorSpec& sensor = prepared.physics.sensor;
+  s.range_min[0] = sensor.pressure.range_min;
+  s.range_max[0] = sensor.pressure.range_max;
+  s.range_min[1] = sensor.temperature.range_min;
+  s.range_max[1] = sensor.temperature.range_max;
+  const YAML::Node& v = profile.personality_params;
+  if (!v || !v.IsMap()) return s;
+  config::Where w{profile.file, "vendor"};
+  if (v["ad_fault_info"]) s.ad_fault_info = std::uint16_t(config::get_int(w.child("ad_fault_info"), v["ad_fault_info"], 0, 0xFFFF));
+  for (auto [key, field] : {std::pair{"reset_node_clears_error_register", &s.reset_node_clears_error_register},
+                            std::pair{"analog_error_reaction", &s.analog_error_reaction}})
+    if (v[key]) *field = config::get_bool(w.child(key), v[key]);
+  if (v["stay_set_period"]) {
+    const double t = config::get_quantity(w.child("stay_set_period"), v["stay_set_period"], config::Dim::kTime);
+    if (t < 1e-3 || t > 1.0) config::fail(w.child("stay_set_period"), v["stay_set_period"], "expected 1 ms .. 1 s");
+    s.stay_set_period_us = TimeUs(std::llround(t * 1e6));
+  }
+  return s;
+}
+
+}  // namespace
+
+void prepare(config::Profile& profile, PreparedProfile& prepared) {
+  check_vendor_keys(profile, {"ad_fault_info", "reset_node_clears_error_register", "analog_error_reaction",
+                              "stay_set_period"});
+  prepared.device = std::make_shared<const Settings>(parse_settings(profile, prepared));
+}
+
+std::unique_ptr<Application> make(const config::Profile&, const PreparedProfile& prepared, const NodeContext& ctx) {
+  const auto& settings = *std::static_pointer_cast<const Settings>(prepared.device);
+  return std::make_unique<SmcApplication>(prepared.cia404, make_sensor_source(prepared, ctx), settings,
+                                          prepared.identity, ctx.index);
+}
+
+}  // namespace cansim::personalities::smc

@@ -1,0 +1,86 @@
+// `adz-smc` personality: ADZ NAGANO SMC pressure & temperature transducer
+// (profiles/smc.yaml, docs/devices/smc.md, manual EI-000038-DD v1826).
+//
+// The CiA 404 chain does the live objects, decimal digits, integer views and
+// delta / limit TPDO events. This adds the SMC measurement chain of manual §5:
+//   FV (0x7100, 0..20000 counts) - input offset 0x3124/0x3125 -> filter
+//   -> CiA 404 v1.2 linear scaling PV1 0x6121 / PV2 0x6123 (gain 0x6126,
+//      offset 0x6127, write-order dependent) -> clamping 0x3200-0x3202 -> PV
+// and the vendor objects: autozero 0x3126, stay-set indicators 0x3130/0x3131,
+// time stamps 0x3140/0x3141, endianness 0x4000, node-ID 0x4001, device name
+// 0x4022 (mirrored in 0x1008), serial 0x4030 (= 0x1018:04), the sensor-error
+// EMCY 0x5030 with the latched error register and the 0x1029:03 reaction.
+#pragma once
+
+#include <memory>
+
+#include "personalities/registry.hpp"
+
+namespace cansim::personalities::smc {
+
+// `vendor:` keys besides cia404 / serial_number_base.
+struct Settings {
+  std::uint16_t ad_fault_info = 0xC555;           // EMCY 0x5030 additional information
+  bool reset_node_clears_error_register = false;  // §6.1.2: only power-off clears 0x1001
+  bool analog_error_reaction = true;              // apply 0x1029:03 on a sensor error
+  TimeUs stay_set_period_us = 10000;              // min/max capture and fault supervision
+  double range_min[2] = {0.0, 218.15};            // SI range mapped to FV 0..20000 (from `sensor:`)
+  double range_max[2] = {5.0e5, 398.15};
+};
+
+class SmcApplication : public Cia404Application {
+ public:
+  SmcApplication(std::shared_ptr<const Cia404Profile> profile, std::unique_ptr<MeasurementSource> source,
+                 const Settings& settings, IdentitySettings identity = {}, std::uint32_t node_index = 0);
+
+  void on_reset(Node& node, ResetKind kind, TimeUs now) override;
+  void refresh(Node& node, const OdEntry& e, TimeUs now) override;
+  SdoAbort check_write(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now) override;
+  void after_write(Node& node, const OdEntry& e, TimeUs now) override;
+  TimeUs process(Node& node, TimeUs now) override;
+
+  static constexpr double kFieldSpan = 20000.0;  // FV2 - FV1 (0x7122 - 0x7120)
+
+ protected:
+  double input_value(const ChannelConfig& c, const MeasurementSource::Sample& s, const UnitScale& unit) override;
+  double limit_hysteresis(const Node& node, std::size_t ch) const override;
+
+ private:
+  struct Chain {
+    float gain = 1.0f, pv1 = 0.0f;   // 0x6126 / 0x6127 (= 0x6121)
+    float offset = 0.0f;             // input offset 0x3125 (FV counts)
+    float cmin = 0.0f, cmax = 0.0f;  // clamping 0x3201 / 0x3202
+    float scale(double fv) const;    // PV of a field value: offset, scaling, clamping
+  };
+  struct MinMax {
+    bool any = false;
+    std::int32_t min = 0, max = 0;
+    void add(std::int32_t v);
+  };
+
+  void load_chain(const Node& node);
+  void write_scaling(Node& node, std::size_t ch, float pv1, float pv2);
+  void after_scaling_write(Node& node, const OdEntry& e);
+  void fill_device_name_chars(Node& node);
+  void refresh_device_name(Node& node);
+  void change_node_id(Node& node, std::uint8_t sub, std::uint8_t id, TimeUs now);
+  void supervise(Node& node, TimeUs now);
+  void sensor_error(Node& node, TimeUs now);
+  void swap_if_big_endian(Node& node, const OdEntry& e);
+
+  Settings settings_;
+  Chain chain_[2];
+  MinMax uptime_[2];
+  MinMax lifetime_[2];  // survives resets; kept by the application object
+  bool latched_error_ = false;
+  std::uint8_t latched_status_[2] = {};  // 0x6150 bit 0 held like 0x1001
+  std::uint32_t factory_serial_ = 0;
+  TimeUs boot_time_ = 0;
+  TimeUs next_supervision_ = 0;
+};
+
+void prepare(config::Profile& profile, PreparedProfile& prepared);
+std::unique_ptr<Application> make(const config::Profile& profile, const PreparedProfile& prepared,
+                                  const NodeContext& ctx);
+
+}  // namespace cansim::personalities::smc
