@@ -23,8 +23,9 @@ void SyncConsumer::reset(TimeUs) {
 
 void SyncConsumer::read_config() {
   const OdEntry* c = node_.od().find(0x1005, 0);
-  present_ = c != nullptr;
-  std::uint32_t v = c ? std::uint32_t(node_.values().get_u(*c)) : 0x80;
+  const std::int64_t fixed = node_.options().sync_cob_id_without_1005;
+  present_ = c != nullptr || fixed > 0;
+  std::uint32_t v = c ? std::uint32_t(node_.values().get_u(*c)) : std::uint32_t(fixed);
   extended_ = v & kFrame29Bit;
   cob_id_ = v & (extended_ ? 0x1FFFFFFFu : 0x7FFu);
   const OdEntry* o = node_.od().find(0x1019, 0);

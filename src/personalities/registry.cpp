@@ -4,6 +4,7 @@
 
 #include "personalities/dps.hpp"
 #include "personalities/cmp.hpp"
+#include "personalities/gems9000.hpp"
 #include "personalities/generic.hpp"
 #include "personalities/p92c.hpp"
 #include "personalities/smc.hpp"
@@ -22,6 +23,7 @@ struct Personality {
 // Device personalities add one line each.
 constexpr Personality kPersonalities[] = {
     {"generic", generic::prepare, generic::make},
+    {"gems-9000", gems9000::prepare, gems9000::make},
     {"danfoss-p92c", p92c::prepare, p92c::make},
     {"adz-smc", smc::prepare, smc::make},
     {"trafag-cmp", cmp::prepare, cmp::make},

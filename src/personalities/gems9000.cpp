@@ -1,0 +1,312 @@
+#include "personalities/gems9000.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+
+#include "config/physics_config.hpp"
+#include "physics/fault.hpp"
+
+namespace cansim::personalities::gems9000 {
+
+namespace {
+
+enum : std::uint16_t {
+  kSeconds = 0x2005,
+  kFilter = 0x2030,
+  kPeakControl = 0x2031,
+  kUserUnit = 0x2032,
+  kPin = 0x20FF,
+  kExperiencedFirst = 0x2800,
+  kExperiencedLast = 0x2FFF,
+  kOverflowControl = 0x2803,
+  kBootLoad = 0x2810,
+  kNetwork = 0x2813,
+  kMaximum = 0x4130,
+  kMinimum = 0x4131,
+  kString = 0x5130,
+  kFieldValue = 0x7100,
+};
+
+// Fig. 28: EMCY code and the error register the manual prints with it.
+enum : std::uint16_t { kEmcySensor = 0x2201, kEmcyMaths = 0x6101, kEmcyNvm = 0x6102 };
+constexpr std::uint8_t kRegSensor = 0xC0;
+constexpr std::uint8_t kRegMaths = 0x81;
+
+constexpr std::uint32_t kBootSignature = 0x746F6F62;  // "boot"
+constexpr char kZero[4] = {'z', 'e', 'r', 'o'};
+
+// Per channel (0 pressure, 1 temperature), §4.6.2.
+constexpr std::uint16_t kOverflowCounter[2] = {0x2006, 0x2008};
+constexpr std::uint16_t kUnderflowCounter[2] = {0x2007, 0x2009};
+constexpr double kSpanHysteresis = 0.005;  // of the span, so noise at a limit counts once
+constexpr std::uint16_t kReferenceCounts = 0x8000;  // 0x7100:03, mid-scale
+
+bool experienced(std::uint16_t index) { return index >= kExperiencedFirst && index <= kExperiencedLast; }
+
+double real_of(std::span<const std::uint8_t> data) {
+  return data.size() >= 4 ? decode_f(DataType::kReal32, data.data()) : std::nan("");
+}
+
+// §4.2.3: left-justified, space padded, no terminator; decimals are dropped
+// until the text fits the 8 bytes.
+std::size_t format_value(double v, int digits, char (&out)[9]) {
+  char text[48];
+  int n = 0;
+  for (int dd = digits; dd >= 0; --dd) {
+    n = std::snprintf(text, sizeof text, "%.*f", dd, v);
+    if (n > 0 && n <= 8) break;
+  }
+  n = std::clamp(n, 0, 8);
+  std::memset(out, ' ', 8);
+  std::memcpy(out, text, std::size_t(n));
+  out[8] = '\0';
+  return 8;
+}
+
+}  // namespace
+
+GemsApplication::GemsApplication(std::shared_ptr<const Cia404Profile> profile,
+                                 std::unique_ptr<MeasurementSource> source, const Settings& settings,
+                                 IdentitySettings identity, std::uint32_t node_index)
+    : Cia404Application(std::move(profile), std::move(source), identity, node_index), settings_(settings) {}
+
+void GemsApplication::on_reset(Node& node, ResetKind kind, TimeUs now) {
+  Cia404Application::on_reset(node, kind, now);
+  sensor_failed_[0] = sensor_failed_[1] = math_error_ = false;  // the EMCY producer forgot them
+  if (kind != ResetKind::kCommunication) {
+    unlocked_ = false;  // the PIN unlock lasts until reset node / power-off
+    for (std::size_t ch = 0; ch < 2; ++ch) {
+      peaks_valid_[ch] = false;
+      span_[ch] = Span::kInside;
+      if (ch < profile().channels.size()) apply_vendor_filter(node, ch);
+    }
+    if (kind == ResetKind::kPowerOn) powered_at_ = now;
+    auto* sensor = dynamic_cast<SensorSource*>(&source());
+    const bool eeprom = sensor && sensor->faults().active(physics::FaultKind::EepromError, now);
+    if (node.store().corrupt() || eeprom)
+      node.emcy().raise(kEmcyNvm, settings_.manual_error_register ? kRegMaths : 0, now);
+  }
+  // §3.2.1 / §4.6.3: 0x2813 = 0 enters OPERATIONAL "when excitation is
+  // applied", without the boot-up message.
+  const bool power_on_path = kind == ResetKind::kPowerOn || settings_.autostart_on_nmt_reset;
+  if (power_on_path && node.values().u(kNetwork, 0) == 0) {
+    BootPlan& plan = node.nmt().boot_plan();
+    plan.send_boot_up = false;
+    plan.self_start = true;
+    plan.self_start_delay = 0;
+  }
+  next_supervision_ = now;
+}
+
+void GemsApplication::apply_vendor_filter(Node& node, std::size_t ch) {
+  const ChannelConfig& c = profile().channels[ch];
+  const OdEntry* e = node.od().find(kFilter, c.sub);
+  if (!e) return;
+  const double tau = node.values().get_f(*e);
+  physics::FilterSpec f;
+  if (tau > 0) {
+    const double rate = 1e6 / double(source().sample_period_us(c.source));
+    f = physics::FilterSpec::from_time(physics::FilterType::FirstOrder, tau, rate);
+  }
+  source().set_filter(c.source, f);
+}
+
+void GemsApplication::refresh(Node& node, const OdEntry& e, TimeUs now) {
+  const std::size_t ch = e.sub >= 1 && e.sub <= profile().channels.size() ? e.sub - 1u : 0u;
+  switch (e.index) {
+    case kString: return write_string(node, e, now);
+    case kMaximum:
+    case kMinimum: return track_peaks(node, ch, measure(node, ch, now).pv, false);
+    case kSeconds: node.values().set_u(e, std::uint64_t((now - powered_at_) / 1000000)); return;
+    case kFieldValue: node.values().set_u(e, kReferenceCounts); return;
+    default: return Cia404Application::refresh(node, e, now);
+  }
+}
+
+void GemsApplication::write_string(Node& node, const OdEntry& e, TimeUs now) {
+  const std::size_t ch = e.sub - 1u;
+  if (ch >= profile().channels.size()) return;
+  char text[9];
+  const std::size_t n = format_value(measure(node, ch, now).pv, digits(node, ch), text);
+  node.values().set_string(e, std::string_view(text, n));
+}
+
+// §4.6.1: the experienced user area is writable after the PIN only; the
+// abort code is not documented (spec §11 #24: 0x08000020).
+SdoAbort GemsApplication::check_experienced(const OdEntry& e, std::span<const std::uint8_t> data) {
+  if (!unlocked_) return SdoAbort::kDataTransfer;
+  switch (e.index) {
+    case kOverflowControl:
+      return data.size() == 4 && std::memcmp(data.data(), kZero, 4) == 0 ? SdoAbort::kNone : SdoAbort::kDataTransfer;
+    case kBootLoad:
+      return data.size() >= 4 && decode_u(DataType::kUnsigned32, data.data()) == kBootSignature
+                 ? SdoAbort::kNone
+                 : SdoAbort::kDataTransfer;
+    default:
+      return SdoAbort::kNone;
+  }
+}
+
+SdoAbort GemsApplication::check_write(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now) {
+  if (experienced(e.index)) return check_experienced(e, data);
+  switch (e.index) {
+    case kPin:
+      unlocked_ = data.size() >= 4 && decode_u(DataType::kUnsigned32, data.data()) == settings_.pin;
+      return unlocked_ ? SdoAbort::kNone : SdoAbort::kDataTransfer;
+    case kFilter: {
+      const double tau = real_of(data);
+      return std::isfinite(tau) && tau >= 0 ? SdoAbort::kNone : SdoAbort::kInvalidValue;
+    }
+    case kUserUnit: {
+      const double m = real_of(data);
+      return std::isfinite(m) && m > 0 ? SdoAbort::kNone : SdoAbort::kInvalidValue;
+    }
+    default:
+      return Cia404Application::check_write(node, e, data, now);
+  }
+}
+
+void GemsApplication::after_write(Node& node, const OdEntry& e, TimeUs now) {
+  const std::size_t ch = e.sub >= 1 && e.sub <= profile().channels.size() ? e.sub - 1u : 0u;
+  if (experienced(e.index)) {
+    if (e.index == kOverflowControl && ch < 2) {
+      node.values().set_u(kOverflowCounter[ch], 0, 0);
+      node.values().set_u(kUnderflowCounter[ch], 0, 0);
+    }
+    if (e.index == kBootLoad || (settings_.boot_alias_2813 && e.index == kNetwork && node.values().get_u(e) == 'b'))
+      boot_requested_ = true;
+    // Fig. 38 writes the calibration dates after the last 'save': the area
+    // goes straight to NVM (spec §11 #20).
+    const OdEntry* one[] = {&e};
+    if (settings_.direct_nvm && e.persist != kPersistNone && !node.store().save_entries(one))
+      node.emcy().report(kEmcyNvm, settings_.manual_error_register ? kRegMaths : 0, nullptr, now);
+    return;
+  }
+  switch (e.index) {
+    case kPeakControl: return track_peaks(node, ch, measure(node, ch, now).pv, true);
+    case kFilter: return apply_vendor_filter(node, ch);
+    default: return Cia404Application::after_write(node, e, now);
+  }
+}
+
+// Max / min since reset node, power-on or the last 0x2031 write (spec §11 #26).
+void GemsApplication::track_peaks(Node& node, std::size_t ch, double pv, bool restart) {
+  if (ch >= 2 || !std::isfinite(pv)) return;
+  const std::uint8_t sub = profile().channels[ch].sub;
+  const OdEntry* max = node.od().find(kMaximum, sub);
+  const OdEntry* min = node.od().find(kMinimum, sub);
+  if (!max || !min) return;
+  OdValues& v = node.values();
+  const bool fresh = restart || !peaks_valid_[ch];
+  if (fresh || pv > v.get_f(*max)) v.set_f(*max, pv);
+  if (fresh || pv < v.get_f(*min)) v.set_f(*min, pv);
+  peaks_valid_[ch] = true;
+}
+
+// §4.6.2: one count per excursion beyond span start / end.
+void GemsApplication::count_span(Node& node, std::size_t ch, double pv) {
+  if (ch >= 2) return;
+  const double start = get(node, ch, Role::kSpanStart);
+  const double end = get(node, ch, Role::kSpanEnd);
+  const double hyst = kSpanHysteresis * std::fabs(end - start);
+  auto bump = [&](std::uint16_t counter) {
+    const std::uint64_t n = node.values().u(counter, 0);
+    if (n < 0xFFFF) node.values().set_u(counter, 0, n + 1);
+  };
+  switch (span_[ch]) {
+    case Span::kInside:
+      if (pv > end) {
+        span_[ch] = Span::kOver;
+        bump(kOverflowCounter[ch]);
+      } else if (pv < start) {
+        span_[ch] = Span::kUnder;
+        bump(kUnderflowCounter[ch]);
+      }
+      break;
+    case Span::kOver:
+      if (pv <= end - hyst) span_[ch] = Span::kInside;
+      break;
+    case Span::kUnder:
+      if (pv >= start + hyst) span_[ch] = Span::kInside;
+      break;
+  }
+}
+
+void GemsApplication::update_emcy(Node& node, std::uint16_t code, std::uint8_t reg, bool active, TimeUs now) {
+  if (active == node.emcy().active(code)) return;
+  if (active) node.emcy().raise(code, settings_.manual_error_register ? reg : 0, now);
+  else node.emcy().clear(code, now);
+}
+
+void GemsApplication::supervise(Node& node, std::size_t ch, TimeUs now) {
+  const Measurement m = measure(node, ch, now);
+  sensor_failed_[ch] = (m.status & physics::kStatusInvalid) != 0;
+  if (!std::isfinite(m.pv)) {
+    math_error_ = true;
+    return;
+  }
+  track_peaks(node, ch, m.pv, false);
+  count_span(node, ch, m.pv);
+}
+
+TimeUs GemsApplication::process(Node& node, TimeUs now) {
+  const TimeUs next = Cia404Application::process(node, now);
+  if (now >= next_supervision_) {
+    math_error_ = false;
+    const std::size_t channels = std::min<std::size_t>(2, profile().channels.size());
+    for (std::size_t ch = 0; ch < channels; ++ch) supervise(node, ch, now);
+    update_emcy(node, kEmcySensor, kRegSensor, sensor_failed_[0] || sensor_failed_[1], now);
+    update_emcy(node, kEmcyMaths, kRegMaths, math_error_, now);
+    next_supervision_ = now + settings_.supervision_period_us;
+  }
+  return std::min(next, next_supervision_);
+}
+
+// ---- registry
+
+namespace {
+
+Settings parse_settings(const config::Profile& profile) {
+  Settings s;
+  const YAML::Node& v = profile.personality_params;
+  if (!v || !v.IsMap()) return s;
+  config::Where w{profile.file, "vendor"};
+  if (v["pin"]) s.pin = std::uint32_t(config::get_int(w.child("pin"), v["pin"], 0, 0xFFFFFFFF));
+  struct Flag {
+    const char* key;
+    bool* field;
+  };
+  for (Flag f : {Flag{"experienced_area_direct_nvm", &s.direct_nvm},
+                 Flag{"autostart_on_nmt_reset", &s.autostart_on_nmt_reset},
+                 Flag{"boot_alias_2813", &s.boot_alias_2813}})
+    if (v[f.key]) *f.field = config::get_bool(w.child(f.key), v[f.key]);
+  if (v["emcy_register_mode"]) {
+    const std::string m = config::get_string(w.child("emcy_register_mode"), v["emcy_register_mode"]);
+    if (m != "manual" && m != "cia301") config::fail(w.child("emcy_register_mode"), v["emcy_register_mode"], "expected manual or cia301");
+    s.manual_error_register = m == "manual";
+  }
+  if (v["supervision_period"]) {
+    const double t = config::get_quantity(w.child("supervision_period"), v["supervision_period"], config::Dim::kTime);
+    if (t < 1e-3 || t > 10.0) config::fail(w.child("supervision_period"), v["supervision_period"], "expected 1 ms .. 10 s");
+    s.supervision_period_us = TimeUs(std::llround(t * 1e6));
+  }
+  return s;
+}
+
+}  // namespace
+
+void prepare(config::Profile& profile, PreparedProfile& prepared) {
+  check_vendor_keys(profile, {"pin", "experienced_area_direct_nvm", "autostart_on_nmt_reset", "boot_alias_2813",
+                              "emcy_register_mode", "supervision_period"});
+  prepared.device = std::make_shared<const Settings>(parse_settings(profile));
+}
+
+std::unique_ptr<Application> make(const config::Profile&, const PreparedProfile& prepared, const NodeContext& ctx) {
+  const auto& settings = *std::static_pointer_cast<const Settings>(prepared.device);
+  return std::make_unique<GemsApplication>(prepared.cia404, make_sensor_source(prepared, ctx), settings,
+                                           prepared.identity, ctx.index);
+}
+
+}  // namespace cansim::personalities::gems9000
