@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# ctest-timeout: 600
 """cansimd with one Danfoss DST P92C (profiles/p92c.yaml) on vcan0 at its
 default 125 kbit/s, node-ID 1, against an independent master written here:
 identity and string reads, NMT start -> immediate TPDO then one per 1000 ms
