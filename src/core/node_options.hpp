@@ -118,8 +118,6 @@ namespace cansim {
   X(bool, sync_accept_any_dlc, false, "accept SYNC frames of any DLC instead of EMCY 0x8240")     \
   X(int64_t, sync_cob_id_without_1005, 0,                                                         \
     "SYNC COB-ID consumed when the profile has no 0x1005 (0: no SYNC consumer)")                 \
-  X(int64_t, sync_cob_id_without_1005, 0,                                                         \
-    "SYNC COB-ID consumed when the profile has no 0x1005 (0: no SYNC consumer)")                 \
   /* Store / restore (CiA 301 §7.5.2.13-14) */                                                   \
   X(int64_t, store_bad_signature_abort, 0x08000020, "abort code for a wrong save/load signature")\
   X(std::string, restore_mode, "on_reset",                                                        \

@@ -2,8 +2,8 @@
 
 #include <algorithm>
 
-#include "personalities/dps.hpp"
 #include "personalities/cmp.hpp"
+#include "personalities/dps.hpp"
 #include "personalities/gems9000.hpp"
 #include "personalities/generic.hpp"
 #include "personalities/p92c.hpp"
@@ -23,10 +23,10 @@ struct Personality {
 // Device personalities add one line each.
 constexpr Personality kPersonalities[] = {
     {"generic", generic::prepare, generic::make},
+    {"trafag-cmp", cmp::prepare, cmp::make},
     {"gems-9000", gems9000::prepare, gems9000::make},
     {"danfoss-p92c", p92c::prepare, p92c::make},
     {"adz-smc", smc::prepare, smc::make},
-    {"trafag-cmp", cmp::prepare, cmp::make},
     {"honeywell-dps", dps::prepare, dps::make},
 };
 
