@@ -136,7 +136,8 @@ void parse_node_entry(const Where& w, const YAML::Node& entry, ProfileCache& cac
     fail(w.child("count"), entry["count"],
          "expected a count that keeps node-IDs within 1..127 (first node-ID " + std::to_string(first_id) + ")");
   std::string name = profile->name.empty() ? fs::path(path).stem().string() : profile->name;
-  name += "-" + std::to_string(first_id);
+  name += '-';  // not "-" + std::to_string(): GCC 12 -O3 reports a false -Wrestrict there
+  name += std::to_string(first_id);
   if (entry["name"]) {
     name = get_string(w.child("name"), entry["name"]);
     if (!valid_name(name)) fail(w.child("name"), entry["name"], "expected a name of letters, digits, '-', '_' or '.'");
