@@ -242,7 +242,7 @@ void OdValues::reset(std::uint8_t node_id, std::uint16_t first, std::uint16_t la
     std::uint8_t* p = data_.data() + e.offset;
     std::memset(p, 0, e.capacity);
     std::size_t n = std::min<std::size_t>(e.default_bytes.size(), e.capacity);
-    std::memcpy(p, e.default_bytes.data(), n);
+    if (n) std::memcpy(p, e.default_bytes.data(), n);  // an empty default has no data()
     if (type_size(e.type)) {
       n = e.capacity;
       if (e.default_plus_node_id && !is_real(e.type))

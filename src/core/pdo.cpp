@@ -622,7 +622,7 @@ bool PdoEngine::build(Tpdo& t, TimeUs now, CanFrame& out) {
     node_.refresh(e, now);
     std::uint8_t value[8] = {};
     const auto bytes = node_.values().bytes(e);
-    std::memcpy(value, bytes.data(), std::min<std::size_t>(bytes.size(), sizeof value));
+    if (!bytes.empty()) std::memcpy(value, bytes.data(), std::min<std::size_t>(bytes.size(), sizeof value));
     put_bits(out.data, at, value, item.bits);
     at += item.bits;
   }
