@@ -2,6 +2,7 @@
 
 #include "core/can_frame.hpp"
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -111,9 +112,19 @@ std::shared_ptr<Profile> make_variant(const Where& w, const YAML::Node& entry, c
   return p;
 }
 
+// `record:` of an entry: "{id}" becomes the node-ID; a `count:` group without
+// it gets "-<node-ID>" before the extension so its nodes do not share a file.
+std::string record_file_name(std::string pattern, std::uint8_t node_id, bool group) {
+  const std::string id = std::to_string(node_id);
+  if (const auto at = pattern.find("{id}"); at != std::string::npos) return pattern.replace(at, 4, id);
+  if (!group) return pattern;
+  const fs::path p(pattern);
+  return (p.parent_path() / (p.stem().string() + "-" + id + p.extension().string())).string();
+}
+
 void parse_node_entry(const Where& w, const YAML::Node& entry, ProfileCache& cache, FleetConfig& out) {
   check_keys(w, entry,
-             {"profile", "interface", "node_id", "count", "name", "serial", "bit_rate", "options", "vendor"});
+             {"profile", "interface", "node_id", "count", "name", "serial", "bit_rate", "record", "options", "vendor"});
   if (!entry["profile"]) fail(w.child("profile"), entry, "missing required key 'profile'");
   if (!entry["interface"]) fail(w.child("interface"), entry, "missing required key 'interface'");
   std::string path;
@@ -156,6 +167,12 @@ void parse_node_entry(const Where& w, const YAML::Node& entry, ProfileCache& cac
     std::uint32_t base_serial = e && e->default_bytes.size() >= 4 ? get_u32(e->default_bytes.data()) : 0;
     serial = base_serial;
   }
+  std::string record;
+  if (entry["record"]) {
+    record = get_string(w.child("record"), entry["record"]);
+    if (record.empty() || record.back() == '/')
+      fail(w.child("record"), entry["record"], "expected a CSV file name, e.g. recordings/dps-{id}.csv");
+  }
   if (entry["options"] || entry["vendor"]) {
     profile = make_variant(w, entry, *profile);
     cache.add_variant(profile);
@@ -170,6 +187,7 @@ void parse_node_entry(const Where& w, const YAML::Node& entry, ProfileCache& cac
     n.node_id = std::uint8_t(first_id == 255 ? 255 : first_id + i);
     n.bit_rate_kbit = bit_rate;
     if (serial) n.serial = *serial + std::uint32_t(i);
+    if (!record.empty()) n.record_file = record_file_name(record, n.node_id, count > 1);
     n.profile = profile;
     n.fingerprint = fingerprint_base + "\nindex " + std::to_string(i);
     out.nodes.push_back(std::move(n));
@@ -294,6 +312,20 @@ FleetConfig single_node_fleet(const std::string& profile_ref, const std::string&
   n.fingerprint = read_text(path);
   out.nodes.push_back(std::move(n));
   return out;
+}
+
+void apply_record_option(FleetConfig& fleet, const std::string& path, bool single_node) {
+  if (path.empty()) return;
+  for (NodeConfig& n : fleet.nodes) {
+    if (single_node) {
+      n.record_file = path;
+    } else if (n.record_file.empty()) {
+      std::string file = n.key;
+      std::replace(file.begin(), file.end(), '/', '-');
+      n.record_file = (fs::path(path) / (file + ".csv")).string();
+    }
+    n.fingerprint += "\nrecord " + n.record_file;
+  }
 }
 
 }  // namespace cansim::config

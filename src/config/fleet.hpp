@@ -27,6 +27,7 @@ struct NodeConfig {
   std::uint8_t node_id = 1;             // 1..127 or 0xFF (LSS-unconfigured)
   std::uint32_t bit_rate_kbit = 250;    // the node's own rate
   std::optional<std::uint32_t> serial;  // 0x1018:04; set for count groups and `serial:`
+  std::string record_file;              // `record:` CSV file of the node's physics (empty: none)
   // Shared by the nodes of one entry; a private copy (own layout) when the
   // entry overrides options or vendor parameters.
   std::shared_ptr<Profile> profile;
@@ -60,5 +61,10 @@ FleetConfig parse_fleet(const std::string& text, const std::string& file, const 
 // `cansimd --profile P [--interface IF] [--node-id N]`: one node.
 FleetConfig single_node_fleet(const std::string& profile_ref, const std::string& interface,
                               std::optional<int> node_id, const ProfileSearch& search);
+
+// `cansimd --record PATH`: a single node records to PATH; in a fleet, PATH is a
+// folder and every node without its own `record:` records to
+// PATH/<interface>-<name>-<index>.csv.
+void apply_record_option(FleetConfig& fleet, const std::string& path, bool single_node);
 
 }  // namespace cansim::config

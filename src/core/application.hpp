@@ -40,6 +40,11 @@ class Application {
   // Periodic application work (event checks, vendor timers). Returns the
   // next time it wants to run, or kNever.
   virtual TimeUs process(Node&, TimeUs) { return kNever; }
+  // The node's surroundings (injected power, bus and timing faults): applied
+  // at power-on before the boot-up and, when due, before any service runs at
+  // that instant. Returns when it next needs to run, or kNever. May switch
+  // the node off (Node::power_cycle).
+  virtual TimeUs environment(Node&, TimeUs) { return kNever; }
 };
 
 // Where a node keeps what 0x1010 and LSS "store configuration" saved. The

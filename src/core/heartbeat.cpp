@@ -45,7 +45,7 @@ void Heartbeat::configure(Consumer& c, std::uint32_t value) {
 
 void Heartbeat::process(TimeUs now) {
   if (next_beat_ <= now) {
-    if (node_.state() != NmtState::kInitialising)
+    if (node_.state() != NmtState::kInitialising && !producer_stopped_)
       node_.send(CanFrame::make(kErrorControlBase + node_.node_id(), {std::uint8_t(node_.state())}));
     // Absolute schedule: the next multiple of the period after now.
     TimeUs period = ms(period_ms_);

@@ -28,6 +28,10 @@ class Heartbeat {
   std::uint16_t producer_time_ms() const { return period_ms_; }
   // True while at least one consumer entry timed out and did not recover.
   bool consumer_failed() const { return failed_count_ > 0; }
+  // Fault injection "heartbeat stops": the producer keeps its schedule but
+  // sends nothing, so it resumes on the same grid.
+  void set_producer_stopped(bool stopped) { producer_stopped_ = stopped; }
+  bool producer_stopped() const { return producer_stopped_; }
 
   // Re-reads its configuration from the OD (after a reset / power-on).
   void reset(TimeUs now);
@@ -62,6 +66,7 @@ class Heartbeat {
   TimeUs next_beat_ = kNever;
   std::uint16_t period_ms_ = 0;
   std::uint16_t failed_count_ = 0;
+  bool producer_stopped_ = false;
   std::vector<Consumer> consumers_;  // one per 0x1016 sub, sized at reset
 };
 

@@ -54,6 +54,11 @@ class NmtSlave {
   explicit NmtSlave(Node& node) : node_(node) {}
   // Power-on: initialisation, boot-up, then pre-operational (or operational).
   void power_on(TimeUs now);
+  // Power lost: INITIALISING again, silently (nobody hears a dead node).
+  void power_off() {
+    state_ = NmtState::kInitialising;
+    booted_ = false;
+  }
   NmtState state() const { return state_; }
   // Executes an NMT command specifier (0x01, 0x02, 0x80, 0x81, 0x82) locally,
   // whatever the current state (the LSS slave uses 0x82 to boot a node that

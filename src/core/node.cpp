@@ -39,6 +39,12 @@ void Node::for_each_service(Fn&& fn) const {
 void Node::power_on(TimeUs now) {
   powered_ = true;
   silent_ = false;
+  bus_off_ = false;
+  power_on_at_ = kNever;
+  if (app_) {
+    env_next_ = app_->environment(*this, now);
+    if (!powered_) return;  // cycled again at once
+  }
   store_.load();
   LssStored lss = store_.stored_lss();
   node_id_ = lss.valid ? lss.node_id : setup_.node_id;
@@ -48,7 +54,28 @@ void Node::power_on(TimeUs now) {
 
 void Node::power_off() {
   powered_ = false;
+  nmt_.power_off();
+  power_on_at_ = kNever;
   rx_changed();
+}
+
+void Node::power_cycle(TimeUs now, TimeUs off_for) {
+  power_off();
+  power_on_at_ = now + std::max<TimeUs>(off_for, 0);
+}
+
+void Node::set_bus_off(bool off, TimeUs now) {
+  if (off == bus_off_ || !powered_) return;
+  bus_off_ = off;
+  const NodeOptions& o = options();
+  if (off) {
+    if (o.bus_off_comm_error_reaction && nmt_.booted()) nmt_.communication_error(now);
+    return;
+  }
+  if (const auto code = std::uint16_t(o.bus_off_recovery_emcy)) {
+    emcy_.raise(code, std::uint8_t(o.bus_off_recovery_emcy_register), now);
+    if (o.bus_off_recovery_emcy_clears) emcy_.clear(code, now);
+  }
 }
 
 bool Node::allowed(Service s) const {
@@ -69,7 +96,7 @@ void Node::send(const CanFrame& frame) {
 }
 
 void Node::on_frame(const CanFrame& frame, TimeUs now) {
-  if (!powered_ || bit_rate_ != bus_bit_rate_) return;
+  if (!powered_ || bus_off_ || bit_rate_ != bus_bit_rate_) return;
   // Every service sees the frame until one claims it; the order puts the
   // broadcast services (LSS, NMT) first.
   bool done = false;
@@ -79,7 +106,15 @@ void Node::on_frame(const CanFrame& frame, TimeUs now) {
 }
 
 void Node::advance(TimeUs now) {
-  if (!powered_) return;
+  if (!powered_) {
+    if (power_on_at_ > now) return;
+    power_on(now);
+    if (!powered_) return;
+  }
+  if (app_ && env_next_ <= now) {
+    env_next_ = app_->environment(*this, now);
+    if (!powered_) return;
+  }
   for_each_service([&](auto& s) {
     if (s.next_deadline() <= now) s.process(now);
   });
@@ -87,8 +122,8 @@ void Node::advance(TimeUs now) {
 }
 
 TimeUs Node::next_deadline() const {
-  if (!powered_) return kNever;
-  TimeUs t = app_next_;
+  if (!powered_) return power_on_at_;
+  TimeUs t = std::min(app_next_, env_next_);
   for_each_service([&](const auto& s) { t = std::min(t, s.next_deadline()); });
   return t;
 }

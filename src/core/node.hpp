@@ -45,6 +45,10 @@ class Node {
   void power_on(TimeUs now);
   void power_off();                     // falls silent, as an unpowered sensor
   bool powered() const { return powered_; }
+  // Power cut now, power back `off_for` later (>= 0): then the node boots as
+  // at power-on (stored values kept, volatile ones lost). Safe to call from
+  // inside advance() (e.g. by the application); the power-on is a deadline.
+  void power_cycle(TimeUs now, TimeUs off_for);
   void on_frame(const CanFrame& frame, TimeUs now);
   void advance(TimeUs now);
   TimeUs next_deadline() const;
@@ -54,9 +58,18 @@ class Node {
   void set_bus_bit_rate(std::uint8_t index) { bus_bit_rate_ = index; }
   std::uint8_t bit_rate_index() const { return bit_rate_; }
   void set_bit_rate_index(std::uint8_t index) { bit_rate_ = index; }
-  bool on_bus() const { return powered_ && !silent_ && bit_rate_ == bus_bit_rate_; }
-  // Alive but sending nothing (fault injection, LSS bit-timing switch delay).
+  bool on_bus() const { return powered_ && !silent_ && !muted_ && !bus_off_ && bit_rate_ == bus_bit_rate_; }
+  // Alive but sending nothing (LSS bit-timing switch delay); cleared at power-on.
   void set_silent(bool silent) { silent_ = silent; }
+  // Alive but sending nothing (fault injection); kept over power cycles.
+  void set_muted(bool muted) { muted_ = muted; }
+  bool muted() const { return muted_; }
+  // The CAN controller went bus-off (fault injection): the node neither hears
+  // nor sends until it recovers; entering runs the 0x1029:01 reaction,
+  // recovering sends the bus_off_recovery_emcy (CiA 301 0x8140). Power-on
+  // starts with the controller error-active.
+  void set_bus_off(bool off, TimeUs now);
+  bool bus_off() const { return bus_off_; }
 
   // Sends a frame if the node is on the bus.
   void send(const CanFrame& frame);
@@ -80,6 +93,8 @@ class Node {
   Application* app() { return app_; }
   // Makes Application::process run at `at` at the latest (NMT change, write).
   void wake_app(TimeUs at) { if (at < app_next_) app_next_ = at; }
+  // Makes Application::environment run at `at` at the latest (fault armed).
+  void wake_environment(TimeUs at) { if (at < env_next_) env_next_ = at; }
   NodeStorage* storage() { return storage_; }
 
   // ---- OD access as a remote client (SDO, RPDO) sees it: access rights,
@@ -145,6 +160,10 @@ class Node {
   std::uint8_t bus_bit_rate_;
   bool powered_ = false;
   bool silent_ = false;
+  bool muted_ = false;
+  bool bus_off_ = false;
+  TimeUs env_next_ = kNever;
+  TimeUs power_on_at_ = kNever;  // while unpowered: when power comes back
   std::uint32_t rx_epoch_ = 0;
   TimeUs app_next_ = kNever;
 

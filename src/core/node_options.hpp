@@ -28,6 +28,13 @@ namespace cansim {
   X(std::string, nmt_startup_values, "", "0x1F80 values accepted on write (ranges; empty: any)") \
   X(int64_t, comm_error_reaction_without_1029, 1,                                                 \
     "0x1029:01 behaviour assumed when the profile has no 0x1029 (0 pre-op, 1 none, 2 stopped)")  \
+  /* CAN controller (fault injection: bus-off) */                                               \
+  X(int64_t, bus_off_recovery_emcy, 0x8140,                                                       \
+    "EMCY code sent when the node is back from bus-off (CiA 301 0x8140; 0: none)")              \
+  X(int64_t, bus_off_recovery_emcy_register, 0, "0x1001 bits of that EMCY besides the class bits") \
+  X(bool, bus_off_recovery_emcy_clears, true,                                                     \
+    "an error reset EMCY follows the recovery EMCY (the error is gone once the node is back)")    \
+  X(bool, bus_off_comm_error_reaction, true, "bus-off runs the 0x1029:01 communication error reaction") \
   /* SDO server (CiA 301 §7.2.4) */                                                              \
   X(bool, sdo_expedited_only, false, "refuse segmented and block transfers")                     \
   X(bool, sdo_block_transfer, true, "support block upload / download")                           \

@@ -95,6 +95,7 @@ bool SdoServer::IndexRanges::contains(std::uint16_t index) const {
 
 void SdoServer::reset(TimeUs) {
   idle();
+  delayed_n_ = 0;  // answers still in the pipe die with the reset
   const NodeOptions& o = node_.options();
   timeout_ = o.sdo_timeout_ms > 0 ? ms(o.sdo_timeout_ms) : 0;
   if (!parse_abort_map(o.sdo_abort_map.c_str(), abort_map_)) abort_map_ = AbortMap{};
@@ -174,6 +175,7 @@ bool SdoServer::on_frame(const CanFrame& frame, TimeUs now) {
   std::memcpy(d, frame.data, std::min<std::size_t>(frame.dlc, 8));
 
   in_frame_ = true;
+  now_ = now;
   dispatch(d, now);
   in_frame_ = false;
   if (reload_pending_) apply_reload();
@@ -201,7 +203,13 @@ void SdoServer::dispatch(Bytes d, TimeUs now) {
 }
 
 void SdoServer::process(TimeUs now) {
+  while (delayed_n_ && delayed_[delayed_head_].at <= now) {
+    send_now(delayed_[delayed_head_].data);
+    delayed_head_ = (delayed_head_ + 1) % delayed_.size();
+    --delayed_n_;
+  }
   if (state_ == State::kIdle || now < deadline_) return;
+  now_ = now;
   if (node_.allowed(Service::kSdo))
     abort(SdoAbort::kTimeout);
   else
@@ -445,6 +453,7 @@ void SdoServer::finish_download(TimeUs now, std::uint8_t confirm) {
 // ------------------------------------------------------------ block download
 
 void SdoServer::on_block_download_segment(Bytes d, TimeUs now) {
+  if (drop_segment()) return;
   std::uint8_t seq = d[0] & 0x7F;
   if (seq == 0) return abort(SdoAbort::kSequenceNumber);
   touch(now);
@@ -500,7 +509,8 @@ void SdoServer::send_block_upload_sub(TimeUs now) {
     std::uint32_t n = std::min<std::uint32_t>(7, size_ - pos);
     last_segment_ = pos + n >= size_;
     ++seqno_;
-    send_segment(std::uint8_t((last_segment_ ? kLastSeg : 0) | seqno_), buf_.data() + pos, int(n));
+    if (!drop_segment())
+      send_segment(std::uint8_t((last_segment_ ? kLastSeg : 0) | seqno_), buf_.data() + pos, int(n));
     pos += n;
   }
   state_ = State::kBlockUploadAck;
@@ -541,7 +551,7 @@ void SdoServer::start(State s, TimeUs now) {
   touch(now);
 }
 
-void SdoServer::touch(TimeUs now) { deadline_ = timeout_ > 0 ? now + timeout_ : kNever; }
+void SdoServer::touch(TimeUs now) { deadline_ = timeout_ > 0 ? now + response_delay_ + timeout_ : kNever; }
 
 void SdoServer::idle() {
   state_ = State::kIdle;
@@ -580,6 +590,44 @@ void SdoServer::send_command(std::uint8_t cs) {
 }
 
 void SdoServer::send_raw(const std::uint8_t* d) {
+  if (response_delay_ <= 0 && delayed_n_ == 0) return send_now(d);
+  if (delayed_n_ == delayed_.size()) return;  // more than a whole block in the pipe: lost
+  Delayed& slot = delayed_[(delayed_head_ + delayed_n_++) % delayed_.size()];
+  slot.at = now_ + response_delay_;
+  std::memcpy(slot.data, d, 8);
+}
+
+// ------------------------------------------------------------ fault injection
+
+void SdoServer::set_response_delay(TimeUs delay) {
+  response_delay_ = std::max<TimeUs>(delay, 0);
+  // A sub-block of 127 segments plus the frames around it.
+  if (response_delay_ > 0 && delayed_.empty()) delayed_.resize(2 * kMaxBlkSize + 2);
+}
+
+void SdoServer::set_block_drop(std::uint32_t every_n, double probability, std::uint64_t seed) {
+  drop_every_n_ = every_n;
+  probability = std::clamp(probability, 0.0, 1.0);
+  drop_threshold_ = probability >= 1.0 ? 0xFFFFFFFFu : std::uint32_t(probability * 4294967296.0);
+  drop_rng_ = seed | 1;
+  drop_count_ = 0;
+}
+
+bool SdoServer::drop_segment() {
+  bool drop = false;
+  if (drop_every_n_ > 0) {
+    drop = ++drop_count_ % drop_every_n_ == 0;
+  } else if (drop_threshold_ > 0) {
+    drop_rng_ ^= drop_rng_ << 13;  // xorshift64
+    drop_rng_ ^= drop_rng_ >> 7;
+    drop_rng_ ^= drop_rng_ << 17;
+    drop = std::uint32_t(drop_rng_ >> 32) < drop_threshold_;
+  }
+  dropped_ += drop;
+  return drop;
+}
+
+void SdoServer::send_now(const std::uint8_t* d) {
   CanFrame f;
   f.id = tx_id_;
   f.dlc = 8;

@@ -32,6 +32,7 @@
 // - sdo_timeout_ms <= 0 disables the protocol timeout.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -50,15 +51,26 @@ class SdoServer {
   void reset(TimeUs now);
   // Returns true when the frame was addressed to this service.
   bool on_frame(const CanFrame& frame, TimeUs now);
-  // Runs the work due at or before now (the protocol timeout).
+  // Runs the work due at or before now (delayed answers, the protocol timeout).
   void process(TimeUs now);
-  TimeUs next_deadline() const { return deadline_; }
+  TimeUs next_deadline() const { return std::min(deadline_, delayed_n_ ? delayed_[delayed_head_].at : kNever); }
   // COB-IDs this service wants to receive (for the bus dispatcher).
   void collect_rx_ids(std::vector<std::uint32_t>& out) const;
   // True for OD indices whose remote writes this service handles itself (0x1200).
   bool owns(std::uint16_t index) const;
   // A checked remote write of an owned entry: validate, store, react.
   SdoAbort write(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
+
+  // ---- fault injection
+  // "Slow SDO": every frame the server sends leaves `delay` after the request
+  // that caused it (order kept); the protocol timeout is extended by as much.
+  // The first non-zero delay allocates the queue (not on the frame path).
+  void set_response_delay(TimeUs delay);
+  // "Block segments dropped": every n-th block segment (both directions) is
+  // lost, or each with `probability`; the transfer recovers through the
+  // block acknowledge (ackseq) as on a noisy bus. n = 0 and p = 0: off.
+  void set_block_drop(std::uint32_t every_n, double probability, std::uint64_t seed);
+  std::uint32_t dropped_segments() const { return dropped_; }
 
   // ---- inspection (tests, daemon statistics)
   bool enabled() const { return valid_; }
@@ -140,6 +152,8 @@ class SdoServer {
   void send_segment(std::uint8_t cs, const std::uint8_t* payload, int n);
   void send_command(std::uint8_t cs);
   void send_raw(const std::uint8_t* d);
+  void send_now(const std::uint8_t* d);
+  bool drop_segment();
   void abort(SdoAbort code);
   void abort(std::uint32_t code, std::uint16_t index, std::uint8_t sub);
   void start(State s, TimeUs now);
@@ -174,6 +188,21 @@ class SdoServer {
   std::uint32_t size_ = 0;         // bytes in buf_ (upload: total; download: received)
   std::uint32_t offset_ = 0;       // upload: bytes confirmed by the client
   std::vector<std::uint8_t> buf_;  // sized at reset: largest entry + one segment
+  // fault injection
+  struct Delayed {
+    TimeUs at;
+    std::uint8_t data[8];
+  };
+  TimeUs now_ = 0;                 // time of the request being handled
+  TimeUs response_delay_ = 0;
+  std::vector<Delayed> delayed_;   // ring, sized by the first set_response_delay
+  std::size_t delayed_head_ = 0;
+  std::size_t delayed_n_ = 0;
+  std::uint32_t drop_every_n_ = 0;
+  std::uint32_t drop_threshold_ = 0;  // probability x 2^32
+  std::uint64_t drop_rng_ = 0;
+  std::uint32_t drop_count_ = 0;
+  std::uint32_t dropped_ = 0;
 };
 
 }  // namespace cansim

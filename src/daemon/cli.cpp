@@ -28,6 +28,8 @@ std::string usage_text() {
          "  --state-dir DIR      stored parameters (default $STATE_DIRECTORY, else ./state)\n"
          "  --log-level LEVEL    trace, debug, info, warn, error, critical or off (default info)\n"
          "  --seed N             fleet random seed (default: the config's, else 1)\n"
+         "  --record PATH        CSV of each node's true and reported values (scripts/plot-recording):\n"
+         "                       with --profile the file, with --config a folder (one file per node)\n"
          "  --version            print the version and exit\n"
          "  --help               print this help and exit\n"
          "\n"
@@ -103,6 +105,9 @@ CliResult parse_cli(const std::vector<std::string>& args, const char* state_dire
         return r;
       }
       o.log_level = value;
+    } else if (arg == "--record") {
+      if (!need_value()) return r;
+      o.record = value;
     } else if (arg == "--seed") {
       if (!need_value()) return r;
       std::int64_t v = 0;

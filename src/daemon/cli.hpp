@@ -18,6 +18,7 @@ struct CliOptions {
   std::string state_dir;               // --state-dir, $STATE_DIRECTORY, ./state
   std::string log_level = "info";      // --log-level
   std::optional<std::uint64_t> seed;   // --seed
+  std::string record;                  // --record FILE (--profile) | DIR (--config)
   bool version = false;
   bool help = false;
 };

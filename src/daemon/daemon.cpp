@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <csignal>
+#include <filesystem>
 #include <set>
 
 #include "core/node.hpp"
@@ -73,12 +74,18 @@ void SerialOverlay::on_sync(Node& n, std::uint8_t c, TimeUs t) {
   if (inner_) inner_->on_sync(n, c, t);
 }
 TimeUs SerialOverlay::process(Node& n, TimeUs t) { return inner_ ? inner_->process(n, t) : kNever; }
+TimeUs SerialOverlay::environment(Node& n, TimeUs t) { return inner_ ? inner_->environment(n, t) : kNever; }
 
 std::unique_ptr<Application> make_node_application(const config::NodeConfig& node, std::uint64_t seed) {
   personalities::NodeContext ctx;
   ctx.fleet_seed = seed;
   ctx.index = node.index;
   ctx.key = node.key;
+  ctx.record_file = node.record_file;
+  if (!ctx.record_file.empty()) {
+    std::error_code ec;  // a failure shows when the file is opened
+    std::filesystem::create_directories(std::filesystem::path(ctx.record_file).parent_path(), ec);
+  }
   auto app = personalities::make_application(*node.profile, ctx);
   if (!node.serial) return app;
   return std::make_unique<SerialOverlay>(std::move(app), *node.serial);
@@ -86,7 +93,10 @@ std::unique_ptr<Application> make_node_application(const config::NodeConfig& nod
 
 std::string check_fleet(config::FleetConfig& fleet) {
   prepare_fleet(fleet);
-  for (const auto& n : fleet.nodes) make_node_application(n, fleet.seed);
+  for (config::NodeConfig n : fleet.nodes) {
+    n.record_file.clear();  // --check must not truncate recordings
+    make_node_application(n, fleet.seed);
+  }
   return fleet.file + ": ok, " + std::to_string(fleet.nodes.size()) + " node(s) on " +
          std::to_string(fleet.interfaces.size()) + " interface(s)";
 }
@@ -136,7 +146,7 @@ Daemon::Interface& Daemon::ensure_interface(const config::InterfaceConfig& ic) {
 }
 
 void Daemon::on_can_events(Interface& iface, std::uint32_t events) {
-  TimeUs now = io::monotonic_now();
+  TimeUs now = clock_now();
   if (events & (EPOLLIN | EPOLLERR | EPOLLHUP)) {
     CanFrame frames[io::CanInterface::kBatch];
     for (int b = 0; b < kReadBatchesPerWake; ++b) {
@@ -366,9 +376,14 @@ void Daemon::reload(TimeUs now) {
   notify("READY=1");
 }
 
+// Simulated time is CLOCK_MONOTONIC counted from the daemon's start, so a
+// profile's `at: 10 s` (faults, ramps, tables) means 10 s after cansimd started.
+TimeUs Daemon::clock_now() const { return io::monotonic_now() - epoch_; }
+
 int Daemon::run() {
+  epoch_ = io::monotonic_now();
   loop_.watch_signals({SIGINT, SIGTERM, SIGHUP});
-  TimeUs now = io::monotonic_now();
+  TimeUs now = clock_now();
   last_status_ = now;
   apply(settings_.load(), now);
   if (sd_watchdog_enabled(0, &watchdog_us_) <= 0) watchdog_us_ = 0;
@@ -379,14 +394,15 @@ int Daemon::run() {
   notify("READY=1");
   int signal = 0;
   for (;;) {
-    now = io::monotonic_now();
+    now = clock_now();
     core_.run_due(now);
     housekeeping(now);
     sweep_interfaces(now);
-    loop_.arm_timer(std::min(core_.next_deadline(), housekeeping_deadline()));
+    const TimeUs next = std::min(core_.next_deadline(), housekeeping_deadline());
+    loop_.arm_timer(next == kNever ? kNever : next + epoch_);
     bool timer = false;
     loop_.wait(-1, timer, signal);
-    if (signal == SIGHUP) reload(io::monotonic_now());
+    if (signal == SIGHUP) reload(clock_now());
     else if (signal == SIGTERM || signal == SIGINT) break;
   }
   notify("STOPPING=1");

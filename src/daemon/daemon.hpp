@@ -47,6 +47,7 @@ class SerialOverlay : public Application {
   void after_write(Node& n, const OdEntry& e, TimeUs t) override;
   void on_sync(Node& n, std::uint8_t c, TimeUs t) override;
   TimeUs process(Node& n, TimeUs t) override;
+  TimeUs environment(Node& n, TimeUs t) override;
 
  private:
   std::unique_ptr<Application> inner_;
@@ -69,6 +70,7 @@ class Daemon {
 
  private:
   struct Interface;
+  TimeUs clock_now() const;
   struct NodeEntry {
     io::NodeRef ref = io::kNoNode;
     config::NodeConfig cfg;
@@ -99,6 +101,7 @@ class Daemon {
   TimeUs next_watchdog_ = kNever;
   TimeUs next_status_ = kNever;
   TimeUs last_status_ = 0;
+  TimeUs epoch_ = 0;  // CLOCK_MONOTONIC at start: simulated time 0
   std::uint64_t last_frames_out_ = 0;
   std::uint64_t last_frames_in_ = 0;
   double frames_per_s_ = 0;

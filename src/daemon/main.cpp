@@ -20,8 +20,11 @@ using namespace cansim;
 namespace {
 
 config::FleetConfig load(const daemon::CliOptions& o) {
-  if (!o.config.empty()) return config::load_fleet(o.config, daemon::profile_search(o.config));
-  return config::single_node_fleet(o.profile, o.interface, o.node_id, daemon::profile_search(""));
+  const bool single = o.config.empty();
+  config::FleetConfig fleet = single ? config::single_node_fleet(o.profile, o.interface, o.node_id, daemon::profile_search(""))
+                                     : config::load_fleet(o.config, daemon::profile_search(o.config));
+  config::apply_record_option(fleet, o.record, single);
+  return fleet;
 }
 
 }  // namespace

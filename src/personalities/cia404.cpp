@@ -443,8 +443,19 @@ SensorSource::SensorSource(const physics::SensorSpec& sensor, const physics::Pro
   for (const physics::FaultSpec& f : faults) faults_->add(f, 0);
 }
 
+bool SensorSource::record_to(const std::string& path, std::string* error) {
+  auto rec = std::make_unique<physics::CsvRecorder>();
+  if (!rec->open(path, error)) return false;
+  recorder_ = std::move(rec);
+  return true;
+}
+
 MeasurementSource::Sample SensorSource::sample(physics::Channel ch, TimeUs now) {
   const physics::SensorReading& r = sensor_.read(now);
+  if (recorder_ && now != recorded_at_) {
+    recorder_->record(now, r);
+    recorded_at_ = now;
+  }
   const physics::ChannelReading& c = ch == physics::Channel::Pressure ? r.pressure : r.temperature;
   return {c.value, c.adc_counts, c.status};
 }
@@ -459,7 +470,11 @@ TimeUs SensorSource::sample_period_us(physics::Channel ch) const {
 Cia404Application::Cia404Application(std::shared_ptr<const Cia404Profile> profile,
                                      std::unique_ptr<MeasurementSource> source, IdentitySettings identity,
                                      std::uint32_t node_index)
-    : profile_(std::move(profile)), source_(std::move(source)), identity_(identity), node_index_(node_index) {
+    : profile_(std::move(profile)),
+      source_(std::move(source)),
+      identity_(identity),
+      node_index_(node_index),
+      comm_faults_(source_->fault_set()) {
   state_.resize(profile_->channels.size());
   for (std::size_t ch = 0; ch < state_.size(); ++ch) {
     state_[ch].captured.assign(kRoleCount + profile_->channels[ch].extras.size(), 0.0);
@@ -836,6 +851,25 @@ void Cia404Application::on_channel_events(Node& node, std::size_t ch, unsigned e
     const Param& p = profile_->channels[ch].param(r);
     for (int i = 0; i < p.count; ++i) raise_pdo_event(node, *p.views[i]);
   }
+}
+
+TimeUs Cia404Application::environment(Node& node, TimeUs now) { return comm_faults_.apply(node, now); }
+
+physics::FaultHandle Cia404Application::arm_fault(Node& node, const physics::FaultSpec& spec, TimeUs now) {
+  physics::FaultSet* set = source_->fault_set();
+  if (!set) return physics::kInvalidFaultHandle;
+  const physics::FaultHandle h = set->add(spec, now);
+  comm_faults_.changed();
+  node.wake_environment(now);
+  return h;
+}
+
+bool Cia404Application::cancel_fault(Node& node, physics::FaultHandle h, TimeUs now) {
+  physics::FaultSet* set = source_->fault_set();
+  if (!set || !set->cancel(h, now)) return false;
+  comm_faults_.changed();
+  node.wake_environment(now);
+  return true;
 }
 
 TimeUs Cia404Application::process(Node& node, TimeUs now) {

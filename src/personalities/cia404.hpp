@@ -23,7 +23,9 @@
 #include "core/application.hpp"
 #include "core/node.hpp"
 #include "core/node_options.hpp"
+#include "personalities/comm_faults.hpp"
 #include "personalities/units.hpp"
+#include "physics/recorder.hpp"
 #include "physics/sensor.hpp"
 
 namespace cansim::personalities {
@@ -163,6 +165,8 @@ class MeasurementSource {
   virtual void set_filter(physics::Channel, const physics::FilterSpec&) {}
   virtual TimeUs sample_period_us(physics::Channel) const { return 1000; }
   virtual void reboot(TimeUs) {}
+  // The node's fault schedule (null: this source has none).
+  virtual physics::FaultSet* fault_set() { return nullptr; }
 };
 
 // The physics::Sensor of one node with its scheduled faults.
@@ -174,12 +178,19 @@ class SensorSource : public MeasurementSource {
   void set_filter(physics::Channel ch, const physics::FilterSpec& f) override { sensor_.set_filter(ch, f); }
   TimeUs sample_period_us(physics::Channel ch) const override;
   void reboot(TimeUs now) override { sensor_.reboot(now); }
+  physics::FaultSet* fault_set() override { return faults_.get(); }
   physics::Sensor& sensor() { return sensor_; }
   physics::FaultSet& faults() { return *faults_; }
+  // Records one CSV row (physics::CsvRecorder) per instant the node reads its
+  // sensor. Returns false with *error when the file cannot be created.
+  bool record_to(const std::string& path, std::string* error);
+  const physics::CsvRecorder* recorder() const { return recorder_.get(); }
 
  private:
   std::unique_ptr<physics::FaultSet> faults_;  // the sensor keeps a pointer to it
   physics::Sensor sensor_;
+  std::unique_ptr<physics::CsvRecorder> recorder_;
+  TimeUs recorded_at_ = -1;
 };
 
 // Node identity settings of the vendor section.
@@ -201,6 +212,7 @@ class Cia404Application : public Application {
   SdoAbort check_write(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now) override;
   void after_write(Node& node, const OdEntry& e, TimeUs now) override;
   TimeUs process(Node& node, TimeUs now) override;
+  TimeUs environment(Node& node, TimeUs now) override;
 
   // ---- the chain, for personalities and tests
   struct Measurement {
@@ -218,6 +230,16 @@ class Cia404Application : public Application {
   const UnitScale& unit(std::size_t ch) const { return state_[ch].unit.scale; }
   const Cia404Profile& profile() const { return *profile_; }
   MeasurementSource& source() { return *source_; }
+
+  // ---- fault injection at run time (the profile's faults are armed at boot)
+  // Returns physics::kInvalidFaultHandle when the source has no fault schedule.
+  physics::FaultHandle arm_fault(Node& node, const physics::FaultSpec& spec, TimeUs now);
+  bool cancel_fault(Node& node, physics::FaultHandle h, TimeUs now);
+  // Is a fault of this kind in force (false when the source has no schedule)?
+  bool fault_active(physics::FaultKind kind, TimeUs now) {
+    const physics::FaultSet* set = source_->fault_set();
+    return set && set->active(kind, now);
+  }
 
  protected:
   // ---- override points for device personalities
@@ -269,6 +291,7 @@ class Cia404Application : public Application {
   IdentitySettings identity_;
   std::uint32_t node_index_;
   std::vector<ChannelState> state_;
+  CommFaultDriver comm_faults_;
   std::uint32_t event_channels_ = 0;  // bit per channel mapped into an event TPDO
   std::uint32_t change_channels_ = 0;  // subset mapped into a change-event TPDO
   TimeUs next_scan_ = 0;

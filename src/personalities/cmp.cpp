@@ -124,7 +124,8 @@ class CmpApplication : public Cia404Application {
  public:
   CmpApplication(std::shared_ptr<const Settings> settings, const PreparedProfile& prepared,
                  std::unique_ptr<SensorSource> source, std::uint32_t node_index)
-      : CmpApplication(std::move(settings), prepared, &source->faults(), std::move(source), node_index) {}
+      : Cia404Application(prepared.cia404, std::move(source), prepared.identity, node_index),
+        settings_(std::move(settings)) {}
 
   void on_reset(Node& node, ResetKind kind, TimeUs now) override {
     Cia404Application::on_reset(node, kind, now);
@@ -216,12 +217,6 @@ class CmpApplication : public Cia404Application {
   }
 
  private:
-  CmpApplication(std::shared_ptr<const Settings> settings, const PreparedProfile& prepared, physics::FaultSet* faults,
-                 std::unique_ptr<SensorSource>&& source, std::uint32_t node_index)
-      : Cia404Application(prepared.cia404, std::move(source), prepared.identity, node_index),
-        settings_(std::move(settings)),
-        faults_(faults) {}
-
   // 0x2001 (kbit/s, 0 = automatic): a saved value is the bit rate from the next
   // power-on / reset node on; the object then shows the active rate.
   void apply_baud_rate(Node& node) {
@@ -298,7 +293,7 @@ class CmpApplication : public Cia404Application {
   // "The contents of the memory (EEProm) are checked at start-up."
   void self_test_at_start_up(Node& node, TimeUs now) {
     std::uint16_t sub = 0;
-    if (node.store().corrupt() || faults_->active(physics::FaultKind::EepromError, now)) sub = kSubUserPageChecksums;
+    if (node.store().corrupt() || fault_active(physics::FaultKind::EepromError, now)) sub = kSubUserPageChecksums;
     node.values().set_u(kNodeSubError, 0, sub);
     if (sub) raise(node, kEmcyDataSet, sub, now);
   }
@@ -315,7 +310,7 @@ class CmpApplication : public Cia404Application {
   // fault forces PRE-OPERATIONAL; with Auto-Start the node returns to
   // OPERATIONAL by itself once every fault is gone (AUTO-PRE-OPERATIONAL).
   void check_faults(Node& node, TimeUs now) {
-    const bool hot = faults_->active(physics::FaultKind::OverTemperature, now);
+    const bool hot = fault_active(physics::FaultKind::OverTemperature, now);
     if (hot && !node.emcy().active(kEmcyDeviceTemperature)) raise(node, kEmcyDeviceTemperature, 0, now);
     if (!hot && node.emcy().active(kEmcyDeviceTemperature)) node.emcy().clear(kEmcyDeviceTemperature, now);
     const bool fault = node.emcy().active_count() != 0;
@@ -329,7 +324,6 @@ class CmpApplication : public Cia404Application {
   }
 
   std::shared_ptr<const Settings> settings_;
-  physics::FaultSet* faults_;
   std::array<std::uint8_t, 2> limit_state_{};
   std::array<TimeUs, kPdoCount> repeat_due_{};
   TimeUs indication_due_ = kNever;

@@ -35,10 +35,9 @@ Settings parse_settings(const config::Profile& profile) {
 }  // namespace
 
 DpsApplication::DpsApplication(const PreparedProfile& prepared, std::unique_ptr<MeasurementSource> source,
-                               const physics::FaultSet* faults, std::uint32_t node_index)
+                               std::uint32_t node_index)
     : Cia404Application(prepared.cia404, std::move(source), prepared.identity, node_index),
-      settings_(prepared.device ? *std::static_pointer_cast<const Settings>(prepared.device) : Settings{}),
-      faults_(faults) {}
+      settings_(prepared.device ? *std::static_pointer_cast<const Settings>(prepared.device) : Settings{}) {}
 
 void DpsApplication::on_reset(Node& node, ResetKind kind, TimeUs now) {
   Cia404Application::on_reset(node, kind, now);
@@ -50,7 +49,7 @@ void DpsApplication::on_reset(Node& node, ResetKind kind, TimeUs now) {
   span_ = Span::kInside;
   sensor_failed_ = false;
   next_check_ = now;
-  const bool eeprom_bad = node.store().corrupt() || (faults_ && faults_->active(physics::FaultKind::EepromError, now));
+  const bool eeprom_bad = node.store().corrupt() || fault_active(physics::FaultKind::EepromError, now);
   if (kind != ResetKind::kCommunication && eeprom_bad) node.emcy().raise(kEmcyEeprom, kManufacturerBit, now);
   node.wake_app(now);
 }
@@ -114,9 +113,7 @@ void prepare(config::Profile& profile, PreparedProfile& prepared) {
 }
 
 std::unique_ptr<Application> make(const config::Profile&, const PreparedProfile& prepared, const NodeContext& ctx) {
-  auto source = make_sensor_source(prepared, ctx);
-  const physics::FaultSet* faults = &source->faults();
-  return std::make_unique<DpsApplication>(prepared, std::move(source), faults, ctx.index);
+  return std::make_unique<DpsApplication>(prepared, make_sensor_source(prepared, ctx), ctx.index);
 }
 
 }  // namespace cansim::personalities::dps

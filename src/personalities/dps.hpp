@@ -22,7 +22,7 @@ struct Settings {
 class DpsApplication : public Cia404Application {
  public:
   DpsApplication(const PreparedProfile& prepared, std::unique_ptr<MeasurementSource> source,
-                 const physics::FaultSet* faults, std::uint32_t node_index);
+                 std::uint32_t node_index);
 
   void on_reset(Node& node, ResetKind kind, TimeUs now) override;
   void after_write(Node& node, const OdEntry& e, TimeUs now) override;
@@ -34,7 +34,6 @@ class DpsApplication : public Cia404Application {
   void count(Node& node, const OdEntry* counter);
 
   Settings settings_;
-  const physics::FaultSet* faults_;
   const OdEntry* serial_ = nullptr;     // 0x1018:04
   const OdEntry* serial_copy_ = nullptr;  // 0x200E
   const OdEntry* overflows_ = nullptr;  // 0x2004

@@ -83,9 +83,7 @@ void GemsApplication::on_reset(Node& node, ResetKind kind, TimeUs now) {
       if (ch < profile().channels.size()) apply_vendor_filter(node, ch);
     }
     if (kind == ResetKind::kPowerOn) powered_at_ = now;
-    auto* sensor = dynamic_cast<SensorSource*>(&source());
-    const bool eeprom = sensor && sensor->faults().active(physics::FaultKind::EepromError, now);
-    if (node.store().corrupt() || eeprom)
+    if (node.store().corrupt() || fault_active(physics::FaultKind::EepromError, now))
       node.emcy().raise(kEmcyNvm, settings_.manual_error_register ? kRegMaths : 0, now);
   }
   // §3.2.1 / §4.6.3: 0x2813 = 0 enters OPERATIONAL "when excitation is

@@ -72,9 +72,7 @@ void P92cApplication::boot_checks(Node& node, ResetKind kind, TimeUs now) {
     node.pdo().reset(now);
     node.emcy().report(kEmcyMapping, 0, nullptr, now);
   }
-  if (auto* sensor = dynamic_cast<SensorSource*>(&source());
-      sensor && sensor->faults().active(physics::FaultKind::EepromError, now))
-    node.emcy().report(kEmcyStartUp, 0, nullptr, now);
+  if (fault_active(physics::FaultKind::EepromError, now)) node.emcy().report(kEmcyStartUp, 0, nullptr, now);
 }
 
 bool P92cApplication::stored_mapping_valid(const Node& node) const {

@@ -104,7 +104,11 @@ std::uint64_t node_seed(const NodeContext& ctx) {
 
 std::unique_ptr<SensorSource> make_sensor_source(const PreparedProfile& prepared, const NodeContext& ctx) {
   const config::PhysicsConfig& c = prepared.physics;
-  return std::make_unique<SensorSource>(c.sensor, c.process, c.faults, node_seed(ctx));
+  auto source = std::make_unique<SensorSource>(c.sensor, c.process, c.faults, node_seed(ctx));
+  std::string error;
+  if (!ctx.record_file.empty() && !source->record_to(ctx.record_file, &error))
+    throw std::runtime_error(ctx.key + ": cannot record to " + ctx.record_file + ": " + error);
+  return source;
 }
 
 }  // namespace cansim::personalities

@@ -25,6 +25,7 @@ struct NodeContext {
   std::uint64_t fleet_seed = 1;   // physics randomness: fleet seed + node key
   std::uint32_t index = 0;        // position in a `count:` group (serial-number offset)
   std::string key;                // stable name, e.g. "vcan0/dps-3"
+  std::string record_file;        // CSV recording of truth and readings (empty: none)
 };
 
 // Parsed once per profile, shared by its nodes (Profile::prepared).
@@ -49,7 +50,8 @@ std::unique_ptr<Application> make_application(const config::Profile& profile, co
 void check_vendor_keys(const config::Profile& profile, std::initializer_list<const char*> own);
 // The node's seed: fleet seed + node key (+ index when the key is empty).
 std::uint64_t node_seed(const NodeContext& ctx);
-// The node's physics (process + sensor + faults) from the prepared profile.
+// The node's physics (process + sensor + faults) from the prepared profile;
+// opens ctx.record_file when set (throws std::runtime_error when it cannot).
 std::unique_ptr<SensorSource> make_sensor_source(const PreparedProfile& prepared, const NodeContext& ctx);
 
 }  // namespace cansim::personalities

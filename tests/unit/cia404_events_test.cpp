@@ -124,7 +124,7 @@ TEST(ChainPhysics, SameSeedSameValuesOtherKeyOtherValues) {
   personalities::prepare_profile(p);
   auto series = [&](const std::string& key) {
     SimBus bus;
-    auto app = personalities::make_application(p, {42, 0, key});
+    auto app = personalities::make_application(p, {42, 0, key, {}});
     SimNode& n = bus.add(p, 0x10, app.get());
     bus.power_on_all();
     std::vector<float> v;

@@ -18,8 +18,10 @@ TEST(Cli, SingleNodeWithDefaults) {
 }
 
 TEST(Cli, FleetWithEveryOptionInBothSpellings) {
-  CliResult r = parse({"--config=f.yaml", "--check", "--state-dir", "/s", "--log-level=debug", "--seed", "0x10"});
+  CliResult r = parse({"--config=f.yaml", "--check", "--state-dir", "/s", "--log-level=debug", "--seed", "0x10",
+                       "--record", "rec"});
   ASSERT_EQ(r.error, "");
+  EXPECT_EQ(r.options.record, "rec");
   EXPECT_EQ(r.options.config, "f.yaml");
   EXPECT_TRUE(r.options.check);
   EXPECT_EQ(r.options.state_dir, "/s");

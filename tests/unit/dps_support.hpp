@@ -96,7 +96,7 @@ class DpsFixture : public ::testing::Test {
   void make_app() {
     auto src = std::make_unique<DpsSource>();
     source = src.get();
-    app = std::make_unique<personalities::dps::DpsApplication>(*prepared, std::move(src), nullptr, 0);
+    app = std::make_unique<personalities::dps::DpsApplication>(*prepared, std::move(src), 0);
   }
 };
 

@@ -5,6 +5,7 @@
 
 #include "config/fleet.hpp"
 #include "daemon/daemon.hpp"
+#include "personalities/cia404.hpp"
 
 namespace cansim::config {
 namespace {
@@ -124,7 +125,7 @@ TEST_F(FleetTest, ErrorsNameFileLineKeyAndExpectation) {
        "got '3'"},
       {std::string(kIfaces) + n + ", nodeid: 3}\n",
        "D/fleet.yaml:5:46: nodes[0].nodeid: unknown key (expected one of: profile, interface, node_id, count, name, "
-       "serial, bit_rate, options, vendor), got 'nodeid'"},
+       "serial, bit_rate, record, options, vendor), got 'nodeid'"},
       {std::string(kIfaces) + n + ", name: 'a b'}\n",
        "D/fleet.yaml:5:52: nodes[0].name: expected a name of letters, digits, '-', '_' or '.', got 'a b'"},
       {std::string(kIfaces) + n + ", options: {no_such: 1}}\n",
@@ -166,6 +167,50 @@ TEST_F(FleetTest, CheckBuildsEveryNodeAndTheDemoConfigIsValid) {
   FleetConfig d = load_fleet(demo, daemon::profile_search(demo));
   EXPECT_GE(d.nodes.size(), 4u);
   EXPECT_NO_THROW(daemon::check_fleet(d));
+}
+
+TEST_F(FleetTest, RecordFilesPerNode) {
+  FleetConfig f = parse(std::string(kIfaces) +
+                        "nodes:\n"
+                        "  - {profile: generic-404, interface: vcan0, node_id: 5, count: 2, name: a, record: r/a.csv}\n"
+                        "  - {profile: generic-404, interface: vcan0, node_id: 9, record: 'r/b-{id}.csv'}\n"
+                        "  - {profile: generic-404, interface: vcan1}\n");
+  ASSERT_EQ(f.nodes.size(), 4u);
+  EXPECT_EQ(f.nodes[0].record_file, "r/a-5.csv");
+  EXPECT_EQ(f.nodes[1].record_file, "r/a-6.csv");
+  EXPECT_EQ(f.nodes[2].record_file, "r/b-9.csv");
+  EXPECT_EQ(f.nodes[3].record_file, "");
+  // --record DIR fills in the nodes without their own file; the fingerprint follows.
+  const std::string before = f.nodes[3].fingerprint;
+  apply_record_option(f, "out", false);
+  EXPECT_EQ(f.nodes[0].record_file, "r/a-5.csv");
+  EXPECT_EQ(f.nodes[3].record_file, "out/vcan1-generic-404-16-0.csv");
+  EXPECT_NE(f.nodes[3].fingerprint, before);
+  FleetConfig one = single_node_fleet("generic-404", "vcan0", {}, search);
+  apply_record_option(one, "x.csv", true);
+  EXPECT_EQ(one.nodes[0].record_file, "x.csv");
+  EXPECT_EQ(error_of(std::string(kIfaces) + "nodes:\n  - {profile: generic-404, interface: vcan0, record: out/}\n"),
+            "D/fleet.yaml:5:54: nodes[0].record: expected a CSV file name, e.g. recordings/dps-{id}.csv, got 'out/'");
+}
+
+TEST_F(FleetTest, ANodeRecordsItsReadingsAndCheckDoesNotTouchTheFile) {
+  const std::string file = dir + "/rec/g.csv";
+  FleetConfig f = parse(std::string(kIfaces) +
+                        "nodes:\n  - {profile: generic-404, interface: vcan0, record: '" + file + "'}\n");
+  daemon::check_fleet(f);
+  EXPECT_FALSE(fs::exists(file));
+  {
+    auto app = daemon::make_node_application(f.nodes[0], 1);
+    auto* cia = dynamic_cast<personalities::Cia404Application*>(app.get());
+    ASSERT_NE(cia, nullptr);
+    for (int i = 0; i < 3; ++i) cia->source().sample(physics::Channel::Pressure, ms(10) * i);
+    cia->source().sample(physics::Channel::Temperature, ms(20));  // same instant: no new row
+  }
+  std::ifstream in(file);
+  std::string line;
+  int lines = 0;
+  while (std::getline(in, line)) ++lines;
+  EXPECT_EQ(lines, 4);  // header + 3 rows
 }
 
 }  // namespace

@@ -68,8 +68,8 @@ TEST(Generic, SerialNumberIsBasePlusIndex) {
   config::Profile p = load_repo_profile("generic-404");
   personalities::prepare_profile(p);
   SimBus bus;
-  auto a0 = personalities::make_application(p, {1, 0, "a"});
-  auto a7 = personalities::make_application(p, {1, 7, "b"});
+  auto a0 = personalities::make_application(p, {1, 0, "a", {}});
+  auto a7 = personalities::make_application(p, {1, 7, "b", {}});
   SimNode& n0 = bus.add(p, 0x10, a0.get());
   SimNode& n7 = bus.add(p, 0x11, a7.get());
   bus.power_on_all();
@@ -83,7 +83,7 @@ TEST(Generic, SerialNumberIsBasePlusIndex) {
 TEST(Generic, MeasuresAroundFiveBarAndRoomTemperature) {
   config::Profile p = load_repo_profile("generic-404");
   SimBus bus;
-  auto app = personalities::make_application(p, {7, 0, "vcan0/g"});  // prepares on the fly
+  auto app = personalities::make_application(p, {7, 0, "vcan0/g", {}});  // prepares on the fly
   ASSERT_TRUE(app);
   SimNode& n = bus.add(p, 0x10, app.get());
   bus.power_on_all();

@@ -418,6 +418,122 @@ class SdoClient:
 
 
 # --------------------------------------------------------------------------
+# sd_notify: a stand-in for systemd's notification socket
+
+class NotifySocket:
+    """An AF_UNIX SOCK_DGRAM socket that collects sd_notify(3) messages, as
+    systemd's NOTIFY_SOCKET does. Give the daemon env=ns.env() (NOTIFY_SOCKET,
+    plus WATCHDOG_USEC when watchdog_usec is set). A thread receives each
+    datagram and splits it into its assignments:
+
+        with it.NotifySocket(watchdog_usec=2_000_000) as ns:
+            d = ctx.start_daemon(..., env=ns.env())
+            ns.expect(lambda m: m.get("READY") == "1", 10, "READY=1")
+
+    Every message is a Notification: .fields (dict of NAME -> value),
+    .time (time.time() on arrival, comparable with python-can timestamps),
+    .mono (time.monotonic() on arrival), .raw (the datagram text).
+    """
+
+    class Notification:
+        def __init__(self, raw: str):
+            self.raw = raw
+            self.time = time.time()
+            self.mono = time.monotonic()
+            self.fields = {}
+            for line in raw.split("\n"):
+                if "=" in line:
+                    k, v = line.split("=", 1)
+                    self.fields[k] = v
+
+        def get(self, key: str, default: Optional[str] = None) -> Optional[str]:
+            return self.fields.get(key, default)
+
+        def __repr__(self) -> str:
+            return repr(self.raw)
+
+    def __init__(self, watchdog_usec: int = 0, path: Optional[str] = None):
+        import socket
+        import threading
+        self._dir = None if path else tempfile.mkdtemp(prefix="cansim-notify-")
+        self.path = path or os.path.join(self._dir, "notify.sock")
+        self.watchdog_usec = watchdog_usec
+        self.messages: List["NotifySocket.Notification"] = []
+        self._cond = threading.Condition()
+        self._sock = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+        self._sock.bind(self.path)
+        self._sock.settimeout(0.2)
+        self._stop = False
+        self._thread = threading.Thread(target=self._run, name="notify", daemon=True)
+        self._thread.start()
+
+    def env(self) -> dict:
+        e = {"NOTIFY_SOCKET": self.path}
+        if self.watchdog_usec:
+            e["WATCHDOG_USEC"] = str(self.watchdog_usec)
+        return e
+
+    def _run(self) -> None:
+        import socket
+        while not self._stop:
+            try:
+                data = self._sock.recv(65536)
+            except socket.timeout:
+                continue
+            except OSError:
+                return
+            n = NotifySocket.Notification(data.decode("utf-8", "replace"))
+            with self._cond:
+                self.messages.append(n)
+                self._cond.notify_all()
+
+    def snapshot(self) -> List["NotifySocket.Notification"]:
+        with self._cond:
+            return list(self.messages)
+
+    def wait_for(self, pred: Callable[["NotifySocket.Notification"], bool], timeout: float,
+                 start: int = 0) -> Optional["NotifySocket.Notification"]:
+        """The first message at index >= start matching pred within timeout
+        seconds (unscaled), else None. Messages stay in .messages."""
+        deadline = time.monotonic() + timeout
+        with self._cond:
+            while True:
+                for m in self.messages[start:]:
+                    if pred(m):
+                        return m
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    return None
+                self._cond.wait(min(left, 0.5))
+
+    def expect(self, pred: Callable[["NotifySocket.Notification"], bool], timeout: float, what: str,
+               start: int = 0) -> "NotifySocket.Notification":
+        """Like wait_for, but timeout is scaled and a miss fails the test."""
+        m = self.wait_for(pred, scaled(timeout), start)
+        if m is None:
+            raise AssertionError(f"timed out after {scaled(timeout):.1f}s waiting for {what}; "
+                                 f"notifications so far: {self.snapshot()}")
+        return m
+
+    def index_of(self, m: "NotifySocket.Notification") -> int:
+        with self._cond:
+            return next(i for i, x in enumerate(self.messages) if x is m)
+
+    def close(self) -> None:
+        self._stop = True
+        self._thread.join(2)
+        self._sock.close()
+        if self._dir:
+            shutil.rmtree(self._dir, ignore_errors=True)
+
+    def __enter__(self) -> "NotifySocket":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+# --------------------------------------------------------------------------
 # the daemon under test
 
 class Daemon:
@@ -526,6 +642,14 @@ class Context:
         self.source_dir: str = ns.source_dir
         self.binary_dir: str = ns.binary_dir
         self.daemons: List[Daemon] = []
+        self._tmp: Optional[str] = None
+
+    @property
+    def tmp(self) -> str:
+        """A scratch folder for this test (generated profiles, configs)."""
+        if self._tmp is None:
+            self._tmp = tempfile.mkdtemp(prefix="cansim-it-")
+        return self._tmp
 
     def source(self, *parts: str) -> str:
         return os.path.join(self.source_dir, *parts)
@@ -581,4 +705,6 @@ def main(test: Callable[[Context], None], argv: Optional[Sequence[str]] = None) 
     finally:
         for d in ctx.daemons:
             d.cleanup()
+        if ctx._tmp:
+            shutil.rmtree(ctx._tmp, ignore_errors=True)
     sys.exit(code)

@@ -1,0 +1,34 @@
+// Communication faults of one node, from its fault schedule (physics::FaultSet)
+// to the switches of the core: silent, power cycle, bus-off, heartbeat stop,
+// slow SDO answers, dropped SDO block segments. (Measurement faults act in the
+// sensor chain; EEPROM / data-set errors are read by the personality at boot.)
+//
+// Runs as the application's environment step (Application::environment): at
+// power-on before the boot-up, and at each fault edge before the services of
+// that instant. Levels are applied idempotently, so a fault that outlasts a
+// power cycle is in force again when the node is back.
+#pragma once
+
+#include "core/node.hpp"
+#include "physics/fault.hpp"
+
+namespace cansim::personalities {
+
+class CommFaultDriver {
+ public:
+  explicit CommFaultDriver(physics::FaultSet* faults) : faults_(faults) {}
+
+  // Applies what is due at `now`; returns the next fault edge. May
+  // power-cycle the node.
+  TimeUs apply(Node& node, TimeUs now);
+  // A fault was armed or cancelled at run time (the set may have moved its entries).
+  void changed() { drop_spec_ = nullptr; }
+
+ private:
+  void apply_levels(Node& node, TimeUs now);
+
+  physics::FaultSet* faults_;
+  const physics::FaultSpec* drop_spec_ = nullptr;
+};
+
+}  // namespace cansim::personalities
