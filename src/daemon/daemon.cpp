@@ -218,7 +218,10 @@ void Daemon::housekeeping(TimeUs now) {
   }
   if (watchdog_us_ && now >= next_watchdog_) {
     sd_notify(0, "WATCHDOG=1");
-    next_watchdog_ = now + TimeUs(watchdog_us_ / 2);
+    // Every quarter of WatchdogSec: systemd wants a ping at least every half,
+    // and a ping scheduled at exactly half (from a wake-up that is itself a
+    // little late) always came a few ms after half the interval.
+    next_watchdog_ = now + TimeUs(watchdog_us_ / 4);
   }
   if (now >= next_status_) report_status(now);
 }
