@@ -5,7 +5,7 @@
 #include <cstring>
 #include <string>
 
-#include "config/physics_config.hpp"
+#include "personalities/vendor_params.hpp"
 
 namespace cansim::personalities::cmp {
 
@@ -97,24 +97,18 @@ MappingMode parse_mode(const Where& w, const YAML::Node& m, const OdLayout& layo
 
 Settings parse_settings(const config::Profile& profile) {
   Settings s;
-  const YAML::Node& v = profile.personality_params;
-  const Where w{profile.file, "vendor"};
-  if (v && v.IsMap() && v["mapping_modes"]) {
-    const YAML::Node& modes = v["mapping_modes"];
-    const Where wm = w.child("mapping_modes");
+  const VendorParams v(profile);
+  if (v.has("mapping_modes")) {
+    const YAML::Node modes = v.node("mapping_modes");
+    const Where wm = v.where("mapping_modes");
     if (!modes.IsMap()) fail(wm, modes, "expected a mapping of mode numbers to {entries, event_mask}");
     for (const auto& kv : modes) {
       const auto mode = unsigned(config::get_int(wm, kv.first, 1, kMaxMode));
       s.modes[mode] = parse_mode(wm.child(kv.first.Scalar()), kv.second, *profile.layout);
     }
   }
-  if (v && v.IsMap() && v["start_indication_delay"]) {
-    const double t = config::get_quantity(w.child("start_indication_delay"), v["start_indication_delay"], config::Dim::kTime);
-    if (t < 0) fail(w.child("start_indication_delay"), v["start_indication_delay"], "expected a time >= 0");
-    s.start_indication_delay = TimeUs(t * 1e6 + 0.5);
-  }
-  if (v && v.IsMap() && v["start_indication_node_id"])
-    s.start_indication_node_id = std::uint8_t(config::get_int(w.child("start_indication_node_id"), v["start_indication_node_id"], 0, 127));
+  v.time_us("start_indication_delay", s.start_indication_delay, 0.0, VendorParams::kForever, "a time >= 0");
+  v.integer("start_indication_node_id", s.start_indication_node_id, 0, 127);
   ByteSet timer_types;
   s.timer_repeats_beyond_limits = ByteSet::parse(profile.options->tpdo_event_timer_types, timer_types) && !timer_types.has(254);
   return s;

@@ -1,9 +1,8 @@
 #include "personalities/dps.hpp"
 
 #include <algorithm>
-#include <cmath>
 
-#include "config/physics_config.hpp"
+#include "personalities/vendor_params.hpp"
 
 namespace cansim::personalities::dps {
 
@@ -18,17 +17,9 @@ constexpr std::uint8_t kManufacturerBit = 0x80;
 
 Settings parse_settings(const config::Profile& profile) {
   Settings s;
-  const YAML::Node& v = profile.personality_params;
-  if (!v || !v.IsMap()) return s;
-  const config::Where w{profile.file, "vendor"};
-  if (v["span_overflow_emcy"]) s.span_overflow_emcy = config::get_bool(w.child("span_overflow_emcy"), v["span_overflow_emcy"]);
-  if (v["autozero_shifts_span"])
-    s.autozero_shifts_span = config::get_bool(w.child("autozero_shifts_span"), v["autozero_shifts_span"]);
-  if (v["span_check_period"]) {
-    const double sec = config::get_quantity(w.child("span_check_period"), v["span_check_period"], config::Dim::kTime);
-    if (!(sec > 0)) config::fail(w.child("span_check_period"), v["span_check_period"], "expected a time > 0");
-    s.span_check_period_us = std::max<TimeUs>(1, TimeUs(std::llround(sec * 1e6)));
-  }
+  const VendorParams v(profile);
+  v.flags({{"span_overflow_emcy", &s.span_overflow_emcy}, {"autozero_shifts_span", &s.autozero_shifts_span}});
+  v.time_us("span_check_period", s.span_check_period_us, VendorParams::kPositive, VendorParams::kForever, "a time > 0");
   return s;
 }
 
@@ -37,7 +28,7 @@ Settings parse_settings(const config::Profile& profile) {
 DpsApplication::DpsApplication(const PreparedProfile& prepared, std::unique_ptr<MeasurementSource> source,
                                std::uint32_t node_index)
     : Cia404Application(prepared.cia404, std::move(source), prepared.identity, node_index),
-      settings_(prepared.device ? *std::static_pointer_cast<const Settings>(prepared.device) : Settings{}) {}
+      settings_(prepared.device ? device_settings<Settings>(prepared) : Settings{}) {}
 
 void DpsApplication::on_reset(Node& node, ResetKind kind, TimeUs now) {
   Cia404Application::on_reset(node, kind, now);

@@ -5,7 +5,7 @@
 #include <cstdio>
 #include <cstring>
 
-#include "config/physics_config.hpp"
+#include "personalities/vendor_params.hpp"
 #include "physics/fault.hpp"
 
 namespace cansim::personalities::gems9000 {
@@ -268,28 +268,13 @@ namespace {
 
 Settings parse_settings(const config::Profile& profile) {
   Settings s;
-  const YAML::Node& v = profile.personality_params;
-  if (!v || !v.IsMap()) return s;
-  config::Where w{profile.file, "vendor"};
-  if (v["pin"]) s.pin = std::uint32_t(config::get_int(w.child("pin"), v["pin"], 0, 0xFFFFFFFF));
-  struct Flag {
-    const char* key;
-    bool* field;
-  };
-  for (Flag f : {Flag{"experienced_area_direct_nvm", &s.direct_nvm},
-                 Flag{"autostart_on_nmt_reset", &s.autostart_on_nmt_reset},
-                 Flag{"boot_alias_2813", &s.boot_alias_2813}})
-    if (v[f.key]) *f.field = config::get_bool(w.child(f.key), v[f.key]);
-  if (v["emcy_register_mode"]) {
-    const std::string m = config::get_string(w.child("emcy_register_mode"), v["emcy_register_mode"]);
-    if (m != "manual" && m != "cia301") config::fail(w.child("emcy_register_mode"), v["emcy_register_mode"], "expected manual or cia301");
-    s.manual_error_register = m == "manual";
-  }
-  if (v["supervision_period"]) {
-    const double t = config::get_quantity(w.child("supervision_period"), v["supervision_period"], config::Dim::kTime);
-    if (t < 1e-3 || t > 10.0) config::fail(w.child("supervision_period"), v["supervision_period"], "expected 1 ms .. 10 s");
-    s.supervision_period_us = TimeUs(std::llround(t * 1e6));
-  }
+  const VendorParams v(profile);
+  v.integer("pin", s.pin, 0, 0xFFFFFFFF);
+  v.flags({{"experienced_area_direct_nvm", &s.direct_nvm},
+           {"autostart_on_nmt_reset", &s.autostart_on_nmt_reset},
+           {"boot_alias_2813", &s.boot_alias_2813}});
+  v.choice("emcy_register_mode", s.manual_error_register, "manual", "cia301");
+  v.time_us("supervision_period", s.supervision_period_us, 1e-3, 10.0, "1 ms .. 10 s");
   return s;
 }
 
@@ -302,9 +287,8 @@ void prepare(config::Profile& profile, PreparedProfile& prepared) {
 }
 
 std::unique_ptr<Application> make(const config::Profile&, const PreparedProfile& prepared, const NodeContext& ctx) {
-  const auto& settings = *std::static_pointer_cast<const Settings>(prepared.device);
-  return std::make_unique<GemsApplication>(prepared.cia404, make_sensor_source(prepared, ctx), settings,
-                                           prepared.identity, ctx.index);
+  return std::make_unique<GemsApplication>(prepared.cia404, make_sensor_source(prepared, ctx),
+                                           device_settings<Settings>(prepared), prepared.identity, ctx.index);
 }
 
 }  // namespace cansim::personalities::gems9000

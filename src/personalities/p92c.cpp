@@ -1,9 +1,8 @@
 #include "personalities/p92c.hpp"
 
-#include <cmath>
 #include <cstdio>
 
-#include "config/physics_config.hpp"
+#include "personalities/vendor_params.hpp"
 #include "physics/fault.hpp"
 
 namespace cansim::personalities::p92c {
@@ -139,24 +138,14 @@ namespace {
 
 Settings parse_settings(const config::Profile& profile) {
   Settings s;
-  const YAML::Node& v = profile.personality_params;
-  if (!v || !v.IsMap()) return s;
-  config::Where w{profile.file, "vendor"};
-  if (v["serial_part1"]) s.serial_part1 = std::uint8_t(config::get_int(w.child("serial_part1"), v["serial_part1"], 0, 99));
-  if (v["serial_part3"])
-    s.serial_part3 = std::uint16_t(config::get_int(w.child("serial_part3"), v["serial_part3"], 0, 9999));
-  struct Flag {
-    const char* key;
-    bool* field;
-  };
-  for (Flag f : {Flag{"overload_counters", &s.overload_counters}, Flag{"sensor_fault_emcy", &s.sensor_fault_emcy},
-                 Flag{"overload_emcy", &s.overload_emcy}, Flag{"boot_emcys", &s.boot_emcys}})
-    if (v[f.key]) *f.field = config::get_bool(w.child(f.key), v[f.key]);
-  if (v["monitor_period"]) {
-    const double t = config::get_quantity(w.child("monitor_period"), v["monitor_period"], config::Dim::kTime);
-    if (t < 1e-3 || t > 10.0) config::fail(w.child("monitor_period"), v["monitor_period"], "expected 1 ms .. 10 s");
-    s.monitor_period_us = TimeUs(std::llround(t * 1e6));
-  }
+  const VendorParams v(profile);
+  v.integer("serial_part1", s.serial_part1, 0, 99);
+  v.integer("serial_part3", s.serial_part3, 0, 9999);
+  v.flags({{"overload_counters", &s.overload_counters},
+           {"sensor_fault_emcy", &s.sensor_fault_emcy},
+           {"overload_emcy", &s.overload_emcy},
+           {"boot_emcys", &s.boot_emcys}});
+  v.time_us("monitor_period", s.monitor_period_us, 1e-3, 10.0, "1 ms .. 10 s");
   return s;
 }
 
@@ -169,9 +158,8 @@ void prepare(config::Profile& profile, PreparedProfile& prepared) {
 }
 
 std::unique_ptr<Application> make(const config::Profile&, const PreparedProfile& prepared, const NodeContext& ctx) {
-  const auto& settings = *std::static_pointer_cast<const Settings>(prepared.device);
-  return std::make_unique<P92cApplication>(prepared.cia404, make_sensor_source(prepared, ctx), settings,
-                                           prepared.identity, ctx.index);
+  return std::make_unique<P92cApplication>(prepared.cia404, make_sensor_source(prepared, ctx),
+                                           device_settings<Settings>(prepared), prepared.identity, ctx.index);
 }
 
 }  // namespace cansim::personalities::p92c

@@ -8,6 +8,7 @@
 #include "personalities/generic.hpp"
 #include "personalities/p92c.hpp"
 #include "personalities/smc.hpp"
+#include "personalities/vendor_params.hpp"
 #include "physics/random.hpp"
 
 namespace cansim::personalities {
@@ -42,15 +43,6 @@ std::string known_names() {
   return s;
 }
 
-IdentitySettings parse_identity(const config::Where& w, const YAML::Node& vendor) {
-  IdentitySettings id;
-  if (vendor && vendor.IsMap() && vendor["serial_number_base"]) {
-    id.serial_per_node = true;
-    id.serial_base = std::uint32_t(config::get_int(w.child("serial_number_base"), vendor["serial_number_base"], 0, 0xFFFFFFFF));
-  }
-  return id;
-}
-
 }  // namespace
 
 void check_vendor_keys(const config::Profile& profile, std::initializer_list<const char*> own) {
@@ -76,11 +68,10 @@ void prepare_profile(config::Profile& profile) {
                  "unknown personality '" + profile.personality + "' (expected: " + known_names() + ")");
   }
   auto prepared = std::make_shared<PreparedProfile>();
-  config::Where vendor{profile.file, "vendor"};
-  const YAML::Node& v = profile.personality_params;
-  const YAML::Node section = v && v.IsMap() ? v["cia404"] : YAML::Node();
-  prepared->cia404 = Cia404Profile::build(vendor.child("cia404"), section, *profile.layout);
-  prepared->identity = parse_identity(vendor, v);
+  const VendorParams vendor(profile);
+  prepared->cia404 = Cia404Profile::build(vendor.where("cia404"), vendor.node("cia404"), *profile.layout);
+  IdentitySettings& id = prepared->identity;
+  id.serial_per_node = vendor.integer("serial_number_base", id.serial_base, 0, 0xFFFFFFFF);
   prepared->physics = config::parse_physics_config(profile);
   p->prepare(profile, *prepared);
   profile.prepared = prepared;

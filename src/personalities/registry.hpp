@@ -48,6 +48,11 @@ std::unique_ptr<Application> make_application(const config::Profile& profile, co
 // Vendor keys every personality accepts (cia404, serial_number_base).
 // Rejects keys that are neither these nor `own`.
 void check_vendor_keys(const config::Profile& profile, std::initializer_list<const char*> own);
+// A device personality's own parsed data (PreparedProfile::device).
+template <class Settings>
+const Settings& device_settings(const PreparedProfile& prepared) {
+  return *std::static_pointer_cast<const Settings>(prepared.device);
+}
 // The node's seed: fleet seed + node key (+ index when the key is empty).
 std::uint64_t node_seed(const NodeContext& ctx);
 // The node's physics (process + sensor + faults) from the prepared profile;

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <limits>
 
-#include "config/physics_config.hpp"
+#include "personalities/vendor_params.hpp"
 #include "core/nmt.hpp"
 #include "physics/quantize.hpp"
 
@@ -378,18 +378,11 @@ Settings parse_settings(const config::Profile& profile, const PreparedProfile& p
   s.range_max[0] = sensor.pressure.range_max;
   s.range_min[1] = sensor.temperature.range_min;
   s.range_max[1] = sensor.temperature.range_max;
-  const YAML::Node& v = profile.personality_params;
-  if (!v || !v.IsMap()) return s;
-  config::Where w{profile.file, "vendor"};
-  if (v["ad_fault_info"]) s.ad_fault_info = std::uint16_t(config::get_int(w.child("ad_fault_info"), v["ad_fault_info"], 0, 0xFFFF));
-  for (auto [key, field] : {std::pair{"reset_node_clears_error_register", &s.reset_node_clears_error_register},
-                            std::pair{"analog_error_reaction", &s.analog_error_reaction}})
-    if (v[key]) *field = config::get_bool(w.child(key), v[key]);
-  if (v["stay_set_period"]) {
-    const double t = config::get_quantity(w.child("stay_set_period"), v["stay_set_period"], config::Dim::kTime);
-    if (t < 1e-3 || t > 1.0) config::fail(w.child("stay_set_period"), v["stay_set_period"], "expected 1 ms .. 1 s");
-    s.stay_set_period_us = TimeUs(std::llround(t * 1e6));
-  }
+  const VendorParams v(profile);
+  v.integer("ad_fault_info", s.ad_fault_info, 0, 0xFFFF);
+  v.flags({{"reset_node_clears_error_register", &s.reset_node_clears_error_register},
+           {"analog_error_reaction", &s.analog_error_reaction}});
+  v.time_us("stay_set_period", s.stay_set_period_us, 1e-3, 1.0, "1 ms .. 1 s");
   return s;
 }
 
@@ -402,9 +395,8 @@ void prepare(config::Profile& profile, PreparedProfile& prepared) {
 }
 
 std::unique_ptr<Application> make(const config::Profile&, const PreparedProfile& prepared, const NodeContext& ctx) {
-  const auto& settings = *std::static_pointer_cast<const Settings>(prepared.device);
-  return std::make_unique<SmcApplication>(prepared.cia404, make_sensor_source(prepared, ctx), settings,
-                                          prepared.identity, ctx.index);
+  return std::make_unique<SmcApplication>(prepared.cia404, make_sensor_source(prepared, ctx),
+                                          device_settings<Settings>(prepared), prepared.identity, ctx.index);
 }
 
 }  // namespace cansim::personalities::smc

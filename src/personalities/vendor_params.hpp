@@ -1,0 +1,57 @@
+// A device personality's own keys of the profile's `vendor:` section (those it
+// passes to check_vendor_keys). Each getter leaves `out` as it is when the key
+// is absent (or the section is not a mapping) and says whether it was given;
+// a bad value throws config::ConfigError naming file:line:column:
+// vendor.<key> and what was expected, like every profile error.
+//
+//   VendorParams v(profile);
+//   v.integer("serial_part3", s.serial_part3, 0, 9999);
+//   v.flags({{"overload_counters", &s.overload_counters}, {"boot_emcys", &s.boot_emcys}});
+//   v.time_us("monitor_period", s.monitor_period_us, 1e-3, 10.0, "1 ms .. 10 s");
+#pragma once
+
+#include <cstdint>
+#include <initializer_list>
+#include <limits>
+#include <string>
+#include <utility>
+
+#include "config/profile.hpp"
+#include "config/yaml_util.hpp"
+#include "core/can_frame.hpp"
+
+namespace cansim::personalities {
+
+class VendorParams {
+ public:
+  static constexpr double kPositive = std::numeric_limits<double>::denorm_min();  // lo_s: any time > 0
+  static constexpr double kForever = std::numeric_limits<double>::infinity();
+
+  explicit VendorParams(const config::Profile& profile);
+
+  bool has(const char* key) const { return is_map_ && section_[key]; }
+  YAML::Node node(const char* key) const { return is_map_ ? section_[key] : YAML::Node(); }
+  config::Where where(const char* key) const { return where_.child(key); }
+
+  bool flag(const char* key, bool& out) const;
+  void flags(std::initializer_list<std::pair<const char*, bool*>> list) const;
+  // An integer in lo..hi stored into T (uint8_t, uint16_t, uint32_t, ...).
+  template <class T>
+  bool integer(const char* key, T& out, std::int64_t lo, std::int64_t hi) const {
+    if (!has(key)) return false;
+    out = T(config::get_int(where(key), node(key), lo, hi));
+    return true;
+  }
+  // One of two words ("expected manual or cia301"); true when it is `first`.
+  bool choice(const char* key, bool& is_first, const char* first, const char* second) const;
+  // A time ("10 ms") in whole microseconds (rounded), lo_s..hi_s seconds, else
+  // "expected <range>". With lo_s > 0 the result is at least 1 us.
+  bool time_us(const char* key, TimeUs& out, double lo_s, double hi_s, const std::string& range) const;
+
+ private:
+  const YAML::Node section_;
+  const bool is_map_;
+  config::Where where_;
+};
+
+}  // namespace cansim::personalities
