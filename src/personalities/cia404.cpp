@@ -515,6 +515,7 @@ double Cia404Application::get(const Node& node, std::size_t ch, Role role) const
 }
 
 void Cia404Application::set(Node& node, std::size_t ch, Role role, double value) {
+  ++config_epoch_;
   store_param(node, profile_->channels[ch].param(role), value, digits(node, ch));
 }
 
@@ -533,6 +534,7 @@ const UnitChoice* Cia404Application::find_unit(const ChannelConfig& c, std::uint
 Cia404Application::Measurement Cia404Application::measure(Node& node, std::size_t ch, TimeUs now) {
   const ChannelConfig& c = profile_->channels[ch];
   ChannelState& st = state_[ch];
+  if (st.measured_at == now && st.measured_epoch == config_epoch_) return st.measured;
   const MeasurementSource::Sample s = source_->sample(c.source, now);
   Measurement m;
   m.raw = s.raw;
@@ -555,6 +557,9 @@ Cia404Application::Measurement Cia404Application::measure(Node& node, std::size_
   const Param& fv = c.param(Role::kFieldValue);
   for (int i = 0; i < fv.count; ++i) node.values().set_i(*fv.views[i], m.raw);  // raw counts, not scaled
   if (const OdEntry* e = c.param(Role::kStatus).views[0]) node.values().set_u(*e, m.status);
+  st.measured_at = now;
+  st.measured_epoch = config_epoch_;
+  st.measured = m;
   return m;
 }
 
@@ -576,6 +581,7 @@ void Cia404Application::apply_filter(Node& node, std::size_t ch) {
 }
 
 void Cia404Application::on_reset(Node& node, ResetKind kind, TimeUs now) {
+  ++config_epoch_;
   if (identity_.serial_per_node) node.values().set_u(0x1018, 4, identity_.serial_base + node_index_);
   if (kind != ResetKind::kCommunication) source_->reboot(now);
   for (std::size_t ch = 0; ch < state_.size(); ++ch) {
@@ -657,6 +663,7 @@ double decode_data(const OdEntry& e, std::span<const std::uint8_t> data, int dd)
 }  // namespace
 
 SdoAbort Cia404Application::check_write(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs) {
+  ++config_epoch_;
   const Cia404Profile::Binding& b = profile_->binding(e);
   if (b.role == Role::kNone) return SdoAbort::kNone;
   const Cia404Settings& s = profile_->settings;
@@ -718,6 +725,7 @@ void Cia404Application::autozero(Node& node, std::size_t ch, TimeUs now) {
 }
 
 void Cia404Application::after_write(Node& node, const OdEntry& e, TimeUs now) {
+  ++config_epoch_;
   const Cia404Profile::Binding& b = profile_->binding(e);
   if (b.role == Role::kNone) return;
   const std::size_t ch = b.channel;
@@ -860,6 +868,7 @@ physics::FaultHandle Cia404Application::arm_fault(Node& node, const physics::Fau
   if (!set) return physics::kInvalidFaultHandle;
   const physics::FaultHandle h = set->add(spec, now);
   comm_faults_.changed();
+  ++config_epoch_;
   node.wake_environment(now);
   return h;
 }
@@ -868,6 +877,7 @@ bool Cia404Application::cancel_fault(Node& node, physics::FaultHandle h, TimeUs 
   physics::FaultSet* set = source_->fault_set();
   if (!set || !set->cancel(h, now)) return false;
   comm_faults_.changed();
+  ++config_epoch_;
   node.wake_environment(now);
   return true;
 }

@@ -161,6 +161,8 @@ class MeasurementSource {
     std::uint8_t status = 0;   // physics kStatus* bits
   };
   virtual ~MeasurementSource() = default;
+  // Must return the same sample for the same `now`: the chain evaluates a
+  // channel once per instant and reuses it.
   virtual Sample sample(physics::Channel ch, TimeUs now) = 0;
   virtual void set_filter(physics::Channel, const physics::FilterSpec&) {}
   virtual TimeUs sample_period_us(physics::Channel) const { return 1000; }
@@ -273,6 +275,11 @@ class Cia404Application : public Application {
     std::uint64_t change_ref = 0;  // PV and field value bytes at the last change event
     std::vector<double> captured;  // logical values during a unit / digits write
     UnitChoice pending_unit;
+    // measure() evaluates once per instant: TPDO sampling, SDO reads and
+    // event checks at the same time share one evaluation.
+    TimeUs measured_at = -1;
+    std::uint32_t measured_epoch = 0;
+    Measurement measured;
   };
   const UnitChoice* find_unit(const ChannelConfig& c, std::uint32_t code) const;
   UnitChoice resolve(const Node& node, const UnitChoice& u) const;
@@ -291,6 +298,7 @@ class Cia404Application : public Application {
   IdentitySettings identity_;
   std::uint32_t node_index_;
   std::vector<ChannelState> state_;
+  std::uint32_t config_epoch_ = 1;  // bumped by every change that can alter a measurement
   CommFaultDriver comm_faults_;
   std::uint32_t event_channels_ = 0;  // bit per channel mapped into an event TPDO
   std::uint32_t change_channels_ = 0;  // subset mapped into a change-event TPDO

@@ -22,20 +22,25 @@ TEST_F(Chain, FloatAndIntegerViewsOfTheSameValue) {
 
 TEST_F(Chain, IntegerPvRoundsHalfAwayFromZero) {
   source->pressure = [](TimeUs) { return 1.125e5; };  // exact in float: 112.5 at 2 digits
+  bus.run_for(1);  // a new instant: a source is fixed within one
   EXPECT_EQ(i16(0x7130, 1), 113);
   source->pressure = [](TimeUs) { return -1.125e5; };
+  bus.run_for(1);  // a new instant: a source is fixed within one
   EXPECT_EQ(i16(0x7130, 1), -113);
   // float32(1.92) x 100 = 191.99999... must still give 192.
   source->pressure = [](TimeUs) { return 1.92e5; };
+  bus.run_for(1);  // a new instant: a source is fixed within one
   EXPECT_EQ(i32(0x9130, 1), 192);
 }
 
 TEST_F(Chain, Integer16Saturates) {
   ASSERT_EQ(wu8(0x6132, 1, 4), SdoAbort::kNone);
   source->pressure = [](TimeUs) { return 9.9e5; };
+  bus.run_for(1);  // a new instant: a source is fixed within one
   EXPECT_EQ(i16(0x7130, 1), 32767);
   EXPECT_EQ(i32(0x9130, 1), 99000);
   source->pressure = [](TimeUs) { return -5.0e5; };
+  bus.run_for(1);  // a new instant: a source is fixed within one
   EXPECT_EQ(i16(0x7130, 1), -32768);
   EXPECT_EQ(i32(0x9130, 1), -50000);
 }
@@ -97,6 +102,7 @@ TEST_F(Chain, UnknownOrForeignUnitAborts) {
 
 TEST_F(Chain, AutozeroWithSignatureZeroesThePv) {
   source->pressure = [](TimeUs) { return 3.0e5; };
+  bus.run_for(1);  // a new instant: a source is fixed within one
   EXPECT_EQ(wu32(0x6125, 1, 0x12345678), SdoAbort::kInvalidValue);
   EXPECT_FLOAT_EQ(f(0x6130, 1), 3.0f);
   SdoAbort why;
@@ -106,19 +112,24 @@ TEST_F(Chain, AutozeroWithSignatureZeroesThePv) {
   EXPECT_FLOAT_EQ(f(0x6124, 1), -3.0f);
   EXPECT_FLOAT_EQ(f(0x6130, 1), 0.0f);
   source->pressure = [](TimeUs) { return 4.0e5; };
+  bus.run_for(1);  // a new instant: a source is fixed within one
   EXPECT_FLOAT_EQ(f(0x6130, 1), 1.0f);
 }
 
 TEST_F(Chain, SpanStatusBits) {
   source->pressure = [](TimeUs) { return 5.0e5; };
+  bus.run_for(1);  // a new instant: a source is fixed within one
   EXPECT_EQ(u(0x6150, 1), 0x00u);
   source->pressure = [](TimeUs) { return 10.5e5; };
+  bus.run_for(1);  // a new instant: a source is fixed within one
   EXPECT_EQ(u(0x6150, 1), 0x02u);
   source->pressure = [](TimeUs) { return -0.5e5; };
+  bus.run_for(1);  // a new instant: a source is fixed within one
   EXPECT_EQ(u(0x6150, 1), 0x04u);
   ASSERT_EQ(wf(0x6148, 1, -1.0f), SdoAbort::kNone);
   EXPECT_EQ(u(0x6150, 1), 0x00u);
   source->status = physics::kStatusInvalid;
+  bus.run_for(1);  // a new instant: a source is fixed within one
   EXPECT_EQ(u(0x6150, 1), 0x01u);
 }
 
