@@ -18,19 +18,6 @@ NEW_NODE = 0x21
 VENDOR, PRODUCT = 0x00CA5D00, 0x00008270  # placeholder identity of profiles/cmp.yaml
 
 
-def pdo_values(bus, node: int, seconds: float):
-    msgs = it.collect(bus, seconds, it.has_id(0x180 + node))
-    for m in msgs:
-        assert m.dlc == 4, it.fmt(m)
-    return msgs, [struct.unpack("<i", bytes(m.data))[0] for m in msgs]
-
-
-def raw_sdo(bus, node: int, request: bytes) -> bytes:
-    it.drain(bus)
-    it.send(bus, 0x600 + node, request)
-    return bytes(it.expect(bus, it.has_id(0x580 + node), it.scaled(2), "SDO answer").data)
-
-
 def lss_u32(bus, cs: int, value: int) -> None:
     it.lss(bus, cs, struct.pack("<I", value))
 
@@ -55,32 +42,31 @@ def test(ctx: it.Context) -> None:
         assert sdo.upload_u8(0x2100, 1) == 5
 
         # manual examples: read P as FLOAT, T as INT_16, read-only write abort
-        d_p = raw_sdo(bus, NODE, bytes([0x40, 0x30, 0x61, 0x01, 0, 0, 0, 0]))
+        d_p = it.sdo_exchange(bus, NODE, bytes([0x40, 0x30, 0x61, 0x01, 0, 0, 0, 0]))
         assert d_p[:4] == bytes([0x43, 0x30, 0x61, 0x01]), d_p.hex()
         p_bar = struct.unpack_from("<f", d_p, 4)[0]
         assert 4.0 < p_bar < 6.0, p_bar
-        d_t = raw_sdo(bus, NODE, bytes([0x40, 0x30, 0x71, 0x02, 0, 0, 0, 0]))
+        d_t = it.sdo_exchange(bus, NODE, bytes([0x40, 0x30, 0x71, 0x02, 0, 0, 0, 0]))
         assert d_t[:4] == bytes([0x4B, 0x30, 0x71, 0x02]) and d_t[6:] == b"\0\0", d_t.hex()
         assert 200 < struct.unpack_from("<h", d_t, 4)[0] < 300
-        d_ro = raw_sdo(bus, NODE, bytes([0x22, 0x00, 0x10, 0x00, 0x78, 0x56, 0x34, 0x12]))
+        d_ro = it.sdo_exchange(bus, NODE, bytes([0x22, 0x00, 0x10, 0x00, 0x78, 0x56, 0x34, 0x12]))
         assert d_ro == bytes([0x80, 0x00, 0x10, 0x00, 0x02, 0x00, 0x01, 0x06]), d_ro.hex()
 
         # NMT start: TPDO1 every 100 ms, INTEGER32 bar x 1000 around 5 bar
         it.nmt(bus, 0x01, NODE)
         it.expect(bus, it.has_id(0x181), it.scaled(1), "first PDO")
-        msgs, values = pdo_values(bus, NODE, 2.0)
+        msgs, values = it.tpdo_i32(bus, NODE, 2.0)
         assert len(msgs) >= 10, f"{len(msgs)} PDOs in 2 s"
-        gaps = [b.timestamp - a.timestamp for a, b in zip(msgs, msgs[1:])]
-        mean = sum(gaps) / len(gaps)
+        mean = it.mean_gap(msgs)
         assert 0.09 < mean < 0.11 + 0.02 * it.SCALE, f"PDO period {mean:.3f} s"
         assert all(4000 < v < 6000 for v in values), f"bar x 1000: {values}"
         it.log(f"PDO: {len(msgs)} frames, mean period {mean * 1000:.1f} ms, bar x 1000 {values[:3]}")
 
         # unit change to kPa (manual example bytes): the next PDO carries kPa x 1000
-        d_u = raw_sdo(bus, NODE, bytes([0x22, 0x31, 0x61, 0x01, 0x00, 0x00, 0x22, 0x03]))
+        d_u = it.sdo_exchange(bus, NODE, bytes([0x22, 0x31, 0x61, 0x01, 0x00, 0x00, 0x22, 0x03]))
         assert d_u == bytes([0x60, 0x31, 0x61, 0x01, 0, 0, 0, 0]), d_u.hex()
         it.drain(bus)
-        _, values = pdo_values(bus, NODE, 0.5)
+        _, values = it.tpdo_i32(bus, NODE, 0.5)
         assert values and all(400000 < v < 600000 for v in values), f"kPa x 1000: {values}"
         sdo.download_u32(0x6131, 1, 0x004E0000)
 
@@ -92,14 +78,10 @@ def test(ctx: it.Context) -> None:
         lss_u32(bus, 0x42, 0x00000000)  # "revision number could be ignored with 0000'0000h"
         lss_u32(bus, 0x43, serial)
         it.lss_expect(bus, 0x44, it.scaled(2))
-        it.lss(bus, 0x5C)
-        assert struct.unpack_from("<I", bytes(it.lss_expect(bus, 0x5C, it.scaled(2)).data), 1)[0] == revision
-        it.lss(bus, 0x5E)
-        assert bytes(it.lss_expect(bus, 0x5E, it.scaled(2)).data)[1] == NODE
-        it.lss(bus, 0x11, [NEW_NODE])
-        assert bytes(it.lss_expect(bus, 0x11, it.scaled(2)).data)[1] == 0, "configure node-ID"
-        it.lss(bus, 0x17)
-        assert bytes(it.lss_expect(bus, 0x17, it.scaled(2)).data)[1] == 0, "store configuration"
+        assert struct.unpack_from("<I", bytes(it.lss_reply(bus, 0x5C).data), 1)[0] == revision
+        assert bytes(it.lss_reply(bus, 0x5E).data)[1] == NODE
+        assert bytes(it.lss_reply(bus, 0x11, [NEW_NODE]).data)[1] == 0, "configure node-ID"
+        assert bytes(it.lss_reply(bus, 0x17).data)[1] == 0, "store configuration"
         it.lss(bus, 0x04, [0x00])
         it.nmt(bus, 0x81, NODE)
         it.expect(bus, it.is_bootup(NEW_NODE), it.scaled(2), "boot-up on the new node-ID")

@@ -19,29 +19,18 @@ NEW_NODE = 0x22
 def sdo_read(bus, node: int, index: int, sub: int) -> bytes:
     """Expedited upload; the DPS answers with 0x60 (manual Table 19) where
     CiA 301 has 0x43..0x4F: accept both, return the 4 data bytes."""
-    it.drain(bus)
-    it.send(bus, 0x600 + node, struct.pack("<BHB", 0x40, index, sub).ljust(8, b"\0"))
-    m = it.expect(bus, it.has_id(0x580 + node), it.scaled(2), f"SDO answer 0x{index:04X}:{sub}")
-    d = bytes(m.data)
-    assert len(d) == 8, it.fmt(m)
+    d = it.sdo_exchange(bus, node, struct.pack("<BHB", 0x40, index, sub), f"SDO answer 0x{index:04X}:{sub}")
+    assert len(d) == 8, d.hex()
     assert d[0] != 0x80, f"abort 0x{struct.unpack_from('<I', d, 4)[0]:08X} on 0x{index:04X}:{sub}"
-    assert d[0] == 0x60 or d[0] & 0xF3 == 0x43, it.fmt(m)
-    assert struct.unpack_from("<HB", d, 1) == (index, sub), it.fmt(m)
+    assert d[0] == 0x60 or d[0] & 0xF3 == 0x43, d.hex()
+    assert struct.unpack_from("<HB", d, 1) == (index, sub), d.hex()
     return d[4:8]
 
 
 def sdo_write(bus, node: int, index: int, sub: int, data: bytes) -> None:
-    it.drain(bus)
-    it.send(bus, 0x600 + node, struct.pack("<BHB", 0x22, index, sub) + data.ljust(4, b"\0"))
-    m = it.expect(bus, it.has_id(0x580 + node), it.scaled(2), f"SDO answer 0x{index:04X}:{sub}")
-    assert bytes(m.data) == struct.pack("<BHB", 0x60, index, sub) + b"\0" * 4, it.fmt(m)
-
-
-def pdo_values(bus, node: int, seconds: float):
-    msgs = it.collect(bus, seconds, it.has_id(0x180 + node))
-    for m in msgs:
-        assert m.dlc == 4, it.fmt(m)
-    return msgs, [struct.unpack("<i", bytes(m.data))[0] for m in msgs]
+    d = it.sdo_exchange(bus, node, struct.pack("<BHB", 0x22, index, sub) + data.ljust(4, b"\0"),
+                        f"SDO answer 0x{index:04X}:{sub}")
+    assert d == struct.pack("<BHB", 0x60, index, sub) + b"\0" * 4, d.hex()
 
 
 def test(ctx: it.Context) -> None:
@@ -63,10 +52,9 @@ def test(ctx: it.Context) -> None:
         # NMT start: TPDO1 every 100 ms, INTEGER32 psi x 1000 around 50 psi
         it.nmt(bus, 0x01, NODE)
         it.expect(bus, it.has_id(0x1FF), it.scaled(1), "first PDO")
-        msgs, values = pdo_values(bus, NODE, 2.0)
+        msgs, values = it.tpdo_i32(bus, NODE, 2.0)
         assert len(msgs) >= 10, f"{len(msgs)} PDOs in 2 s"
-        gaps = [b.timestamp - a.timestamp for a, b in zip(msgs, msgs[1:])]
-        mean = sum(gaps) / len(gaps)
+        mean = it.mean_gap(msgs)
         assert 0.09 < mean < 0.11 + 0.02 * it.SCALE, f"PDO period {mean:.3f} s"
         assert all(40000 < v < 60000 for v in values), f"psi x 1000: {values}"
         it.log(f"PDO: {len(msgs)} frames, mean period {mean * 1000:.1f} ms, psi x 1000 {values[:3]}")
@@ -74,7 +62,7 @@ def test(ctx: it.Context) -> None:
         # unit change to bar (manual Table 19): the next PDO carries bar x 1000
         sdo_write(bus, NODE, 0x6131, 1, bytes([0x00, 0x00, 0x4E, 0x00]))
         it.drain(bus)
-        _, values = pdo_values(bus, NODE, 0.5)
+        _, values = it.tpdo_i32(bus, NODE, 0.5)
         assert values and all(2700 < v < 4200 for v in values), f"bar x 1000: {values}"
         sdo_write(bus, NODE, 0x6131, 1, bytes([0x00, 0x00, 0xAB, 0x00]))
 
@@ -82,16 +70,11 @@ def test(ctx: it.Context) -> None:
         it.nmt(bus, 0x80, NODE)
         it.drain(bus)
         it.lss(bus, 0x04, [0x01])
-        it.lss(bus, 0x5A)
-        assert struct.unpack_from("<I", bytes(it.lss_expect(bus, 0x5A, it.scaled(2)).data), 1)[0] == 0x00000362
-        it.lss(bus, 0x5D)
-        assert struct.unpack_from("<I", bytes(it.lss_expect(bus, 0x5D, it.scaled(2)).data), 1)[0] == serial
-        it.lss(bus, 0x5E)
-        assert bytes(it.lss_expect(bus, 0x5E, it.scaled(2)).data)[1] == NODE
-        it.lss(bus, 0x11, [NEW_NODE])
-        assert bytes(it.lss_expect(bus, 0x11, it.scaled(2)).data)[1] == 0, "configure node-ID"
-        it.lss(bus, 0x17)
-        assert bytes(it.lss_expect(bus, 0x17, it.scaled(2)).data)[1] == 0, "store configuration"
+        assert struct.unpack_from("<I", bytes(it.lss_reply(bus, 0x5A).data), 1)[0] == 0x00000362
+        assert struct.unpack_from("<I", bytes(it.lss_reply(bus, 0x5D).data), 1)[0] == serial
+        assert bytes(it.lss_reply(bus, 0x5E).data)[1] == NODE
+        assert bytes(it.lss_reply(bus, 0x11, [NEW_NODE]).data)[1] == 0, "configure node-ID"
+        assert bytes(it.lss_reply(bus, 0x17).data)[1] == 0, "store configuration"
         it.lss(bus, 0x04, [0x00])
         it.nmt(bus, 0x81, NODE)
         it.expect(bus, it.is_bootup(NEW_NODE), it.scaled(2), "boot-up on the new node-ID")
@@ -101,10 +84,8 @@ def test(ctx: it.Context) -> None:
         assert d.stop() == 0
 
         # the LSS-stored node-ID survives a restart
-        again = it.Daemon(ctx.require_cansimd(), args, name="again", state_dir=d.state_dir)
-        ctx.daemons.append(again)
         it.drain(bus)
-        again.start()
+        again = it.restart_daemon(ctx, d)
         it.expect(bus, it.is_bootup(NEW_NODE), 10, "boot-up on the stored node-ID after restart")
         assert again.stop() == 0
 

@@ -15,20 +15,9 @@ import sys
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "lib"))
 import cansim_it as it  # noqa: E402
 
-FLEET = """\
-interfaces:
-  vcan0: {{bit_rate: 250}}
-nodes:
-  - {{profile: {profile}, interface: vcan0, name: gems}}
-"""
-
-
 def upload_raw(bus, node, index, sub):
     """Expedited upload by hand: the whole 8-byte answer."""
-    it.drain(bus)
-    it.send(bus, 0x600 + node, struct.pack("<BHB", 0x40, index, sub).ljust(8, b"\x00"))
-    m = it.expect(bus, it.has_id(0x580 + node), it.scaled(2.0), f"SDO answer 0x{index:04X}:{sub}")
-    return bytes(m.data)
+    return it.sdo_exchange(bus, node, struct.pack("<BHB", 0x40, index, sub), f"SDO answer 0x{index:04X}:{sub}")
 
 
 def value(bus, node, index, sub, fmt):
@@ -46,15 +35,8 @@ def sync_pdos(bus, node, n):
     return out
 
 
-def lss_reply(bus, cs, payload=b""):
-    it.lss(bus, cs, payload)
-    return it.lss_expect(bus, cs, it.scaled(2.0))
-
-
 def test(ctx: it.Context) -> None:
-    d = ctx.daemon("--config", "{state_dir}/fleet.yaml", "--state-dir", "{state_dir}")
-    with open(os.path.join(d.state_dir, "fleet.yaml"), "w") as f:
-        f.write(FLEET.format(profile=ctx.source("profiles/gems9000.yaml")))
+    d = it.single_node_daemon(ctx, ctx.source("profiles/gems9000.yaml"), 250, "gems")
     with it.open_bus("vcan0") as bus:
         it.drain(bus)
         d.start()
@@ -105,15 +87,15 @@ def test(ctx: it.Context) -> None:
         it.lss(bus, 0x04, [0x01])
         it.lss(bus, 0x5E)
         it.expect_none(bus, it.has_id(it.LSS_RX), it.scaled(0.5), "LSS inquire (not a DSP 305 v1.0 service)")
-        r = lss_reply(bus, 0x13, [0x04, 0x00])  # the manual's layout: index in byte 1
+        r = it.lss_reply(bus, 0x13, [0x04, 0x00])  # the manual's layout: index in byte 1
         assert bytes(r.data) == bytes([0x13, 0, 0, 0, 0, 0, 0, 0]), it.fmt(r)
-        r = lss_reply(bus, 0x13, [0x00, 0x03])  # CiA 305 layout, back to 250 k
+        r = it.lss_reply(bus, 0x13, [0x00, 0x03])  # CiA 305 layout, back to 250 k
         assert bytes(r.data[:2]) == b"\x13\x00", it.fmt(r)
-        r = lss_reply(bus, 0x11, [0x80])
+        r = it.lss_reply(bus, 0x11, [0x80])
         assert bytes(r.data[:2]) == b"\x11\x01", it.fmt(r)
-        r = lss_reply(bus, 0x11, [0x0A])
+        r = it.lss_reply(bus, 0x11, [0x0A])
         assert bytes(r.data) == bytes([0x11, 0, 0, 0, 0, 0, 0, 0]), it.fmt(r)
-        r = lss_reply(bus, 0x17)
+        r = it.lss_reply(bus, 0x17)
         assert bytes(r.data) == bytes([0x17, 0, 0, 0, 0, 0, 0, 0]), it.fmt(r)
         it.lss(bus, 0x04, [0x00])
         it.drain(bus)

@@ -15,23 +15,8 @@ import sys
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "lib"))
 import cansim_it as it  # noqa: E402
 
-FLEET = """\
-interfaces:
-  vcan0: {{bit_rate: 125}}
-nodes:
-  - {{profile: {profile}, interface: vcan0, name: p92c}}
-"""
-
-
-def lss_reply(bus, cs, payload=b""):
-    it.lss(bus, cs, payload)
-    return it.lss_expect(bus, cs, it.scaled(2.0))
-
-
 def test(ctx: it.Context) -> None:
-    d = ctx.daemon("--config", "{state_dir}/fleet.yaml", "--state-dir", "{state_dir}")
-    with open(os.path.join(d.state_dir, "fleet.yaml"), "w") as f:
-        f.write(FLEET.format(profile=ctx.source("profiles/p92c.yaml")))
+    d = it.single_node_daemon(ctx, ctx.source("profiles/p92c.yaml"), 125, "p92c")
     with it.open_bus("vcan0") as bus:
         it.drain(bus)
         d.start()
@@ -55,7 +40,7 @@ def test(ctx: it.Context) -> None:
         pdos = it.collect(bus, 2.5 + it.scaled(0.3), it.is_tpdo(1, 1))
         assert len(pdos) >= 3, [it.fmt(m) for m in pdos]
         assert all(len(m.data) == 5 for m in pdos), [it.fmt(m) for m in pdos]
-        gaps = [b.timestamp - a.timestamp for a, b in zip(pdos[1:], pdos[2:])]
+        gaps = it.gaps(pdos[1:])
         assert all(0.8 < g < 1.0 + 0.1 * it.SCALE for g in gaps), gaps
         pa = struct.unpack("<i", bytes(pdos[-1].data[:4]))[0]
         assert 50e5 < pa < 150e5, f"pressure {pa} Pa"  # the profile's process: ~100 bar
@@ -74,13 +59,13 @@ def test(ctx: it.Context) -> None:
         # LSS (§4.2): only in NMT stopped.
         it.nmt(bus, it.NMT_STOP, 0)
         it.lss(bus, 0x04, [0x01])
-        r = lss_reply(bus, 0x5A)
+        r = it.lss_reply(bus, 0x5A)
         assert bytes(r.data) == bytes([0x5A, 0x3D, 0x02, 0, 0, 0, 0, 0]), it.fmt(r)
-        r = lss_reply(bus, 0x11, [0x05])
+        r = it.lss_reply(bus, 0x11, [0x05])
         assert bytes(r.data[:3]) == b"\x11\x00\x00", it.fmt(r)
-        r = lss_reply(bus, 0x5E)
+        r = it.lss_reply(bus, 0x5E)
         assert r.data[1] == 1, "inquire node-ID returns the stored one"
-        r = lss_reply(bus, 0x17)
+        r = it.lss_reply(bus, 0x17)
         assert bytes(r.data[:3]) == b"\x17\x00\x00", it.fmt(r)
         it.drain(bus)
         it.lss(bus, 0x04, [0x00])
@@ -93,9 +78,7 @@ def test(ctx: it.Context) -> None:
         # Stored: the node comes back on 0x705 after a restart.
         assert d.stop() == 0
         it.drain(bus)
-        again = it.Daemon(ctx.require_cansimd(), d.args, name="again", state_dir=d.state_dir)
-        ctx.daemons.append(again)
-        again.start()
+        again = it.restart_daemon(ctx, d)
         it.expect(bus, it.is_bootup(5), 10, "boot-up on 0x705 after restart")
         it.nmt(bus, it.NMT_START, 5)
         it.expect(bus, it.is_tpdo(5, 1), it.scaled(2.0), "TPDO on 0x185")

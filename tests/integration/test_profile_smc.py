@@ -14,25 +14,11 @@ import sys
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "lib"))
 import cansim_it as it  # noqa: E402
 
-FLEET = """\
-interfaces:
-  vcan0: {{bit_rate: 125}}
-nodes:
-  - {{profile: {profile}, interface: vcan0, name: smc}}
-"""
-
 NODE = 0x20
 
 
-def lss_reply(bus, cs, payload=b""):
-    it.lss(bus, cs, payload)
-    return it.lss_expect(bus, cs, it.scaled(2.0))
-
-
 def test(ctx: it.Context) -> None:
-    d = ctx.daemon("--config", "{state_dir}/fleet.yaml", "--state-dir", "{state_dir}")
-    with open(os.path.join(d.state_dir, "fleet.yaml"), "w") as f:
-        f.write(FLEET.format(profile=ctx.source("profiles/smc.yaml")))
+    d = it.single_node_daemon(ctx, ctx.source("profiles/smc.yaml"), 125, "smc")
     with it.open_bus("vcan0") as bus:
         it.drain(bus)
         d.start()
@@ -56,12 +42,11 @@ def test(ctx: it.Context) -> None:
         pdos = it.collect(bus, 1.0 + it.scaled(0.2), it.is_tpdo(NODE, 1))
         assert len(pdos) >= 8, [it.fmt(m) for m in pdos]
         assert all(len(m.data) == 4 for m in pdos), [it.fmt(m) for m in pdos]
-        gaps = [b.timestamp - a.timestamp for a, b in zip(pdos, pdos[1:])]
-        mean = sum(gaps) / len(gaps)
-        assert 0.08 < mean < 0.1 + 0.02 * it.SCALE, gaps
+        mean = it.mean_gap(pdos)
+        assert 0.08 < mean < 0.1 + 0.02 * it.SCALE, it.gaps(pdos)
         counts = struct.unpack("<f", bytes(pdos[-1].data))[0]
         assert 8000 < counts < 12000, f"PV {counts} counts"
-        assert not it.collect(bus, 0.3, has_id(0x2A0)), "nothing on TPDO2"
+        assert not it.collect(bus, 0.3, it.has_id(0x2A0)), "nothing on TPDO2"
         it.log(f"TPDO1 every ~{mean * 1000:.0f} ms, PV {counts:.1f} counts")
 
         # Scaling to 0..5 (bar): PV1 = 0, PV2 = 5.0, seen in the next TPDO.
@@ -76,11 +61,11 @@ def test(ctx: it.Context) -> None:
 
         # LSS (§8.3): configure node-ID 0x21, store, NMT Reset Node to the OLD ID.
         it.lss(bus, 0x04, [0x01])
-        r = lss_reply(bus, 0x5E)
+        r = it.lss_reply(bus, 0x5E)
         assert r.data[1] == NODE, it.fmt(r)
-        r = lss_reply(bus, 0x11, [0x21])
+        r = it.lss_reply(bus, 0x11, [0x21])
         assert bytes(r.data[:2]) == b"\x11\x00", it.fmt(r)
-        r = lss_reply(bus, 0x17)
+        r = it.lss_reply(bus, 0x17)
         assert bytes(r.data[:2]) == b"\x17\x00", it.fmt(r)
         assert sdo.upload_u32(0x1000) == 0x80020194, "old ID answers until the reset"
         it.drain(bus)
@@ -89,22 +74,16 @@ def test(ctx: it.Context) -> None:
         sdo21 = it.SdoClient(bus, 0x21, timeout=it.scaled(2.0))
         assert sdo21.upload_u32(0x1800, 1) == 0x400001A0, "TPDO COB-ID unchanged"
         it.nmt(bus, it.NMT_START, 0x21)
-        it.expect(bus, has_id(0x1A0), it.scaled(2.0), "TPDO still on 0x1A0")
+        it.expect(bus, it.has_id(0x1A0), it.scaled(2.0), "TPDO still on 0x1A0")
         it.log("LSS node-ID 0x21 + store + reset node: boot-up on 0x721, TPDO on 0x1A0")
 
         # Stored: after a restart the node boots on 0x721 again.
         assert d.stop() == 0
         it.drain(bus)
-        again = it.Daemon(ctx.require_cansimd(), d.args, name="again", state_dir=d.state_dir)
-        ctx.daemons.append(again)
-        again.start()
+        again = it.restart_daemon(ctx, d)
         it.expect(bus, it.is_bootup(0x21), 10, "boot-up on 0x721 after restart")
         assert again.stop() == 0
         it.log("restart keeps node-ID 0x21")
-
-
-def has_id(can_id):
-    return it.has_id(can_id)
 
 
 it.main(test)

@@ -708,3 +708,62 @@ def main(test: Callable[[Context], None], argv: Optional[Sequence[str]] = None) 
         if ctx._tmp:
             shutil.rmtree(ctx._tmp, ignore_errors=True)
     sys.exit(code)
+
+
+# --------------------------------------------------------------------------
+# device profile tests (test_profile_*.py): one node against a hand-written master
+
+def single_node_daemon(ctx: Context, profile: str, bit_rate: int, name: str,
+                       interface: str = "vcan0") -> Daemon:
+    """A Daemon (not started) for a fleet of one node of `profile` (a path) on
+    `interface` at bit_rate kbit/s; the fleet file lives in its state dir."""
+    d = ctx.daemon("--config", "{state_dir}/fleet.yaml", "--state-dir", "{state_dir}")
+    with open(os.path.join(d.state_dir, "fleet.yaml"), "w") as f:
+        f.write(f"interfaces:\n"
+                f"  {interface}: {{bit_rate: {bit_rate}}}\n"
+                f"nodes:\n"
+                f"  - {{profile: {profile}, interface: {interface}, name: {name}}}\n")
+    return d
+
+
+def restart_daemon(ctx: Context, d: Daemon, name: str = "again") -> Daemon:
+    """A second daemon with d's arguments and state dir (what d stored), started.
+    Stop d first."""
+    again = Daemon(ctx.require_cansimd(), d.args, name=name, state_dir=d.state_dir)
+    ctx.daemons.append(again)
+    return again.start()
+
+
+def lss_reply(bus: can.BusABC, cs: int, payload: Sequence[int] | bytes = b"",
+              timeout: float = 2.0) -> can.Message:
+    """Send an LSS request and return the slave's answer with the same command specifier."""
+    lss(bus, cs, payload)
+    return lss_expect(bus, cs, scaled(timeout))
+
+
+def sdo_exchange(bus: can.BusABC, node: int, request: Sequence[int] | bytes,
+                 what: str = "SDO answer") -> bytes:
+    """One SDO request written by hand (zero-padded to 8 bytes) to 0x600 + node;
+    returns the data of the answer on 0x580 + node, whatever it is (aborts too)."""
+    drain(bus)
+    send(bus, 0x600 + node, bytes(request).ljust(8, b"\x00"))
+    return bytes(expect(bus, has_id(0x580 + node), scaled(2.0), what).data)
+
+
+def tpdo_i32(bus: can.BusABC, node: int, seconds: float) -> tuple:
+    """TPDO1 frames of node received during seconds (unscaled), each checked to
+    carry one INTEGER32 (DLC 4), and their values: (frames, values)."""
+    msgs = collect(bus, seconds, has_id(0x180 + node))
+    for m in msgs:
+        assert m.dlc == 4, fmt(m)
+    return msgs, [struct.unpack("<i", bytes(m.data))[0] for m in msgs]
+
+
+def gaps(msgs: Sequence[can.Message]) -> List[float]:
+    """Seconds between consecutive frames (receive timestamps)."""
+    return [b.timestamp - a.timestamp for a, b in zip(msgs, msgs[1:])]
+
+
+def mean_gap(msgs: Sequence[can.Message]) -> float:
+    g = gaps(msgs)
+    return sum(g) / len(g)
