@@ -131,6 +131,7 @@ Daemon::Interface& Daemon::ensure_interface(const config::InterfaceConfig& ic) {
     interfaces_.push_back(std::make_unique<Interface>(*this, ic.name));
     iface = interfaces_.back().get();
     iface->bus = core_.add_bus(ic.name, iface->can, 3);
+    iface->can.set_deferred(true);
     iface->retry_at = 0;  // open at the next housekeeping pass
   }
   bool from_kernel = false;
@@ -155,12 +156,23 @@ void Daemon::on_can_events(Interface& iface, std::uint32_t events) {
       if (n < int(io::CanInterface::kBatch)) break;
     }
   }
-  if ((events & EPOLLOUT) && iface.can.is_open()) {
-    std::uint64_t before = iface.can.stats().tx;
-    iface.can.drain();
-    // ENOBUFS with a writable socket would spin on EPOLLOUT: poll by timer.
-    if (iface.can.wants_write() && iface.can.stats().tx == before) iface.drain_at = now + kDrainRetry;
-  }
+  if (events & EPOLLOUT) drain(iface, now);
+  flush(now);  // the answers to what was just read
+}
+
+void Daemon::drain(Interface& iface, TimeUs now) {
+  if (!iface.can.is_open()) return;
+  std::uint64_t before = iface.can.stats().tx;
+  iface.can.drain();
+  // ENOBUFS with a writable socket would spin on EPOLLOUT: poll by timer.
+  if (iface.can.wants_write() && iface.can.stats().tx == before) iface.drain_at = now + kDrainRetry;
+}
+
+// Frames are sent deferred: what one pass of the loop produced leaves in
+// sendmmsg batches (CanInterface::set_deferred).
+void Daemon::flush(TimeUs now) {
+  for (auto& i : interfaces_)
+    if (i->can.wants_write() && i->drain_at == kNever) drain(*i, now);
 }
 
 void Daemon::sweep_interfaces(TimeUs now) {
@@ -375,6 +387,7 @@ void Daemon::reload(TimeUs now) {
   } catch (const std::exception& e) {
     spdlog::error("reload failed, keeping the running fleet: {}", e.what());
   }
+  flush(now);  // the new nodes' boot-ups are on the bus before READY=1
   report_status(now);
   notify("READY=1");
 }
@@ -392,6 +405,7 @@ int Daemon::run() {
   if (sd_watchdog_enabled(0, &watchdog_us_) <= 0) watchdog_us_ = 0;
   next_watchdog_ = now;
   housekeeping(now);  // opens the interfaces
+  flush(now);         // the boot-ups are on the bus before READY=1
   sweep_interfaces(now);
   report_status(now);
   notify("READY=1");
@@ -399,6 +413,7 @@ int Daemon::run() {
   for (;;) {
     now = clock_now();
     core_.run_due(now);
+    flush(now);
     housekeeping(now);
     sweep_interfaces(now);
     const TimeUs next = std::min(core_.next_deadline(), housekeeping_deadline());

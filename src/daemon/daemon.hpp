@@ -84,6 +84,8 @@ class Daemon {
   Interface& ensure_interface(const config::InterfaceConfig& ic);
   void remove_node(NodeEntry& e);
   void on_can_events(Interface& iface, std::uint32_t events);
+  void drain(Interface& iface, TimeUs now);
+  void flush(TimeUs now);
   void sweep_interfaces(TimeUs now);
   void try_open(Interface& iface, TimeUs now);
   void housekeeping(TimeUs now);

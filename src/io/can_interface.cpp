@@ -116,6 +116,13 @@ void CanInterface::transmit(const CanFrame& frame) {
     ++stats_.tx_offline;  // interface down: the frame goes nowhere
     return;
   }
+  if (deferred_) {
+    if (queued_ == queue_.size()) drain();  // a burst larger than the queue
+    if (queued_ < queue_.size()) {
+      queue_[(head_ + queued_++) % queue_.size()] = frame;
+      return;
+    }
+  }
   if (queued_ > 0) {  // keep the order: behind what already waits
     enqueue(frame);
     return;

@@ -50,8 +50,13 @@ class CanInterface : public Transport {
   int fd() const { return fd_; }
   const std::string& error() const { return error_; }
 
-  // Transport: sends now, or queues, or drops (counted).
+  // Transport: sends now (or, deferred, at the next drain()), or queues
+  // while the kernel is full, or drops (counted).
   void transmit(const CanFrame& frame) override;
+  // Deferred sending: frames collect in the queue and go out with drain(),
+  // batched into sendmmsg calls; the owner drains at the end of each loop
+  // iteration (what one instant produced leaves together, in order).
+  void set_deferred(bool deferred) { deferred_ = deferred; }
   // Reads up to kBatch frames (recvmmsg). Returns the count, 0 when nothing
   // is pending, -1 when the interface failed (is_open() is then false).
   int read_batch(CanFrame* out, std::size_t max);
@@ -85,6 +90,7 @@ class CanInterface : public Transport {
   std::size_t head_ = 0;
   std::size_t queued_ = 0;
   bool interest_changed_ = false;
+  bool deferred_ = false;
   CanStats stats_;
   std::uint64_t drops_reported_ = 0;
 };
