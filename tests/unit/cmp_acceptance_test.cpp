@@ -10,10 +10,6 @@ namespace {
 constexpr double kQuantumBar = 10.0 / 8192;  // 13-bit output over 0..10 bar
 constexpr TimeUs sec(std::int64_t v) { return v * 1000000; }
 
-std::int32_t le32(const CanFrame& f, int at = 0) {
-  return std::int32_t(std::uint32_t(f.data[at]) | std::uint32_t(f.data[at + 1]) << 8 |
-                      std::uint32_t(f.data[at + 2]) << 16 | std::uint32_t(f.data[at + 3]) << 24);
-}
 std::int16_t le16(const CanFrame& f, int at = 0) { return std::int16_t(f.data[at] | f.data[at + 1] << 8); }
 
 // A table process in bar, values held between points.
@@ -143,7 +139,7 @@ TEST_F(CmpAcceptance, Check08MappingMode) {
   EXPECT_EQ(CmpBus::u32(b->upload(1, 0x2201, 1)) & 0xFF, 0x10u);
   b->nmt(0x01, 0x01);
   b->bus.run_for(ms(150));
-  auto pdo = CmpBus::on(b->bus.take(), 0x181);
+  auto pdo = only(b->bus.take(), 0x181);
   ASSERT_FALSE(pdo.empty());
   EXPECT_EQ(pdo[0].frame.dlc, 4);
   EXPECT_NEAR(le32(pdo[0].frame), 5000, 2);  // P x 10^3
@@ -155,11 +151,11 @@ TEST_F(CmpAcceptance, Check09CyclicPdo) {
   ok_write(0x1800, 2, 0xFF);
   ok_write(0x1800, 5, 100);
   b->bus.run_for(sec(1));
-  EXPECT_TRUE(CmpBus::on(b->bus.take(), 0x181).empty());  // PRE-OPERATIONAL
+  EXPECT_TRUE(only(b->bus.take(), 0x181).empty());  // PRE-OPERATIONAL
   b->nmt(0x01, 0x00);
   const TimeUs t0 = b->bus.now();
   b->bus.run_for(ms(1050));
-  auto pdo = CmpBus::on(b->bus.take(), 0x181);
+  auto pdo = only(b->bus.take(), 0x181);
   ASSERT_EQ(pdo.size(), 10u);
   for (std::size_t i = 0; i < pdo.size(); ++i) {
     EXPECT_NEAR(double(pdo[i].time - t0), double(ms(100) * TimeUs(i + 1)), double(ms(10)));
@@ -167,7 +163,7 @@ TEST_F(CmpAcceptance, Check09CyclicPdo) {
   }
   b->nmt(0x02, 0x00);
   b->bus.run_for(sec(1));
-  EXPECT_TRUE(CmpBus::on(b->bus.take(), 0x181).empty());  // STOPPED
+  EXPECT_TRUE(only(b->bus.take(), 0x181).empty());  // STOPPED
 }
 
 // 10. RTR on 0x181 -> one data frame with the current P.
@@ -179,7 +175,7 @@ TEST_F(CmpAcceptance, Check10Rtr) {
   b->bus.take();
   b->bus.inject(CanFrame::remote(0x181, 4));
   b->bus.run_for(ms(1));
-  auto pdo = CmpBus::on(b->bus.take(), 0x181);
+  auto pdo = only(b->bus.take(), 0x181);
   ASSERT_EQ(pdo.size(), 1u);
   EXPECT_EQ(pdo[0].frame.dlc, 4);
   EXPECT_NEAR(le32(pdo[0].frame), 7500, 2);
@@ -195,7 +191,7 @@ TEST_F(CmpAcceptance, Check11Pdo4On485) {
   ok_write(0x1803, 2, 0xFF);
   b->nmt(0x01, 0x01);
   b->bus.run_for(ms(350));
-  auto pdo = CmpBus::on(b->bus.take(), 0x485);
+  auto pdo = only(b->bus.take(), 0x485);
   ASSERT_EQ(pdo.size(), 3u);
   float p;
   std::memcpy(&p, pdo[0].frame.data, 4);
@@ -212,9 +208,9 @@ TEST_F(CmpAcceptance, Check12Type254Delta) {
   EXPECT_EQ(od(0x2201, 1), 0x10u);
   b->nmt(0x01, 0x01);
   b->bus.run_until(sec(1));
-  EXPECT_TRUE(CmpBus::on(b->bus.take(), 0x181).empty());  // constant pressure: nothing
+  EXPECT_TRUE(only(b->bus.take(), 0x181).empty());  // constant pressure: nothing
   b->bus.run_until(sec(4));
-  auto pdo = CmpBus::on(b->bus.take(), 0x181);
+  auto pdo = only(b->bus.take(), 0x181);
   ASSERT_GE(pdo.size(), 20u);  // 6 bar / 0.25 bar
   ASSERT_LE(pdo.size(), 24u);
   std::int32_t last = 2000;
@@ -225,7 +221,7 @@ TEST_F(CmpAcceptance, Check12Type254Delta) {
     last = p;
   }
   b->bus.run_until(sec(6));
-  EXPECT_TRUE(CmpBus::on(b->bus.take(), 0x181).empty());  // constant again
+  EXPECT_TRUE(only(b->bus.take(), 0x181).empty());  // constant again
 }
 
 // 13. Type 254 limits with hysteresis and a 200 ms event timer.
@@ -242,7 +238,7 @@ TEST_F(CmpAcceptance, Check13Type254LimitsHysteresisTimer) {
   }
   b->nmt(0x01, 0x01);
   b->bus.run_until(sec(7));
-  auto pdo = CmpBus::on(b->bus.take(), 0x181);
+  auto pdo = only(b->bus.take(), 0x181);
   std::vector<TimeUs> expected = {sec(1), sec(1) + ms(200), sec(1) + ms(400), sec(1) + ms(600), sec(1) + ms(800),  // above U
                                   sec(2),                                                                 // U - H down
                                   sec(4), sec(4) + ms(200), sec(4) + ms(400), sec(4) + ms(600), sec(4) + ms(800),  // below L
@@ -267,13 +263,13 @@ TEST_F(CmpAcceptance, Check14SpecialMessages) {
   b->download_long(1, 0x2213, 0, {0xA1, 0xA2, 0xA3, 0xA4, 0xA5, 0xA6, 0xA7, 0xA8});  // UpperLimitDown
   b->nmt(0x01, 0x01);
   b->bus.run_until(sec(2) + ms(500));
-  auto pdo = CmpBus::on(b->bus.take(), 0x181);
+  auto pdo = only(b->bus.take(), 0x181);
   ASSERT_EQ(pdo.size(), 2u) << to_string(pdo);
   EXPECT_EQ(pdo[0].frame, F(0x181, {0x11, 0x22, 0x33, 0x44}));
   EXPECT_EQ(pdo[1].frame, F(0x181, {0xA1, 0xA2, 0xA3, 0xA4}));
   ok_write(0x2100, 1, 27);
   b->bus.run_until(sec(3) + ms(50));
-  pdo = CmpBus::on(b->bus.take(), 0x181);
+  pdo = only(b->bus.take(), 0x181);
   ASSERT_EQ(pdo.size(), 1u);
   EXPECT_EQ(pdo[0].frame.dlc, 0);
 }
@@ -287,7 +283,7 @@ TEST_F(CmpAcceptance, Check15aSaveKeepsUnitOverReset) {
   EXPECT_EQ(out[0].frame, F(0x581, {0x60, 0x10, 0x10, 0x01, 0, 0, 0, 0}));
   b->nmt(0x81, 0x01);
   b->bus.run_for(ms(1));
-  EXPECT_EQ(CmpBus::on(b->bus.take(), 0x701).size(), 1u);
+  EXPECT_EQ(only(b->bus.take(), 0x701).size(), 1u);
   EXPECT_EQ(od(0x6131, 1), 0x03220000u);
   EXPECT_NEAR(CmpBus::f32(b->upload(1, 0x6130, 1)), 500.0, 100 * kQuantumBar);
 }
@@ -320,7 +316,7 @@ TEST_F(CmpAcceptance, Check15cGuardingFault) {
   b->bus.inject(CanFrame::remote(0x701, 1));
   const TimeUs t0 = b->bus.now();
   b->bus.run_for(ms(350));
-  auto emcy = CmpBus::on(b->bus.take(), 0x081);
+  auto emcy = only(b->bus.take(), 0x081);
   ASSERT_EQ(emcy.size(), 1u);
   EXPECT_EQ(emcy[0].frame, F(0x081, {0x30, 0x81, 0x11, 0x00, 0x00, 0x00, 0x00, 0x00}));
   EXPECT_NEAR(double(emcy[0].time - t0), double(ms(300)), double(ms(5)));
@@ -328,10 +324,10 @@ TEST_F(CmpAcceptance, Check15cGuardingFault) {
   b->bus.inject(CanFrame::remote(0x701, 1));
   b->bus.run_for(ms(100));
   auto out = b->bus.take();
-  emcy = CmpBus::on(out, 0x081);
+  emcy = only(out, 0x081);
   ASSERT_EQ(emcy.size(), 1u);
   EXPECT_EQ(emcy[0].frame, F(0x081, {0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00}));
-  EXPECT_EQ(CmpBus::on(out, 0x701)[0].frame, F(0x701, {0xFF}));  // toggle 1, PRE-OPERATIONAL
+  EXPECT_EQ(only(out, 0x701)[0].frame, F(0x701, {0xFF}));  // toggle 1, PRE-OPERATIONAL
   EXPECT_EQ(node().state(), NmtState::kPreOperational);
 }
 
@@ -347,13 +343,13 @@ TEST_F(CmpAcceptance, Check15dAutoStartAndStartIndication) {
   b->nmt(0x81, 0x01);
   b->bus.run_for(ms(400));
   auto all = b->bus.take();
-  auto boot = CmpBus::on(all, 0x701), start_all = CmpBus::on(all, 0x000);
+  auto boot = only(all, 0x701), start_all = only(all, 0x000);
   ASSERT_EQ(boot.size(), 1u);
   EXPECT_EQ(boot[0].frame, F(0x701, {0x00}));
   ASSERT_EQ(start_all.size(), 1u);
   EXPECT_EQ(start_all[0].frame, F(0x000, {0x01, 0x00}));
   EXPECT_NEAR(double(start_all[0].time - t0), double(ms(250)), double(ms(10)));
-  EXPECT_FALSE(CmpBus::on(all, 0x181).empty());  // OPERATIONAL without an NMT command
+  EXPECT_FALSE(only(all, 0x181).empty());  // OPERATIONAL without an NMT command
   EXPECT_EQ(node().state(), NmtState::kOperational);
 
   ok_write(0x2200, 0, 0);
@@ -362,7 +358,7 @@ TEST_F(CmpAcceptance, Check15dAutoStartAndStartIndication) {
   b->nmt(0x81, 0x01);
   b->bus.run_for(ms(400));
   EXPECT_EQ(node().state(), NmtState::kOperational);
-  EXPECT_TRUE(CmpBus::on(b->bus.take(), 0x000).empty());
+  EXPECT_TRUE(only(b->bus.take(), 0x000).empty());
 }
 
 // 15e. LSS switch selective with revision 0 (any revision); bit timing index 9.
@@ -400,7 +396,7 @@ TEST_F(CmpAcceptance, Check16MsCounterMode) {
   EXPECT_EQ(od(0x1A00, 0), 3u);
   b->nmt(0x01, 0x01);
   b->bus.run_for(ms(550));
-  auto pdo = CmpBus::on(b->bus.take(), 0x181);
+  auto pdo = only(b->bus.take(), 0x181);
   ASSERT_EQ(pdo.size(), 5u);
   for (std::size_t i = 0; i < pdo.size(); ++i) {
     EXPECT_EQ(pdo[i].frame.dlc, 4);
@@ -427,7 +423,7 @@ TEST_F(CmpAcceptance, Check17UnknownModes) {
   EXPECT_EQ(od(0x1A00, 0), 4u);
   b->nmt(0x01, 0x01);
   b->bus.run_for(ms(150));
-  auto pdo = CmpBus::on(b->bus.take(), 0x181);
+  auto pdo = only(b->bus.take(), 0x181);
   ASSERT_FALSE(pdo.empty());
   EXPECT_EQ(pdo[0].frame.dlc, 8);
 }

@@ -13,19 +13,13 @@
 #include <vector>
 
 #include "personalities/registry.hpp"
-#include "support/sim.hpp"
+#include "support/device.hpp"
 
 namespace cansim::test {
 
-inline std::string cmp_profile_path() { return std::string(CANSIM_SOURCE_DIR) + "/profiles/cmp.yaml"; }
-
 // The CMP profile with an edit of its YAML document (physics, options, ...).
 inline config::Profile cmp_profile(const std::function<void(YAML::Node&)>& edit = {}) {
-  YAML::Node root = YAML::LoadFile(cmp_profile_path());
-  if (edit) edit(root);
-  config::Profile p = config::parse_profile(root, cmp_profile_path());
-  personalities::prepare_profile(p);
-  return p;
+  return prepared_repo_yaml("cmp", edit);
 }
 
 // Noise-free sensor and a process given as YAML (e.g. "5 bar").
@@ -99,21 +93,11 @@ class CmpBus {
     }
   }
 
-  static std::uint32_t u32(const CanFrame& f) {
-    return std::uint32_t(f.data[4]) | std::uint32_t(f.data[5]) << 8 | std::uint32_t(f.data[6]) << 16 |
-           std::uint32_t(f.data[7]) << 24;
-  }
+  static std::uint32_t u32(const CanFrame& f) { return std::uint32_t(le32(f, 4)); }
   static float f32(const CanFrame& f) {
     float v;
     std::memcpy(&v, f.data + 4, 4);
     return v;
-  }
-  // Frames on one CAN-ID.
-  static std::vector<Sent> on(const std::vector<Sent>& frames, std::uint32_t id) {
-    std::vector<Sent> out;
-    for (const Sent& s : frames)
-      if (s.frame.id == id) out.push_back(s);
-    return out;
   }
 
   config::Profile profile;

@@ -47,8 +47,8 @@ TEST_F(CmpTrace, ResetAllNodesThenOnlyNode10) {
     EXPECT_EQ(s.frame.dlc, 1);
     EXPECT_EQ(s.frame.data[0], 0x00);
   }
-  EXPECT_EQ(CmpBus::on(out, 0x701).size(), 1u);
-  EXPECT_EQ(CmpBus::on(out, 0x70A).size(), 1u);
+  EXPECT_EQ(only(out, 0x701).size(), 1u);
+  EXPECT_EQ(only(out, 0x70A).size(), 1u);
   b.nmt(0x81, 0x0A);  // Reset only node 10
   b.bus.run_for(ms(5));
   out = b.bus.take();
@@ -159,7 +159,7 @@ TEST_F(CmpTrace, Pdo1RemoteTransmissionRequest) {
   const TimeUs t0 = b.bus.now();
   b.bus.inject(CanFrame::remote(0x181, 4));
   b.bus.run_for(ms(1));
-  auto out = CmpBus::on(b.bus.take(), 0x181);
+  auto out = only(b.bus.take(), 0x181);
   ASSERT_EQ(out.size(), 1u);
   EXPECT_EQ(out[0].time, t0);
   EXPECT_EQ(out[0].frame.dlc, 4);
@@ -178,7 +178,7 @@ TEST_F(CmpTrace, Node4NodeguardError) {
   b.bus.inject(CanFrame::remote(0x704, 1));
   const TimeUs guarded = b.bus.now();
   b.bus.run_for(ms(400));
-  auto emcy = CmpBus::on(b.bus.take(), 0x084);
+  auto emcy = only(b.bus.take(), 0x084);
   ASSERT_EQ(emcy.size(), 1u);
   EXPECT_EQ(emcy[0].frame, F(0x084, {0x30, 0x81, 0x11, 0x00, 0x00, 0x00, 0x00, 0x00}));
   EXPECT_EQ(emcy[0].time, guarded + ms(300));

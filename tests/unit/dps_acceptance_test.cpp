@@ -10,19 +10,10 @@ namespace {
 
 using Accept = DpsFixture;
 
-std::vector<CanFrame> frames(const std::vector<Sent>& s) {
-  std::vector<CanFrame> out;
-  for (const Sent& x : s) out.push_back(x.frame);
-  return out;
-}
-std::vector<CanFrame> one(std::uint32_t id, std::initializer_list<std::uint8_t> bytes) { return {F(id, bytes)}; }
 std::vector<CanFrame> abort_frame(std::uint16_t index, std::uint8_t sub, std::uint32_t code) {
-  return one(0x5FF, {0x80, std::uint8_t(index), std::uint8_t(index >> 8), sub, std::uint8_t(code),
-                     std::uint8_t(code >> 8), std::uint8_t(code >> 16), std::uint8_t(code >> 24)});
+  return sdo_aborted(Accept::kId, index, sub, code);
 }
-std::vector<CanFrame> download_ok(std::uint16_t index, std::uint8_t sub) {
-  return one(0x5FF, {0x60, std::uint8_t(index), std::uint8_t(index >> 8), sub, 0, 0, 0, 0});
-}
+std::vector<CanFrame> download_ok(std::uint16_t index, std::uint8_t sub) { return sdo_confirmed(Accept::kId, index, sub); }
 
 void start(Accept& t) {
   t.nmt(0x01);

@@ -12,19 +12,11 @@ using Trace = DpsFixture;
 
 constexpr std::uint32_t kLssRx = 0x7E5, kLssTx = 0x7E4;
 
-std::vector<CanFrame> frames(const std::vector<Sent>& s) {
-  std::vector<CanFrame> out;
-  for (const Sent& x : s) out.push_back(x.frame);
-  return out;
-}
-
 std::vector<CanFrame> lss(Trace& t, std::initializer_list<std::uint8_t> bytes) {
   t.master(kLssRx, bytes);
   t.bus.run_for(ms(1));
   return frames(t.bus.take());
 }
-
-std::vector<CanFrame> one(std::uint32_t id, std::initializer_list<std::uint8_t> bytes) { return {F(id, bytes)}; }
 
 TEST_F(Trace, Table03PointToPointNodeIdConfiguration) {
   boot();

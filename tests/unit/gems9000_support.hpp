@@ -11,7 +11,7 @@
 #include <memory>
 
 #include "personalities/gems9000.hpp"
-#include "support/sim.hpp"
+#include "support/device.hpp"
 
 namespace cansim::test {
 
@@ -27,44 +27,23 @@ class GemsSource : public personalities::MeasurementSource {
   TimeUs sample_period_us(physics::Channel) const override { return 10000; }
 };
 
-class GemsFixture : public ::testing::Test {
+class GemsFixture : public DeviceFixture<personalities::gems9000::GemsApplication, GemsSource> {
  public:
   static constexpr std::uint8_t kId = 1;
   static constexpr std::uint32_t kPin = 0x00001234;  // profile placeholder
 
   void build(const std::function<void(config::Profile&)>& edit = {}) {
-    profile = load_repo_profile("gems9000");
-    if (edit) {
-      profile.options = std::make_shared<NodeOptions>(*profile.options);
-      edit(profile);
-    }
-    personalities::prepare_profile(profile);
-    auto prepared = std::static_pointer_cast<const personalities::PreparedProfile>(profile.prepared);
-    const auto& settings = *std::static_pointer_cast<const personalities::gems9000::Settings>(prepared->device);
-    auto src = std::make_unique<GemsSource>();
-    source = src.get();
-    app = std::make_unique<personalities::gems9000::GemsApplication>(prepared->cia404, std::move(src), settings,
-                                                                      prepared->identity, 0);
-    sim = &bus.add(profile, profile.node_id, app.get());
+    build_node("gems9000", 0, device_app<personalities::gems9000::Settings>, edit);
   }
   void SetUp() override { build(); }
 
   // Power-on; leaves the node pre-operational with an empty log.
   void boot() {
-    bus.power_on_all();
-    bus.run_for(ms(1));
+    power_on(ms(1));
     bus.take();
   }
-  // Simulated power cycle: new Node, same storage and application.
-  void power_cycle() {
-    sim->replace(kId);
-    sim->node().power_on(bus.now());
-  }
 
-  Node& node() { return sim->node(); }
-  void master(std::uint32_t id, std::initializer_list<std::uint8_t> bytes) { bus.inject(F(id, bytes)); }
   void nmt(std::uint8_t cs, std::uint8_t id = kId) { master(0x000, {cs, id}); }
-  void sync() { bus.inject(CanFrame::make(0x080, {})); }
   // One request to 0x600+id; what the node sent within 1 ms.
   std::vector<CanFrame> sdo(std::initializer_list<std::uint8_t> bytes, std::uint8_t id = kId) {
     master(0x600u + id, bytes);
@@ -72,9 +51,7 @@ class GemsFixture : public ::testing::Test {
   }
   std::vector<CanFrame> frames_for(TimeUs dt) {
     bus.run_for(dt);
-    std::vector<CanFrame> out;
-    for (const Sent& s : bus.take()) out.push_back(s.frame);
-    return out;
+    return frames(bus.take());
   }
   // Expedited write (0x22, as in every manual figure); true when confirmed.
   bool write32(std::uint16_t index, std::uint8_t sub, std::uint32_t v) {
@@ -93,7 +70,6 @@ class GemsFixture : public ::testing::Test {
     EXPECT_EQ(node().read(index, sub, bus.now(), out), SdoAbort::kNone);
     return out.size() >= 4 ? float(decode_f(DataType::kReal32, out.data())) : -1e30f;
   }
-  std::uint64_t u(std::uint16_t index, std::uint8_t sub) { return node().values().u(index, sub); }
   std::int64_t i16(std::uint16_t index, std::uint8_t sub) {
     std::span<const std::uint8_t> out;
     EXPECT_EQ(node().read(index, sub, bus.now(), out), SdoAbort::kNone);
@@ -105,22 +81,10 @@ class GemsFixture : public ::testing::Test {
     bus.take();
   }
 
-  static std::vector<CanFrame> one(std::uint32_t id, std::initializer_list<std::uint8_t> bytes) {
-    return {F(id, bytes)};
-  }
   static std::vector<CanFrame> aborted(std::uint16_t index, std::uint8_t sub, std::uint32_t code) {
-    return one(0x581, {0x80, std::uint8_t(index), std::uint8_t(index >> 8), sub, std::uint8_t(code),
-                       std::uint8_t(code >> 8), std::uint8_t(code >> 16), std::uint8_t(code >> 24)});
+    return sdo_aborted(kId, index, sub, code);
   }
-  static std::vector<CanFrame> confirmed(std::uint16_t index, std::uint8_t sub) {
-    return one(0x581, {0x60, std::uint8_t(index), std::uint8_t(index >> 8), sub, 0, 0, 0, 0});
-  }
-
-  SimBus bus;
-  config::Profile profile;
-  GemsSource* source = nullptr;
-  std::unique_ptr<personalities::gems9000::GemsApplication> app;
-  SimNode* sim = nullptr;
+  static std::vector<CanFrame> confirmed(std::uint16_t index, std::uint8_t sub) { return sdo_confirmed(kId, index, sub); }
 };
 
 }  // namespace cansim::test

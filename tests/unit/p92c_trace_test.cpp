@@ -8,18 +8,6 @@ namespace {
 
 using Trace = P92cFixture;
 
-// Expected frames, each at t0 + dt.
-struct At {
-  TimeUs dt;
-  CanFrame frame;
-};
-
-std::string expected(TimeUs t0, std::initializer_list<At> list) {
-  std::vector<Sent> v;
-  for (const At& a : list) v.push_back({t0 + a.dt, a.frame});
-  return to_string(v);
-}
-
 // ---- boot-up, start, TPDO (manual §3.5, §5.2)
 
 TEST_F(Trace, BootUpIsOneZeroByteOn0x701) {
