@@ -9,36 +9,15 @@
 //                        per simulated second. allocs counts operator new calls (must be 0).
 #include <benchmark/benchmark.h>
 
-#include <atomic>
-#include <cstdlib>
-#include <new>
 #include <vector>
 
 #include "physics/random.hpp"
 #include "physics/sensor.hpp"
 #include "physics/units.hpp"
-
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-#endif
-
-namespace {
-std::atomic<long> g_allocations{0};
-}
-#if !defined(__SANITIZE_ADDRESS__)  // ASan owns operator new: no counting there
-void* operator new(std::size_t n) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(n ? n : 1)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t n) { return operator new(n); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
-#endif
+#include "support/counting_new.hpp"  // the allocation counter the physics tests use
 
 using namespace cansim::physics;
+using cansim::test::g_allocations;
 
 namespace {
 

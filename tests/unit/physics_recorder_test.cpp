@@ -3,42 +3,19 @@
 
 #include <unistd.h>
 
-#include <atomic>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
-#include <new>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "physics/recorder.hpp"
-
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-#endif
-
-namespace {
-std::atomic<long> g_allocations{0};
-}
-// AddressSanitizer owns operator new/delete: counting is only done in normal builds.
-#if defined(__SANITIZE_ADDRESS__)
-#define CANSIM_COUNTING_NEW 0
-#else
-#define CANSIM_COUNTING_NEW 1
-void* operator new(std::size_t n) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(n ? n : 1)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t n) { return operator new(n); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
-#endif
+#include "support/counting_new.hpp"
 
 using namespace cansim::physics;
+using cansim::test::g_allocations;
+using cansim::test::kCountingNew;
 
 namespace {
 
@@ -85,7 +62,7 @@ Sensor demo_sensor(const FaultSet* faults) {
 }  // namespace
 
 TEST(PhysicsRecorder, WritesRowsWithoutAllocating) {
-  if (!CANSIM_COUNTING_NEW) GTEST_SKIP() << "allocation counting disabled under AddressSanitizer";
+  if (!kCountingNew) GTEST_SKIP() << "allocation counting disabled under AddressSanitizer";
   const std::string path = temp_path("rec.csv");
   FaultSet faults;
   FaultSpec open;

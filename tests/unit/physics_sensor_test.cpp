@@ -1,42 +1,18 @@
 // The measurement chain: filters, ADC, quantisation, errors, overload, damage, laziness.
 #include <gtest/gtest.h>
 
-#include <atomic>
 #include <cmath>
 #include <cstdlib>
-#include <new>
 #include <vector>
 
 #include "physics/random.hpp"
 #include "physics/sensor.hpp"
 #include "physics/units.hpp"
+#include "support/counting_new.hpp"  // proves that read() does not allocate
 
 using namespace cansim::physics;
-
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-#endif
-
-// ---- counting global operator new (proves that read() does not allocate) ----
-namespace {
-std::atomic<long> g_allocations{0};
-}
-// AddressSanitizer owns operator new/delete: counting is only done in normal builds.
-#if defined(__SANITIZE_ADDRESS__)
-#define CANSIM_COUNTING_NEW 0
-#else
-#define CANSIM_COUNTING_NEW 1
-void* operator new(std::size_t n) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(n ? n : 1)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t n) { return operator new(n); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
-#endif
+using cansim::test::g_allocations;
+using cansim::test::kCountingNew;
 
 namespace {
 
@@ -449,7 +425,7 @@ TEST(PhysicsSensor, DisabledChannelAndSampleHook) {
 }
 
 TEST(PhysicsSensor, ReadDoesNotAllocate) {
-  if (!CANSIM_COUNTING_NEW) GTEST_SKIP() << "allocation counting disabled under AddressSanitizer";
+  if (!kCountingNew) GTEST_SKIP() << "allocation counting disabled under AddressSanitizer";
   auto spec = ideal_sensor();
   spec.pressure.filter = {FilterType::MovingAverage, 30};
   spec.pressure.noise_rms = 100;
