@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <ostream>
 #include <sstream>
 
 #include "personalities/dps.hpp"
@@ -66,17 +67,6 @@ TEST(VendorParams, P92c) {
   EXPECT_FALSE(s.boot_emcys);
   EXPECT_FALSE(s.sensor_fault_emcy);
   EXPECT_EQ(s.monitor_period_us, 20000);
-
-  EXPECT_EQ(prepare_error(edited("p92c", "monitor_period: 10 ms", "monitor_period: 20 s")),
-            "profiles/p92c.yaml:61:19: vendor.monitor_period: expected 1 ms .. 10 s, got '20 s'");
-  EXPECT_EQ(prepare_error(edited("p92c", "monitor_period: 10 ms", "monitor_period: 0.5 ms")),
-            "profiles/p92c.yaml:61:19: vendor.monitor_period: expected 1 ms .. 10 s, got '0.5 ms'");
-  EXPECT_EQ(prepare_error(edited("p92c", "serial_part3: 5566", "serial_part3: 10000")),
-            "profiles/p92c.yaml:56:17: vendor.serial_part3: expected an integer in 0..9999, got '10000'");
-  EXPECT_EQ(prepare_error(edited("p92c", "serial_number_base: 223344", "serial_number_base: -1")),
-            "profiles/p92c.yaml:54:23: vendor.serial_number_base: expected an integer in 0..4294967295, got '-1'");
-  EXPECT_EQ(prepare_error(edited("p92c", "boot_emcys: true", "boot_emcys: maybe")),
-            "profiles/p92c.yaml:60:15: vendor.boot_emcys: expected true or false, got 'maybe'");
 }
 
 TEST(VendorParams, Gems9000) {
@@ -92,15 +82,6 @@ TEST(VendorParams, Gems9000) {
   EXPECT_TRUE(s.autostart_on_nmt_reset);
   EXPECT_FALSE(s.manual_error_register);
   EXPECT_EQ(s.supervision_period_us, 2500);
-
-  EXPECT_EQ(prepare_error(edited("gems9000", "boot_alias_2813: false", "boot_alias_2813: false\n  supervision_period: 11 s")),
-            "profiles/gems9000.yaml:53:23: vendor.supervision_period: expected 1 ms .. 10 s, got '11 s'");
-  EXPECT_EQ(prepare_error(edited("gems9000", "boot_alias_2813: false", "boot_alias_2813: false\n  emcy_register_mode: auto")),
-            "profiles/gems9000.yaml:53:23: vendor.emcy_register_mode: expected manual or cia301, got 'auto'");
-  EXPECT_EQ(prepare_error(edited("gems9000", "pin: 0x00001234", "pin: -1")),
-            "profiles/gems9000.yaml:49:8: vendor.pin: expected an integer in 0..4294967295, got '-1'");
-  EXPECT_EQ(prepare_error(edited("gems9000", "autostart_on_nmt_reset: false", "autostart_on_nmt_reset: 2")),
-            "profiles/gems9000.yaml:51:27: vendor.autostart_on_nmt_reset: expected true or false, got '2'");
 }
 
 TEST(VendorParams, Smc) {
@@ -113,13 +94,6 @@ TEST(VendorParams, Smc) {
   EXPECT_EQ(s.ad_fault_info, 0x1234);
   EXPECT_TRUE(s.reset_node_clears_error_register);
   EXPECT_FALSE(s.analog_error_reaction);
-
-  EXPECT_EQ(prepare_error(edited("smc", "stay_set_period: 10 ms", "stay_set_period: 2 s")),
-            "profiles/smc.yaml:48:20: vendor.stay_set_period: expected 1 ms .. 1 s, got '2 s'");
-  EXPECT_EQ(prepare_error(edited("smc", "ad_fault_info: 0xC555", "ad_fault_info: 0x10000")),
-            "profiles/smc.yaml:45:18: vendor.ad_fault_info: expected an integer in 0..65535, got '0x10000'");
-  EXPECT_EQ(prepare_error(edited("smc", "analog_error_reaction: true", "analog_error_reaction: [1]")),
-            "profiles/smc.yaml:47:26: vendor.analog_error_reaction: expected true or false");
 }
 
 TEST(VendorParams, Dps) {
@@ -134,21 +108,65 @@ TEST(VendorParams, Dps) {
                 edited("dps", "span_check_period: 1 ms", "span_check_period: 2.6 ms"))
                 .span_check_period_us,
             2600);
-
-  EXPECT_EQ(prepare_error(edited("dps", "span_check_period: 1 ms", "span_check_period: 0 s")),
-            "profiles/dps.yaml:41:22: vendor.span_check_period: expected a time > 0, got '0 s'");
-  EXPECT_EQ(prepare_error(edited("dps", "span_overflow_emcy: true", "span_overflow_emcy: 1")),
-            "profiles/dps.yaml:39:23: vendor.span_overflow_emcy: expected true or false, got '1'");
 }
 
-TEST(VendorParams, Cmp) {
+TEST(VendorParams, CmpAcceptsAZeroStartIndicationDelay) {
   EXPECT_EQ(prepare_error(edited("cmp", "mapping_modes:", "start_indication_delay: 0 s\n  mapping_modes:")),
             "no error");
-  EXPECT_EQ(prepare_error(edited("cmp", "mapping_modes:", "start_indication_delay: -1 ms\n  mapping_modes:")),
-            "profiles/cmp.yaml:30:27: vendor.start_indication_delay: expected a time >= 0, got '-1 ms'");
-  EXPECT_EQ(prepare_error(edited("cmp", "mapping_modes:", "start_indication_node_id: 128\n  mapping_modes:")),
-            "profiles/cmp.yaml:30:29: vendor.start_indication_node_id: expected an integer in 0..127, got '128'");
 }
+
+// A bad value per key kind and device: the whole message, file:line:column included.
+struct BadValue {
+  const char* profile;
+  const char* from;
+  const char* to;
+  const char* error;
+};
+void PrintTo(const BadValue& b, std::ostream* os) { *os << b.profile << ": " << b.to; }
+
+const BadValue kBadValues[] = {
+    {"p92c", "monitor_period: 10 ms", "monitor_period: 20 s",
+     "profiles/p92c.yaml:61:19: vendor.monitor_period: expected 1 ms .. 10 s, got '20 s'"},
+    {"p92c", "monitor_period: 10 ms", "monitor_period: 0.5 ms",
+     "profiles/p92c.yaml:61:19: vendor.monitor_period: expected 1 ms .. 10 s, got '0.5 ms'"},
+    {"p92c", "serial_part3: 5566", "serial_part3: 10000",
+     "profiles/p92c.yaml:56:17: vendor.serial_part3: expected an integer in 0..9999, got '10000'"},
+    {"p92c", "serial_number_base: 223344", "serial_number_base: -1",
+     "profiles/p92c.yaml:54:23: vendor.serial_number_base: expected an integer in 0..4294967295, got '-1'"},
+    {"p92c", "boot_emcys: true", "boot_emcys: maybe",
+     "profiles/p92c.yaml:60:15: vendor.boot_emcys: expected true or false, got 'maybe'"},
+    {"gems9000", "boot_alias_2813: false", "boot_alias_2813: false\n  supervision_period: 11 s",
+     "profiles/gems9000.yaml:53:23: vendor.supervision_period: expected 1 ms .. 10 s, got '11 s'"},
+    {"gems9000", "boot_alias_2813: false", "boot_alias_2813: false\n  emcy_register_mode: auto",
+     "profiles/gems9000.yaml:53:23: vendor.emcy_register_mode: expected manual or cia301, got 'auto'"},
+    {"gems9000", "pin: 0x00001234", "pin: -1",
+     "profiles/gems9000.yaml:49:8: vendor.pin: expected an integer in 0..4294967295, got '-1'"},
+    {"gems9000", "autostart_on_nmt_reset: false", "autostart_on_nmt_reset: 2",
+     "profiles/gems9000.yaml:51:27: vendor.autostart_on_nmt_reset: expected true or false, got '2'"},
+    {"smc", "stay_set_period: 10 ms", "stay_set_period: 2 s",
+     "profiles/smc.yaml:48:20: vendor.stay_set_period: expected 1 ms .. 1 s, got '2 s'"},
+    {"smc", "ad_fault_info: 0xC555", "ad_fault_info: 0x10000",
+     "profiles/smc.yaml:45:18: vendor.ad_fault_info: expected an integer in 0..65535, got '0x10000'"},
+    {"smc", "analog_error_reaction: true", "analog_error_reaction: [1]",
+     "profiles/smc.yaml:47:26: vendor.analog_error_reaction: expected true or false"},
+    {"dps", "span_check_period: 1 ms", "span_check_period: 0 s",
+     "profiles/dps.yaml:41:22: vendor.span_check_period: expected a time > 0, got '0 s'"},
+    {"dps", "span_overflow_emcy: true", "span_overflow_emcy: 1",
+     "profiles/dps.yaml:39:23: vendor.span_overflow_emcy: expected true or false, got '1'"},
+    {"cmp", "mapping_modes:", "start_indication_delay: -1 ms\n  mapping_modes:",
+     "profiles/cmp.yaml:30:27: vendor.start_indication_delay: expected a time >= 0, got '-1 ms'"},
+    {"cmp", "mapping_modes:", "start_indication_node_id: 128\n  mapping_modes:",
+     "profiles/cmp.yaml:30:29: vendor.start_indication_node_id: expected an integer in 0..127, got '128'"},
+};
+
+class VendorParamsErrors : public ::testing::TestWithParam<BadValue> {};
+
+TEST_P(VendorParamsErrors, NameFileLineColumnAndKey) {
+  const BadValue& b = GetParam();
+  EXPECT_EQ(prepare_error(edited(b.profile, b.from, b.to)), b.error);
+}
+
+INSTANTIATE_TEST_SUITE_P(Devices, VendorParamsErrors, ::testing::ValuesIn(kBadValues));
 
 }  // namespace
 }  // namespace cansim::test
