@@ -21,6 +21,15 @@ config::Profile prepared_repo_yaml(const std::string& name, const std::function<
   return profile;
 }
 
+std::string prepare_error(config::Profile p) {
+  try {
+    personalities::prepare_profile(p);
+  } catch (const config::ConfigError& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
 std::vector<Sent> only(const std::vector<Sent>& frames, std::uint32_t id) {
   std::vector<Sent> out;
   for (const Sent& s : frames)

@@ -25,6 +25,9 @@ config::Profile prepared_repo_profile(const std::string& name, const std::functi
 // The same with an edit of the file's YAML document (physics, options, ...).
 config::Profile prepared_repo_yaml(const std::string& name, const std::function<void(YAML::Node&)>& edit);
 
+// The message of the config::ConfigError prepare_profile throws for p, or "no error".
+std::string prepare_error(config::Profile p);
+
 // A frame with DLC 8 (SDO and LSS requests are zero-padded to 8 bytes).
 inline CanFrame F8(std::uint32_t id, std::initializer_list<std::uint8_t> bytes) {
   CanFrame f = F(id, bytes);

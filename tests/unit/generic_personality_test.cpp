@@ -4,21 +4,12 @@
 #include <gtest/gtest.h>
 
 #include "personalities/registry.hpp"
-#include "support/sim.hpp"
+#include "support/device.hpp"
 
 namespace cansim::test {
 namespace {
 
 using ::testing::HasSubstr;
-
-std::string prepare_error(config::Profile p) {
-  try {
-    personalities::prepare_profile(p);
-  } catch (const config::ConfigError& e) {
-    return e.what();
-  }
-  return "no error";
-}
 
 float read_f(SimNode& n, std::uint16_t i, std::uint8_t s, TimeUs now) {
   std::span<const std::uint8_t> out;

@@ -13,7 +13,7 @@
 #include "personalities/p92c.hpp"
 #include "personalities/registry.hpp"
 #include "personalities/smc.hpp"
-#include "support/sim.hpp"
+#include "support/device.hpp"
 
 namespace cansim::test {
 namespace {
@@ -33,15 +33,6 @@ config::Profile edited(const std::string& name, std::initializer_list<std::pair<
 }
 config::Profile edited(const std::string& name, const std::string& from, const std::string& to) {
   return edited(name, {{from, to}});
-}
-
-std::string prepare_error(config::Profile p) {
-  try {
-    personalities::prepare_profile(p);
-  } catch (const config::ConfigError& e) {
-    return e.what();
-  }
-  return "no error";
 }
 
 template <class Settings>
