@@ -140,6 +140,8 @@ PdoEngine::PdoEngine(Node& node) : node_(node) {
   }
   tpdos_.shrink_to_fit();
   rpdos_.shrink_to_fit();
+  event_tpdos_.reserve(tpdos_.size());
+  watched_rpdos_.reserve(rpdos_.size());
   if (!ByteSet::parse(node_.options().tpdo_allowed_types, allowed_types_))
     ByteSet::parse("0-240,252-255", allowed_types_);
   if (!ByteSet::parse(node_.options().tpdo_event_timer_types, timer_types_)) ByteSet::parse("254-255", timer_types_);
@@ -158,7 +160,17 @@ void PdoEngine::reset(TimeUs now) {
     arm(r);
     r.short_reported = r.long_reported = r.timed_out = false;  // EMCY was reset too
   }
+  index_active();
   update_deadline();
+}
+
+void PdoEngine::index_active() {
+  event_tpdos_.clear();
+  for (std::size_t i = 0; i < tpdos_.size(); ++i)
+    if (valid(tpdos_[i].cfg) && event_driven(tpdos_[i].cfg.type)) event_tpdos_.push_back(std::uint16_t(i));
+  watched_rpdos_.clear();
+  for (std::size_t i = 0; i < rpdos_.size(); ++i)
+    if (rpdos_[i].cfg.event_ms) watched_rpdos_.push_back(std::uint16_t(i));
 }
 
 void PdoEngine::on_nmt_state(NmtState, TimeUs now) { on_nmt_state(now); }
@@ -429,6 +441,7 @@ Rpdo* PdoEngine::find_rpdo(const PdoConfig& cfg) {
 void PdoEngine::after_config_change(PdoConfig& cfg, bool tx, std::uint8_t comm_sub, TimeUs now) {
   const std::uint32_t old_cobid = cfg.cobid;
   load(cfg, tx);
+  index_active();
   if (old_cobid != cfg.cobid) node_.rx_changed();  // RPDO / RTR dispatch set
   if (!tx) {
     Rpdo& r = *find_rpdo(cfg);
@@ -541,9 +554,9 @@ void PdoEngine::on_rtr(Tpdo& t, TimeUs now) {
 void PdoEngine::process(TimeUs now) {
   sync_state(now);
   if (operational_) {
-    for (Tpdo& t : tpdos_)
-      if (valid(t.cfg) && event_driven(t.cfg.type)) process_tpdo(t, now);
-    for (Rpdo& r : rpdos_) {
+    for (std::uint16_t i : event_tpdos_) process_tpdo(tpdos_[i], now);
+    for (std::uint16_t i : watched_rpdos_) {
+      Rpdo& r = rpdos_[i];
       if (r.timeout_due > now) continue;
       r.timeout_due = kNever;  // once per silence, re-armed by the next RPDO
       r.timed_out = true;
@@ -705,11 +718,12 @@ void PdoEngine::collect_rx_ids(std::vector<std::uint32_t>& out) const {
 void PdoEngine::update_deadline() {
   TimeUs next = kNever;
   if (operational_) {
-    for (const Tpdo& t : tpdos_) {
+    for (std::uint16_t i : event_tpdos_) {
+      const Tpdo& t = tpdos_[i];
       next = std::min(next, t.event_due);
-      if (t.event_pending && event_driven(t.cfg.type)) next = std::min(next, t.inhibit_until);
+      if (t.event_pending) next = std::min(next, t.inhibit_until);
     }
-    for (const Rpdo& r : rpdos_) next = std::min(next, r.timeout_due);
+    for (std::uint16_t i : watched_rpdos_) next = std::min(next, rpdos_[i].timeout_due);
   }
   next_ = next;
 }

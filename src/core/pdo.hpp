@@ -155,6 +155,12 @@ class PdoEngine {
   Node& node_;
   std::vector<Tpdo> tpdos_;  // sized once at construction
   std::vector<Rpdo> rpdos_;
+  // Indices of the valid event-driven TPDOs and of the RPDOs with deadline
+  // monitoring: the periodic work touches only these (a node's TPDOs are
+  // cold in the cache; most are synchronous, RTR-only or invalid).
+  std::vector<std::uint16_t> event_tpdos_;
+  std::vector<std::uint16_t> watched_rpdos_;
+  void index_active();
   ByteSet allowed_types_;    // tpdo_allowed_types, parsed once
   ByteSet timer_types_;      // tpdo_event_timer_types, parsed once
   TimeUs next_ = kNever;
