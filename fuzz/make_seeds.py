@@ -7,7 +7,8 @@ Run: python3 fuzz/make_seeds.py   (the seeds are committed)."""
 import os
 import struct
 
-NMT, SYNC, SDO, LSS, RPDO, TPDO, HB, RAW, SDO_ANY, EMCY, POWER = 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 15
+NMT, SYNC, SDO, LSS, RPDO, TPDO, HB, RAW, SDO_ANY, EMCY, FAULT, POWER = 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 14, 15
+SILENT, POWER_CYCLE, BUS_OFF, HEARTBEAT_STOP, SLOW_SDO, SDO_BLOCK_DROP = range(6)
 RTR = 0x80
 
 
@@ -116,6 +117,22 @@ seeds["store_restore_power"] = b"".join(
 seeds["emcy_errors"] = b"".join(
     [sdo(0x40, 0x03, 0x10, 0x01), sdo(0x2F, 0x03, 0x10, 0x00, 0), sdo(0x2B, 0x15, 0x10, 0x00, 10, 0),
      rec(1, SYNC, [1, 2]), rec(1, EMCY, [0, 0x10, 0, 0, 0, 0, 0, 0], 5)])
+
+
+def fault(kind, duration_ms=0, delay_ms=0, drop_every=0, drop_p=0, step=1):
+    return rec(step, FAULT, [duration_ms & 0xFF, duration_ms >> 8, delay_ms, drop_every, drop_p], kind, dlc=0)
+
+
+# Communication faults during SDO traffic: a slow server, a block upload with
+# lost segments, bus-off and a power cycle with a stored value.
+seeds["comm_faults"] = b"".join(
+    [fault(SLOW_SDO, 500, 20), sdo(0x40, 0x00, 0x10, 0x00), rec(30, SYNC, []),
+     fault(SDO_BLOCK_DROP, 2000, 0, 3), sdo(0xA4, 0x01, 0x20, 0x00, 127), sdo(0xA3), rec(5, SYNC, []),
+     sdo(0xA2, 1, 127), rec(5, SYNC, []), sdo(0xA1),
+     fault(HEARTBEAT_STOP, 1500), rec(600, SYNC, []), fault(BUS_OFF, 300), rec(400, NMT, [0x01, 0x10]),
+     sdo(0x2B, 0x17, 0x10, 0x00, 0x64, 0x00), sdo(0x23, 0x10, 0x10, 0x01, *b"save"),
+     fault(POWER_CYCLE, 50), rec(100, SYNC, []), fault(SILENT, 200), sdo(0x40, 0x17, 0x10, 0x00),
+     rec(300, SYNC, [])])
 
 here = os.path.dirname(os.path.abspath(__file__))
 out = os.path.join(here, "corpus")

@@ -9,6 +9,9 @@
 //   b2    bits 0-3 target: 0 NMT, 1 SYNC, 2 SDO request, 3 LSS, 4 RPDO1,
 //         5 TPDO1..4 (b3 & 3), 6 heartbeat of node b3, 7 raw 11-bit id
 //         (b3 | (b2 >> 4 & 7) << 8), 8 SDO with any node-ID b3, 9 EMCY,
+//         14 arm a communication fault (kind b3 % 6 from silent..sdo_block_drop,
+//         duration b5-6 ms (0: until the end of the input), sdo delay b7 ms,
+//         drop every b8 % 5 segments, drop probability b9 / 255),
 //         15 power cycle; bit 7 RTR
 //   b3    parameter of the target
 //   b4    DLC (values above 8 are clamped to 8)
@@ -21,6 +24,7 @@
 
 #include "config/profile.hpp"
 #include "core/node.hpp"
+#include "personalities/cia404.hpp"
 #include "personalities/registry.hpp"
 
 namespace {
@@ -111,6 +115,20 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if ((r[2] & 0x0F) == 15) {
       node.power_off();
       node.power_on(now);
+      continue;
+    }
+    if ((r[2] & 0x0F) == 14) {
+      if (auto* cia = dynamic_cast<personalities::Cia404Application*>(app.get())) {
+        physics::FaultSpec f;
+        f.kind = physics::FaultKind(std::uint8_t(physics::FaultKind::Silent) + r[3] % 6);
+        const TimeUs duration = ms(r[5] | (r[6] << 8));
+        f.timing.duration_us = duration > 0 ? duration : -1;
+        f.sdo_delay_us = ms(r[7]);
+        f.drop_every_n = r[8] % 5;
+        f.drop_probability = r[9] / 255.0;
+        cia->arm_fault(node, f, now);
+      }
+      if (node.next_deadline() < now) run_until(node, now, now);
       continue;
     }
     std::uint8_t dlc = std::uint8_t(r[4] > 8 ? 8 : r[4]);
