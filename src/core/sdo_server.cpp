@@ -208,8 +208,12 @@ void SdoServer::process(TimeUs now) {
     delayed_head_ = (delayed_head_ + 1) % delayed_.size();
     --delayed_n_;
   }
-  if (state_ == State::kIdle || now < deadline_) return;
   now_ = now;
+  if (block_ack_at_ <= now) {
+    block_ack_at_ = kNever;
+    if (state_ == State::kBlockDownloadSub) send_block_download_ack();
+  }
+  if (state_ == State::kIdle || now < deadline_) return;
   if (node_.allowed(Service::kSdo))
     abort(SdoAbort::kTimeout);
   else
@@ -382,6 +386,7 @@ void SdoServer::initiate_block_download(Bytes d, TimeUs now) {
   size_ = 0;
   last_segment_ = false;
   start(State::kBlockDownloadSub, now);
+  arm_block_ack(now);
   std::uint8_t blk = blksize_;
   send_initiate_response(0xA0 | kBlockCrc, &blk, 1);
 }
@@ -457,6 +462,7 @@ void SdoServer::on_block_download_segment(Bytes d, TimeUs now) {
   std::uint8_t seq = d[0] & 0x7F;
   if (seq == 0) return abort(SdoAbort::kSequenceNumber);
   touch(now);
+  arm_block_ack(now);
   if (seq == seqno_ + 1 && seq <= blksize_) {
     std::uint32_t limit = size_indicated_ ? indicated_ : entry_->capacity;
     if (size_ >= limit) return abort(SdoAbort::kLengthTooHigh);  // no room for >= 1 byte
@@ -481,7 +487,14 @@ void SdoServer::send_block_download_ack() {
   std::uint8_t d[8] = {0xA2, seqno_, blksize_};
   send_raw(d);
   seqno_ = 0;
-  if (last_segment_) state_ = State::kBlockDownloadEnd;
+  if (last_segment_) {
+    state_ = State::kBlockDownloadEnd;
+    block_ack_at_ = kNever;
+  }
+}
+
+void SdoServer::arm_block_ack(TimeUs now) {
+  block_ack_at_ = timeout_ > 0 ? now + response_delay_ + timeout_ * 7 / 10 : kNever;
 }
 
 void SdoServer::on_block_download_end(Bytes d, TimeUs now) {
@@ -556,6 +569,7 @@ void SdoServer::touch(TimeUs now) { deadline_ = timeout_ > 0 ? now + response_de
 void SdoServer::idle() {
   state_ = State::kIdle;
   deadline_ = kNever;
+  block_ack_at_ = kNever;
   entry_ = nullptr;
 }
 

@@ -28,7 +28,10 @@
 //   client sets its CRC bit too. Server block size is 127. In a sub-block,
 //   duplicates and frames before the sequence start are ignored, a gap breaks
 //   the sub-block and the last good segment is acknowledged; seqno 0 aborts
-//   with 0x05040003, as does an upload ackseq above the segments sent.
+//   with 0x05040003, as does an upload ackseq above the segments sent. When
+//   segments stop arriving in a download sub-block for 70 % of the SDO
+//   timeout, the last good segment is acknowledged (a lost first or last
+//   segment of a sub-block is recovered, like CANopenNode's block timeout).
 // - sdo_timeout_ms <= 0 disables the protocol timeout.
 #pragma once
 
@@ -53,7 +56,9 @@ class SdoServer {
   bool on_frame(const CanFrame& frame, TimeUs now);
   // Runs the work due at or before now (delayed answers, the protocol timeout).
   void process(TimeUs now);
-  TimeUs next_deadline() const { return std::min(deadline_, delayed_n_ ? delayed_[delayed_head_].at : kNever); }
+  TimeUs next_deadline() const {
+    return std::min({deadline_, block_ack_at_, delayed_n_ ? delayed_[delayed_head_].at : kNever});
+  }
   // COB-IDs this service wants to receive (for the bus dispatcher).
   void collect_rx_ids(std::vector<std::uint32_t>& out) const;
   // True for OD indices whose remote writes this service handles itself (0x1200).
@@ -145,6 +150,7 @@ class SdoServer {
   void answer_upload(TimeUs now);
   void finish_download(TimeUs now, std::uint8_t confirm);
   void send_block_download_ack();
+  void arm_block_ack(TimeUs now);
   void send_block_upload_sub(TimeUs now);
   void send_block_upload_end(TimeUs now);
 
@@ -175,6 +181,7 @@ class SdoServer {
   // transfer
   State state_ = State::kIdle;
   TimeUs deadline_ = kNever;
+  TimeUs block_ack_at_ = kNever;   // block download: acknowledge a stalled sub-block
   const OdEntry* entry_ = nullptr;
   std::uint16_t index_ = 0;
   std::uint8_t sub_ = 0;

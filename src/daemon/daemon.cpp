@@ -148,6 +148,9 @@ Daemon::Interface& Daemon::ensure_interface(const config::InterfaceConfig& ic) {
 
 void Daemon::on_can_events(Interface& iface, std::uint32_t events) {
   TimeUs now = clock_now();
+  // What was due before these frames arrived happens first (a fault edge, a
+  // heartbeat), even when epoll reports the CAN socket before the timer.
+  core_.run_due(now);
   if (events & (EPOLLIN | EPOLLERR | EPOLLHUP)) {
     CanFrame frames[io::CanInterface::kBatch];
     for (int b = 0; b < kReadBatchesPerWake; ++b) {
@@ -380,7 +383,8 @@ void Daemon::apply(config::FleetConfig cfg, TimeUs now) {
 }
 
 void Daemon::reload(TimeUs now) {
-  notify("RELOADING=1\nMONOTONIC_USEC=" + std::to_string(now));
+  // sd_notify wants the host's CLOCK_MONOTONIC here, not simulated time.
+  notify("RELOADING=1\nMONOTONIC_USEC=" + std::to_string(io::monotonic_now()));
   spdlog::info("SIGHUP: reloading the configuration");
   try {
     apply(settings_.load(), now);

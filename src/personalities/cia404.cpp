@@ -474,7 +474,7 @@ Cia404Application::Cia404Application(std::shared_ptr<const Cia404Profile> profil
       source_(std::move(source)),
       identity_(identity),
       node_index_(node_index),
-      comm_faults_(source_->fault_set()) {
+      comm_faults_(source_->fault_set(), 0x9E3779B97F4A7C15ull * (node_index + 1)) {
   state_.resize(profile_->channels.size());
   for (std::size_t ch = 0; ch < state_.size(); ++ch) {
     state_[ch].captured.assign(kRoleCount + profile_->channels[ch].extras.size(), 0.0);
@@ -515,7 +515,7 @@ double Cia404Application::get(const Node& node, std::size_t ch, Role role) const
 }
 
 void Cia404Application::set(Node& node, std::size_t ch, Role role, double value) {
-  ++config_epoch_;
+  invalidate();
   store_param(node, profile_->channels[ch].param(role), value, digits(node, ch));
 }
 
@@ -532,9 +532,26 @@ const UnitChoice* Cia404Application::find_unit(const ChannelConfig& c, std::uint
 }
 
 Cia404Application::Measurement Cia404Application::measure(Node& node, std::size_t ch, TimeUs now) {
-  const ChannelConfig& c = profile_->channels[ch];
   ChannelState& st = state_[ch];
-  if (st.measured_at == now && st.measured_epoch == config_epoch_) return st.measured;
+  if (st.measured_at != now || st.measured_epoch != config_epoch_) {
+    st.measured = evaluate(node, ch, now);
+    st.measured_at = now;
+    st.measured_epoch = config_epoch_;
+  }
+  // The live objects are written on every call: a personality may have
+  // rewritten them since (e.g. SMC's byte order) and expects a fresh render.
+  const Measurement& m = st.measured;
+  const ChannelConfig& c = profile_->channels[ch];
+  store_param(node, c.param(Role::kPv), m.pv, digits(node, ch));
+  const Param& fv = c.param(Role::kFieldValue);
+  for (int i = 0; i < fv.count; ++i) node.values().set_i(*fv.views[i], m.raw);  // raw counts, not scaled
+  if (const OdEntry* e = c.param(Role::kStatus).views[0]) node.values().set_u(*e, m.status);
+  return m;
+}
+
+Cia404Application::Measurement Cia404Application::evaluate(const Node& node, std::size_t ch, TimeUs now) {
+  const ChannelConfig& c = profile_->channels[ch];
+  const ChannelState& st = state_[ch];
   const MeasurementSource::Sample s = source_->sample(c.source, now);
   Measurement m;
   m.raw = s.raw;
@@ -552,14 +569,6 @@ Cia404Application::Measurement Cia404Application::measure(Node& node, std::size_
   } else {
     m.status |= s.status & (physics::kStatusPositiveOverload | physics::kStatusNegativeOverload);
   }
-  const int dd = digits(node, ch);
-  store_param(node, c.param(Role::kPv), m.pv, dd);
-  const Param& fv = c.param(Role::kFieldValue);
-  for (int i = 0; i < fv.count; ++i) node.values().set_i(*fv.views[i], m.raw);  // raw counts, not scaled
-  if (const OdEntry* e = c.param(Role::kStatus).views[0]) node.values().set_u(*e, m.status);
-  st.measured_at = now;
-  st.measured_epoch = config_epoch_;
-  st.measured = m;
   return m;
 }
 
@@ -720,6 +729,7 @@ void Cia404Application::autozero(Node& node, std::size_t ch, TimeUs now) {
   } else {
     st.zero_si -= st.unit.scale.delta_to_si(m.pv);
     if (c.zero_object) node.values().set_f(*c.zero_object, c.fixed_unit.scale.delta_from_si(st.zero_si));
+    invalidate();
   }
   measure(node, ch, now);
 }

@@ -259,6 +259,10 @@ class Cia404Application : public Application {
   // kEventsRaising; vendors with their own event routing override it.
   virtual void on_channel_events(Node& node, std::size_t ch, unsigned events, TimeUs now);
 
+  // Something a measurement depends on changed outside the OD hooks (a
+  // vendor input chain, a hidden correction): the next measure() evaluates.
+  void invalidate() { ++config_epoch_; }
+
   double param_value(const Node& node, const Param& p, int digits) const;
   void store_param(Node& node, const Param& p, double value, int digits);
   int digits(const Node& node, std::size_t ch) const;
@@ -292,6 +296,7 @@ class Cia404Application : public Application {
   bool changed(Node& node, std::size_t ch);
   bool check_events(Node& node, std::size_t ch, TimeUs now);
   TimeUs check_period(std::size_t ch) const;
+  Measurement evaluate(const Node& node, std::size_t ch, TimeUs now);
 
   std::shared_ptr<const Cia404Profile> profile_;
   std::unique_ptr<MeasurementSource> source_;

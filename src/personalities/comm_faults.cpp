@@ -2,6 +2,8 @@
 
 #include <algorithm>
 
+#include "physics/random.hpp"
+
 namespace cansim::personalities {
 
 using physics::FaultKind;
@@ -12,9 +14,11 @@ TimeUs CommFaultDriver::apply(Node& node, TimeUs now) {
   while (faults_->poll(now, edge)) {
     if (edge.kind != FaultKind::PowerCycle || !edge.started) continue;
     // Off for the fault's duration (none given: an immediate reboot), counted
-    // from the scheduled edge so a late poll does not stretch it.
+    // from the scheduled edge so a late poll does not stretch it. A cycle
+    // that is already over (a node added long after it) is history.
     const TimeUs off = std::max<TimeUs>(edge.spec->timing.duration_us, 0);
-    node.power_cycle(now, std::max<TimeUs>(edge.time_us + off - now, 0));
+    if (edge.time_us + off < now) continue;
+    node.power_cycle(now, edge.time_us + off - now);
     return kNever;  // power-on runs us again
   }
   apply_levels(node, now);
@@ -31,7 +35,8 @@ void CommFaultDriver::apply_levels(Node& node, TimeUs now) {
   if (drop != drop_spec_) {
     drop_spec_ = drop;
     if (drop)
-      node.sdo().set_block_drop(drop->drop_every_n, drop->drop_probability, 0x9E3779B97F4A7C15ull ^ drop->id);
+      node.sdo().set_block_drop(drop->drop_every_n, drop->drop_probability,
+                                physics::derive_seed(seed_, 0x5D0B10C0ull ^ drop->id));
     else
       node.sdo().set_block_drop(0, 0.0, 0);
   }

@@ -16,7 +16,8 @@ namespace cansim::personalities {
 
 class CommFaultDriver {
  public:
-  explicit CommFaultDriver(physics::FaultSet* faults) : faults_(faults) {}
+  // seed: varies the dropped SDO segments from node to node.
+  CommFaultDriver(physics::FaultSet* faults, std::uint64_t seed) : faults_(faults), seed_(seed) {}
 
   // Applies what is due at `now`; returns the next fault edge. May
   // power-cycle the node.
@@ -28,6 +29,7 @@ class CommFaultDriver {
   void apply_levels(Node& node, TimeUs now);
 
   physics::FaultSet* faults_;
+  std::uint64_t seed_;
   const physics::FaultSpec* drop_spec_ = nullptr;
 };
 

@@ -49,12 +49,14 @@ SmcApplication::SmcApplication(std::shared_ptr<const Cia404Profile> profile, std
 void SmcApplication::load_chain(const Node& node) {
   for (std::uint8_t sub = 1; sub <= 2; ++sub) {
     Chain& c = chain_[sub - 1];
+    const Chain before = c;
     c.gain = float(node.values().get_f(*node.od().find(0x6126, sub)));
     c.pv1 = float(node.values().get_f(*node.od().find(0x6127, sub)));
     c.offset = float(node.values().get_f(*node.od().find(0x3125, sub)));
     c.cmin = float(node.values().get_f(*node.od().find(0x3201, sub)));
     c.cmax = float(node.values().get_f(*node.od().find(0x3202, sub)));
     if (!(c.cmin <= c.cmax)) c.cmax = c.cmin;
+    if (!(c == before)) invalidate();  // the PV of this instant changes too
   }
 }
 
@@ -219,6 +221,7 @@ void SmcApplication::after_write(Node& node, const OdEntry& e, TimeUs now) {
       v.set_i(*node.od().find(0x3124, e.sub), physics::to_decimal_i16(v.get_f(e), 0).value);
       break;
     case 0x3126: {  // "recent Field Value copied into the Input Offset register"
+      invalidate();
       const std::int32_t fv = measure(node, ch, now).raw;
       v.set_f(*node.od().find(0x3125, e.sub), fv);
       v.set_i(*node.od().find(0x3124, e.sub), fv);

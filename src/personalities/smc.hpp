@@ -51,6 +51,7 @@ class SmcApplication : public Cia404Application {
     float offset = 0.0f;             // input offset 0x3125 (FV counts)
     float cmin = 0.0f, cmax = 0.0f;  // clamping 0x3201 / 0x3202
     float scale(double fv) const;    // PV of a field value: offset, scaling, clamping
+    bool operator==(const Chain&) const = default;
   };
   struct MinMax {
     bool any = false;

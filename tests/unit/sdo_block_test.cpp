@@ -188,18 +188,40 @@ TEST_F(SdoBlockDownload, WrongEndCommandAborts) {
   EXPECT_EQ(end(7, crc()), aborted(0x2001, 0, SdoAbort::kCommandSpecifier));
 }
 
-TEST_F(SdoBlockDownload, StalledSubBlockTimesOut) {
+// Segments stop: after 70 % of the SDO timeout the server acknowledges the
+// last good one (the client resends from there); then the timeout aborts.
+TEST_F(SdoBlockDownload, StalledSubBlockIsAcknowledgedThenTimesOut) {
   bus_.run_until(ms(50));
   initiate(20);
   bus_.run_until(ms(550));
   req(seg(1, 0));
-  bus_.run_until(ms(1550) - 1);
+  bus_.run_until(ms(1250) - 1);
   EXPECT_TRUE(replies().empty());
   bus_.run_until(ms(3000));
   auto got = timed_replies();
+  ASSERT_EQ(got.size(), 2u);
+  EXPECT_EQ(got[0].time, ms(1250));
+  EXPECT_EQ(got[0].frame, F(kSdoTx, {0xA2, 1, 127, 0, 0, 0, 0, 0}));
+  EXPECT_EQ(got[1].time, ms(1550));
+  EXPECT_EQ(got[1].frame, abort_frame(0x2001, 0, 0x05040000));
+}
+
+// The first segment of a sub-block is lost: nothing in sequence arrives, the
+// stall acknowledge with ackseq 0 makes the client resend the whole sub-block.
+TEST_F(SdoBlockDownload, LostFirstSegmentIsRecoveredByTheStallAcknowledge) {
+  bus_.run_until(ms(50));
+  initiate(20);
+  EXPECT_TRUE(req(seg(2, 7)).empty());
+  EXPECT_TRUE(req(seg(3, 14, true)).empty());
+  bus_.run_until(ms(50) + ms(700));
+  auto got = timed_replies();
   ASSERT_EQ(got.size(), 1u);
-  EXPECT_EQ(got[0].time, ms(1550));
-  EXPECT_EQ(got[0].frame, abort_frame(0x2001, 0, 0x05040000));
+  EXPECT_EQ(got[0].frame, F(kSdoTx, {0xA2, 0, 127, 0, 0, 0, 0, 0}));
+  req(seg(1, 0));
+  req(seg(2, 7));
+  EXPECT_EQ(req(seg(3, 14, true)), one({0xA2, 3, 127, 0, 0, 0, 0, 0}));
+  EXPECT_EQ(end(1, crc()), kDone);
+  EXPECT_EQ(value(0x2001, 0), data);
 }
 
 // ------------------------------------------------------------ block upload
