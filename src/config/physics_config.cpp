@@ -427,6 +427,10 @@ FaultSpec parse_fault(const Where& w, const YAML::Node& m) {
   if (m["count"]) f.timing.count = std::uint32_t(get_int(w.child("count"), m["count"], 0, UINT32_MAX));
   if (f.timing.after_us < 0 || f.timing.period_us < 0)
     fail(w, m, "expected non-negative 'after' and 'period'");
+  // A zero duration is an instant: only a power cycle (an immediate reboot) acts in one.
+  if (f.timing.duration_us == 0 && f.kind != FaultKind::PowerCycle)
+    fail(w.child("duration"), m["duration"], "expected a duration > 0 (omit it: until the end)");
+  if (f.timing.duration_us < -1) fail(w.child("duration"), m["duration"], "expected a duration >= 0");
   if (m["value"]) f.stuck_value = get_quantity(w.child("value"), m["value"], abs_dim);
   f.drift_per_s = q(w, m, "drift", delta_dim, 0.0);  // per second
   f.spike_amplitude = q(w, m, "amplitude", delta_dim, 0.0);

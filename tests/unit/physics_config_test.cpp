@@ -96,6 +96,9 @@ TEST(PhysicsConfig, ErrorsNameFileLineAndKey) {
   EXPECT_THAT(error_of("sensor:\n  pressure: {filter: {type: kalman}}\n"), HasSubstr("t.yaml:5:29: sensor.pressure.filter.type: expected none"));
   EXPECT_THAT(error_of("sensor:\n  temperature: {noise: 1 bar}\n"), HasSubstr("t.yaml:5:24: sensor.temperature.noise: expected a temperature difference"));
   EXPECT_THAT(error_of("faults:\n  - {kind: gremlins}\n"), HasSubstr("t.yaml:5:12: faults[0].kind: expected open, short"));
+  EXPECT_THAT(error_of("faults:\n  - {kind: bus_off, at: 1 s, duration: 0 s}\n"),
+              HasSubstr("faults[0].duration: expected a duration > 0 (omit it: until the end)"));
+  EXPECT_EQ(error_of("faults:\n  - {kind: power_cycle, at: 1 s, duration: 0 s}\n"), "no error");
   EXPECT_THAT(error_of("faults:\n  - {kind: stuck, colour: red}\n"), HasSubstr("t.yaml:5:19: faults[0].colour: unknown key"));
   EXPECT_THAT(error_of("physics:\n  pressure:\n    - ou: {tau: 0 s}\n"), HasSubstr("physics.pressure[0].ou.tau: expected a correlation time > 0"));
 }
