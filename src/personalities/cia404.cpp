@@ -537,9 +537,12 @@ Cia404Application::Measurement Cia404Application::measure(Node& node, std::size_
     st.measured = evaluate(node, ch, now);
     st.measured_at = now;
     st.measured_epoch = config_epoch_;
+  } else if (st.rendered) {
+    return st.measured;
   }
-  // The live objects are written on every call: a personality may have
-  // rewritten them since (e.g. SMC's byte order) and expects a fresh render.
+  // The live objects, rendered again when a personality rewrote them since
+  // (live_objects_rewritten(), e.g. SMC's byte order).
+  st.rendered = true;
   const Measurement& m = st.measured;
   const ChannelConfig& c = profile_->channels[ch];
   store_param(node, c.param(Role::kPv), m.pv, digits(node, ch));

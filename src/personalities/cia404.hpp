@@ -262,6 +262,11 @@ class Cia404Application : public Application {
   // Something a measurement depends on changed outside the OD hooks (a
   // vendor input chain, a hidden correction): the next measure() evaluates.
   void invalidate() { ++config_epoch_; }
+  // A personality rewrote live objects (PV, field value, status) in place:
+  // the next measure() renders them again even within the same instant.
+  void live_objects_rewritten() {
+    for (ChannelState& s : state_) s.rendered = false;
+  }
 
   double param_value(const Node& node, const Param& p, int digits) const;
   void store_param(Node& node, const Param& p, double value, int digits);
@@ -284,6 +289,7 @@ class Cia404Application : public Application {
     TimeUs measured_at = -1;
     std::uint32_t measured_epoch = 0;
     Measurement measured;
+    bool rendered = false;  // the live objects hold `measured`
   };
   const UnitChoice* find_unit(const ChannelConfig& c, std::uint32_t code) const;
   UnitChoice resolve(const Node& node, const UnitChoice& u) const;

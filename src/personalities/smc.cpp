@@ -156,6 +156,7 @@ void SmcApplication::swap_if_big_endian(Node& node, const OdEntry& e) {
   const std::size_t n = std::min<std::size_t>(bytes.size(), sizeof swapped);
   std::reverse_copy(bytes.begin(), bytes.begin() + std::ptrdiff_t(n), swapped);
   node.values().set_bytes(e, {swapped, n});
+  live_objects_rewritten();
 }
 
 // §6.1.6 / §6.3.11: 0x1008 is the text of the character array 0x4022:1..60.
