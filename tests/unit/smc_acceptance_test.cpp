@@ -284,6 +284,12 @@ TEST_F(Acceptance, DigitsIntegerViewsEndiannessClamping) {
   ASSERT_EQ(download(0x4000, 0, 1, 1), 0u);
   EXPECT_EQ(to_string(answer(sdo({0x40, 0x30, 0x61, 0x01}), 0x5A0)), to_string(F8(0x5A0, {0x43, 0x30, 0x61, 0x01, 0x3F, 0xF5, 0xC2, 0x8F})));
   EXPECT_EQ(to_string(answer(sdo({0x40, 0x30, 0x71, 0x01}), 0x5A0)), to_string(F8(0x5A0, {0x4B, 0x30, 0x71, 0x01, 0x00, 0xC0})));
+  // Two readers at one instant (e.g. two TPDOs on one SYNC) both get big-endian.
+  for (int i = 0; i < 2; ++i) {
+    std::span<const std::uint8_t> out;
+    ASSERT_EQ(node().read(0x6130, 1, now(), out), SdoAbort::kNone);
+    EXPECT_EQ(std::vector<std::uint8_t>(out.begin(), out.end()), (std::vector<std::uint8_t>{0x3F, 0xF5, 0xC2, 0x8F}));
+  }
   EXPECT_EQ(upload(0x1001, 0), 0u);
   EXPECT_EQ(upload(0x6150, 1), 0u);
   nmt(0x01, 0x20);
