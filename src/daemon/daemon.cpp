@@ -370,7 +370,10 @@ void Daemon::apply(config::FleetConfig cfg, TimeUs now) {
       i->can.close();
       i->in_epoll = false;
     }
-  // Open new interfaces now, so the boot-up frames reach the bus.
+  // Open new interfaces now, so the boot-up frames reach the bus. Building
+  // the nodes took time: they power on now, not when the reload began (their
+  // heartbeat would come early by as much).
+  now = clock_now();
   for (auto& i : interfaces_)
     if (i->configured && !i->can.is_open() && i->retry_at <= now) try_open(*i, now);
   for (io::NodeRef ref : fresh) {
@@ -406,6 +409,7 @@ int Daemon::run() {
   TimeUs now = clock_now();
   last_status_ = now;
   apply(settings_.load(), now);
+  now = clock_now();
   if (sd_watchdog_enabled(0, &watchdog_us_) <= 0) watchdog_us_ = 0;
   next_watchdog_ = now;
   housekeeping(now);  // opens the interfaces

@@ -19,8 +19,13 @@ def test(ctx: it.Context) -> None:
         it.drain(bus)
         d = ctx.start_daemon("--profile", ctx.source("profiles/generic-404.yaml"), "--interface", "vcan0",
                              "--node-id", str(NODE), "--state-dir", "{state_dir}")
-        it.expect(bus, it.is_bootup(NODE), 10, "boot-up of node 0x10")
+        boot = it.expect(bus, it.is_bootup(NODE), 10, "boot-up of node 0x10")
         it.log("boot-up seen")
+        # The first heartbeat comes one period (1000 ms) after the boot-up, not
+        # earlier (the node powers on when it is built, not when loading began).
+        first = it.expect(bus, it.is_heartbeat(NODE), 2 + it.scaled(0.5), "first heartbeat")
+        after = first.timestamp - boot.timestamp
+        assert 0.9 < after < 1.1 + 0.1 * it.SCALE, f"first heartbeat {after:.3f} s after the boot-up"
 
         sdo = it.SdoClient(bus, NODE)
         assert sdo.upload_u32(0x1000) == 0x00020194
