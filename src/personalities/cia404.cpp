@@ -614,6 +614,7 @@ void Cia404Application::on_reset(Node& node, ResetKind kind, TimeUs now) {
   event_channels_ = change_channels_ = 0;
   next_scan_ = now;
   next_check_ = now;
+  next_supervision_ = now;
 }
 
 void Cia404Application::on_nmt_state(Node& node, NmtState, TimeUs now) {
@@ -896,6 +897,19 @@ bool Cia404Application::cancel_fault(Node& node, physics::FaultHandle h, TimeUs 
 }
 
 TimeUs Cia404Application::process(Node& node, TimeUs now) {
+  TimeUs next = check_events_due(node, now);
+  if (const TimeUs period = supervision_period(); period > 0) {
+    if (now >= next_supervision_) {
+      supervise(node, now);
+      next_supervision_ = now + period;
+    }
+    next = std::min(next, next_supervision_);
+  }
+  return next;
+}
+
+// Delta / limit / change events of the channels mapped into event TPDOs.
+TimeUs Cia404Application::check_events_due(Node& node, TimeUs now) {
   const TimeUs scan = profile_->settings.config_scan_period_us;
   if (!node.allowed(Service::kPdo)) {
     event_channels_ = change_channels_ = 0;

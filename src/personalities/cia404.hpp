@@ -254,6 +254,11 @@ class Cia404Application : public Application {
   virtual double limit_hysteresis(const Node& node, std::size_t ch) const { return get(node, ch, Role::kHysteresis); }
   // Raises a TPDO event for a mapped entry (CiA 301 §7.2.2.2).
   virtual void raise_pdo_event(Node& node, const OdEntry& e) { node.pdo().raise_event_for(e); }
+  // Vendor supervision (status monitoring, counters, min/max capture), run
+  // in every NMT state from the reset on, every supervision_period()
+  // (0: the device has none).
+  virtual void supervise(Node&, TimeUs) {}
+  virtual TimeUs supervision_period() const { return 0; }
   // Delta / limit results of one check of channel `ch` (kEvent* bits). The
   // default raises a TPDO event for the mapped PV, field value and status on
   // kEventsRaising; vendors with their own event routing override it.
@@ -302,6 +307,7 @@ class Cia404Application : public Application {
   bool changed(Node& node, std::size_t ch);
   bool check_events(Node& node, std::size_t ch, TimeUs now);
   TimeUs check_period(std::size_t ch) const;
+  TimeUs check_events_due(Node& node, TimeUs now);
   Measurement evaluate(const Node& node, std::size_t ch, TimeUs now);
 
   std::shared_ptr<const Cia404Profile> profile_;
@@ -315,6 +321,7 @@ class Cia404Application : public Application {
   std::uint32_t change_channels_ = 0;  // subset mapped into a change-event TPDO
   TimeUs next_scan_ = 0;
   TimeUs next_check_ = 0;
+  TimeUs next_supervision_ = 0;
 };
 
 }  // namespace cansim::personalities

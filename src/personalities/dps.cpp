@@ -39,7 +39,6 @@ void DpsApplication::on_reset(Node& node, ResetKind kind, TimeUs now) {
   if (serial_ && serial_copy_) node.values().set_u(*serial_copy_, node.values().get_u(*serial_));
   span_ = Span::kInside;
   sensor_failed_ = false;
-  next_check_ = now;
   const bool eeprom_bad = node.store().corrupt() || fault_active(physics::FaultKind::EepromError, now);
   if (kind != ResetKind::kCommunication && eeprom_bad) node.emcy().raise(kEmcyEeprom, kManufacturerBit, now);
   node.wake_app(now);
@@ -59,14 +58,6 @@ void DpsApplication::after_write(Node& node, const OdEntry& e, TimeUs now) {
   for (Role r : {Role::kSpanStart, Role::kSpanEnd}) set(node, b.channel, r, get(node, b.channel, r) + delta);
 }
 
-TimeUs DpsApplication::process(Node& node, TimeUs now) {
-  const TimeUs next = Cia404Application::process(node, now);
-  if (now >= next_check_) {
-    check_span(node, now);
-    next_check_ = now + settings_.span_check_period_us;
-  }
-  return std::min(next, next_check_);
-}
 
 void DpsApplication::count(Node& node, const OdEntry* counter) {
   if (!counter) return;

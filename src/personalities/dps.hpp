@@ -26,7 +26,11 @@ class DpsApplication : public Cia404Application {
 
   void on_reset(Node& node, ResetKind kind, TimeUs now) override;
   void after_write(Node& node, const OdEntry& e, TimeUs now) override;
-  TimeUs process(Node& node, TimeUs now) override;
+
+ protected:
+  // Span over/underflow: EMCY 0x3201 and the counters 0x2004 / 0x2005.
+  void supervise(Node& node, TimeUs now) override { check_span(node, now); }
+  TimeUs supervision_period() const override { return settings_.span_check_period_us; }
 
  private:
   enum class Span : std::uint8_t { kInside, kOver, kUnder };
@@ -40,7 +44,6 @@ class DpsApplication : public Cia404Application {
   const OdEntry* underflows_ = nullptr;  // 0x2005
   Span span_ = Span::kInside;
   bool sensor_failed_ = false;
-  TimeUs next_check_ = 0;
 };
 
 void prepare(config::Profile& profile, PreparedProfile& prepared);

@@ -95,7 +95,6 @@ void GemsApplication::on_reset(Node& node, ResetKind kind, TimeUs now) {
     plan.self_start = true;
     plan.self_start_delay = 0;
   }
-  next_supervision_ = now;
 }
 
 void GemsApplication::apply_vendor_filter(Node& node, std::size_t ch) {
@@ -238,7 +237,7 @@ void GemsApplication::update_emcy(Node& node, std::uint16_t code, std::uint8_t r
   else node.emcy().clear(code, now);
 }
 
-void GemsApplication::supervise(Node& node, std::size_t ch, TimeUs now) {
+void GemsApplication::supervise_channel(Node& node, std::size_t ch, TimeUs now) {
   const Measurement m = measure(node, ch, now);
   sensor_failed_[ch] = (m.status & physics::kStatusInvalid) != 0;
   if (!std::isfinite(m.pv)) {
@@ -249,17 +248,12 @@ void GemsApplication::supervise(Node& node, std::size_t ch, TimeUs now) {
   count_span(node, ch, m.pv);
 }
 
-TimeUs GemsApplication::process(Node& node, TimeUs now) {
-  const TimeUs next = Cia404Application::process(node, now);
-  if (now >= next_supervision_) {
-    math_error_ = false;
-    const std::size_t channels = std::min<std::size_t>(2, profile().channels.size());
-    for (std::size_t ch = 0; ch < channels; ++ch) supervise(node, ch, now);
-    update_emcy(node, kEmcySensor, kRegSensor, sensor_failed_[0] || sensor_failed_[1], now);
-    update_emcy(node, kEmcyMaths, kRegMaths, math_error_, now);
-    next_supervision_ = now + settings_.supervision_period_us;
-  }
-  return std::min(next, next_supervision_);
+void GemsApplication::supervise(Node& node, TimeUs now) {
+  math_error_ = false;
+  const std::size_t channels = std::min<std::size_t>(2, profile().channels.size());
+  for (std::size_t ch = 0; ch < channels; ++ch) supervise_channel(node, ch, now);
+  update_emcy(node, kEmcySensor, kRegSensor, sensor_failed_[0] || sensor_failed_[1], now);
+  update_emcy(node, kEmcyMaths, kRegMaths, math_error_, now);
 }
 
 // ---- registry

@@ -33,17 +33,21 @@ class GemsApplication : public Cia404Application {
   void refresh(Node& node, const OdEntry& e, TimeUs now) override;
   SdoAbort check_write(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now) override;
   void after_write(Node& node, const OdEntry& e, TimeUs now) override;
-  TimeUs process(Node& node, TimeUs now) override;
 
   bool unlocked() const { return unlocked_; }
   // True once 'boot' was written to the boot-load object (FLIP is out of scope).
   bool boot_requested() const { return boot_requested_; }
 
+ protected:
+  // Max / min, span counters, sensor and maths EMCYs.
+  void supervise(Node& node, TimeUs now) override;
+  TimeUs supervision_period() const override { return settings_.supervision_period_us; }
+
  private:
   enum class Span : std::uint8_t { kInside, kOver, kUnder };
   SdoAbort check_experienced(const OdEntry& e, std::span<const std::uint8_t> data);
   void apply_vendor_filter(Node& node, std::size_t ch);
-  void supervise(Node& node, std::size_t ch, TimeUs now);
+  void supervise_channel(Node& node, std::size_t ch, TimeUs now);
   void track_peaks(Node& node, std::size_t ch, double pv, bool restart);
   void count_span(Node& node, std::size_t ch, double pv);
   void update_emcy(Node& node, std::uint16_t code, std::uint8_t reg, bool active, TimeUs now);
@@ -57,7 +61,6 @@ class GemsApplication : public Cia404Application {
   bool sensor_failed_[2] = {};
   bool math_error_ = false;
   TimeUs powered_at_ = 0;
-  TimeUs next_supervision_ = 0;
 };
 
 void prepare(config::Profile& profile, PreparedProfile& prepared);

@@ -44,7 +44,6 @@ void P92cApplication::on_reset(Node& node, ResetKind kind, TimeUs now) {
     last_status_[ch] = 0;
     error_[ch] = false;  // the EMCY producer forgot them too
   }
-  next_supervision_ = now;
   if (settings_.boot_emcys) boot_checks(node, kind, now);
 }
 
@@ -94,15 +93,6 @@ SdoAbort P92cApplication::check_write(Node& node, const OdEntry& e, std::span<co
   ByteSet rates;
   ByteSet::parse(node.options().lss_bit_rates, rates);
   return rates.has(data[0]) ? SdoAbort::kNone : SdoAbort::kInvalidValue;
-}
-
-TimeUs P92cApplication::process(Node& node, TimeUs now) {
-  const TimeUs next = Cia404Application::process(node, now);
-  if (now >= next_supervision_) {
-    supervise(node, now);
-    next_supervision_ = now + settings_.monitor_period_us;
-  }
-  return std::min(next, next_supervision_);
 }
 
 void P92cApplication::count_edge(Node& node, std::uint16_t counter) {

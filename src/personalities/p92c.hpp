@@ -29,19 +29,21 @@ class P92cApplication : public Cia404Application {
 
   void on_reset(Node& node, ResetKind kind, TimeUs now) override;
   SdoAbort check_write(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now) override;
-  TimeUs process(Node& node, TimeUs now) override;
+
+ protected:
+  // Status supervision: counters, sensor-fault EMCYs.
+  void supervise(Node& node, TimeUs now) override;
+  TimeUs supervision_period() const override { return settings_.monitor_period_us; }
 
  private:
   void fill_serial(Node& node);
   void boot_checks(Node& node, ResetKind kind, TimeUs now);
   bool stored_mapping_valid(const Node& node) const;
-  void supervise(Node& node, TimeUs now);
   void count_edge(Node& node, std::uint16_t counter);
 
   Settings settings_;
   std::uint8_t last_status_[2] = {};
   bool error_[2] = {};
-  TimeUs next_supervision_ = 0;
 };
 
 void prepare(config::Profile& profile, PreparedProfile& prepared);

@@ -95,7 +95,6 @@ void SmcApplication::on_reset(Node& node, ResetKind kind, TimeUs now) {
   }
   refresh_device_name(node);
   load_chain(node);
-  next_supervision_ = now;
 }
 
 // ---------------------------------------------------------------- reads
@@ -328,12 +327,7 @@ void SmcApplication::change_node_id(Node& node, std::uint8_t sub, std::uint8_t i
 
 TimeUs SmcApplication::process(Node& node, TimeUs now) {
   load_chain(node);
-  const TimeUs next = Cia404Application::process(node, now);
-  if (now >= next_supervision_) {
-    supervise(node, now);
-    next_supervision_ = now + settings_.stay_set_period_us;
-  }
-  return std::min(next, next_supervision_);
+  return Cia404Application::process(node, now);
 }
 
 // Stay-set capture of the raw FV (before the input offset, §6.3.2) and the

@@ -42,6 +42,9 @@ class SmcApplication : public Cia404Application {
   static constexpr double kFieldSpan = 20000.0;  // FV2 - FV1 (0x7122 - 0x7120)
 
  protected:
+  // Stay-set min/max capture and A/D fault detection.
+  void supervise(Node& node, TimeUs now) override;
+  TimeUs supervision_period() const override { return settings_.stay_set_period_us; }
   double input_value(const ChannelConfig& c, const MeasurementSource::Sample& s, const UnitScale& unit) override;
   double limit_hysteresis(const Node& node, std::size_t ch) const override;
 
@@ -65,7 +68,6 @@ class SmcApplication : public Cia404Application {
   void fill_device_name_chars(Node& node);
   void refresh_device_name(Node& node);
   void change_node_id(Node& node, std::uint8_t sub, std::uint8_t id, TimeUs now);
-  void supervise(Node& node, TimeUs now);
   void sensor_error(Node& node, TimeUs now);
   void swap_if_big_endian(Node& node, const OdEntry& e);
 
@@ -77,7 +79,6 @@ class SmcApplication : public Cia404Application {
   std::uint8_t latched_status_[2] = {};  // 0x6150 bit 0 held like 0x1001
   std::uint32_t factory_serial_ = 0;
   TimeUs boot_time_ = 0;
-  TimeUs next_supervision_ = 0;
 };
 
 void prepare(config::Profile& profile, PreparedProfile& prepared);
