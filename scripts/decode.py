@@ -147,6 +147,16 @@ def interpret(payload: bytes) -> str:
     return ""
 
 
+def initiate(prefix: str, d: bytes) -> str:
+    """An SDO initiate (download request or upload response): expedited data or the size."""
+    cs = d[0]
+    e, s, n = cs & 2, cs & 1, (cs >> 2) & 3
+    if e:
+        data = d[4:8 - n] if s else d[4:8]
+        return f"{prefix} {mux(d)} = {hexs(data)}  {interpret(data)}".rstrip()
+    return f"{prefix} {mux(d)} segmented" + (f", {u(d, 4, 4)} bytes" if s else "")
+
+
 def decode_sdo(node: int, to_server: bool, d: bytes) -> str:
     who = f"SDO {'req ' if to_server else 'resp'}"
     if len(d) != 8:
@@ -158,11 +168,7 @@ def decode_sdo(node: int, to_server: bool, d: bytes) -> str:
     ccs = cs >> 5
     if to_server:
         if ccs == 1:  # download initiate
-            e, s, n = cs & 2, cs & 1, (cs >> 2) & 3
-            if e:
-                data = d[4:8 - n] if s else d[4:8]
-                return f"{who} write {mux(d)} = {hexs(data)}  {interpret(data)}".rstrip()
-            return f"{who} write {mux(d)} segmented" + (f", {u(d, 4, 4)} bytes" if s else "")
+            return initiate(f"{who} write", d)
         if ccs == 0:  # download segment
             n = (cs >> 1) & 7
             return f"{who} write segment t={(cs >> 4) & 1}{' last' if cs & 1 else ''}: {hexs(d[1:8 - n])}"
@@ -181,11 +187,7 @@ def decode_sdo(node: int, to_server: bool, d: bytes) -> str:
     if scs == 1:
         return f"{who} write segment t={(cs >> 4) & 1} ok"
     if scs == 2:  # upload initiate
-        e, s, n = cs & 2, cs & 1, (cs >> 2) & 3
-        if e:
-            data = d[4:8 - n] if s else d[4:8]
-            return f"{who} {mux(d)} = {hexs(data)}  {interpret(data)}".rstrip()
-        return f"{who} {mux(d)} segmented" + (f", {u(d, 4, 4)} bytes" if s else "")
+        return initiate(who, d)
     if scs == 0:  # upload segment
         n = (cs >> 1) & 7
         seg = d[1:8 - n]
