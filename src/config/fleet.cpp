@@ -286,6 +286,65 @@ FleetConfig parse_fleet(const std::string& text, const std::string& file, const 
   return parse_root(root, file, search);
 }
 
+FleetConfig parse_fleet_fragment(const std::string& text, const std::string& file, const ProfileSearch& search,
+                                 const FleetConfig& running) {
+  YAML::Node given;
+  try {
+    given = YAML::Load(text);
+  } catch (const YAML::ParserException& e) {
+    throw ConfigError(file + ":" + std::to_string(e.mark.line + 1) + ":" + std::to_string(e.mark.column + 1) +
+                      ": YAML syntax error: " + e.msg);
+  }
+  // The fragment's own nodes keep their marks, so errors point into `text`.
+  YAML::Node root(YAML::NodeType::Map);
+  if (given.IsMap() && given["nodes"]) {
+    root = given;
+  } else if (given.IsMap() || given.IsSequence()) {
+    YAML::Node list(YAML::NodeType::Sequence);
+    if (given.IsMap()) list.push_back(given);
+    else for (const auto& e : given) list.push_back(e);
+    root["nodes"] = list;
+  } else {
+    throw ConfigError(file + ":1:1: expected a node entry, a list of node entries or a fleet document");
+  }
+  YAML::Node ifaces = root["interfaces"] ? root["interfaces"] : YAML::Node(YAML::NodeType::Map);
+  if (ifaces.IsMap() && root["nodes"].IsSequence()) {
+    for (const auto& entry : root["nodes"]) {
+      if (!entry.IsMap() || !entry["interface"] || !entry["interface"].IsScalar()) continue;
+      const std::string name = entry["interface"].Scalar();
+      if (ifaces[name]) continue;
+      YAML::Node setting(YAML::NodeType::Map);
+      if (const InterfaceConfig* ic = running.interface(name); ic && ic->bit_rate_kbit) setting["bit_rate"] = ic->bit_rate_kbit;
+      ifaces[name] = setting;
+    }
+    root["interfaces"] = ifaces;
+  }
+  return parse_root(root, file, search);
+}
+
+void merge_fleet(FleetConfig& into, const FleetConfig& extra) {
+  std::set<std::string> keys;
+  std::map<std::pair<std::string, int>, std::string> ids;
+  for (const NodeConfig& n : into.nodes) {
+    keys.insert(n.key);
+    if (n.node_id != 255) ids[{n.interface, n.node_id}] = n.key;
+  }
+  for (const NodeConfig& n : extra.nodes) {
+    if (keys.count(n.key)) throw ConfigError(extra.file + ": node " + n.key + " already exists; expected a new name");
+    if (n.node_id == 255) continue;
+    auto it = ids.find({n.interface, n.node_id});
+    if (it != ids.end())
+      throw ConfigError(extra.file + ": node " + n.key + ": node-ID " + std::to_string(n.node_id) + " (" +
+                        hex2(n.node_id) + ") is already used on " + n.interface + " by " + it->second +
+                        "; expected a free node-ID");
+    ids[{n.interface, n.node_id}] = n.key;
+  }
+  for (const InterfaceConfig& ic : extra.interfaces)
+    if (!into.interface(ic.name)) into.interfaces.push_back(ic);
+  into.nodes.insert(into.nodes.end(), extra.nodes.begin(), extra.nodes.end());
+  into.profiles.insert(into.profiles.end(), extra.profiles.begin(), extra.profiles.end());
+}
+
 FleetConfig load_fleet(const std::string& path, const ProfileSearch& search) {
   return parse_root(load_yaml_file(path), path, search);
 }

@@ -58,6 +58,17 @@ std::string find_profile(const std::string& ref, const std::string& config_dir, 
 
 FleetConfig load_fleet(const std::string& path, const ProfileSearch& search);
 FleetConfig parse_fleet(const std::string& text, const std::string& file, const ProfileSearch& search);
+// Nodes added at run time (control API AddNodes): `text` is one node entry,
+// a list of entries, or a whole fleet document. Interfaces the fragment does
+// not declare take their setting from `running` (else the kernel's / 250).
+// Errors name `file`:line:column of the fragment.
+FleetConfig parse_fleet_fragment(const std::string& text, const std::string& file, const ProfileSearch& search,
+                                 const FleetConfig& running);
+// Appends `extra`'s nodes, interfaces and profiles to `into`. A duplicate
+// node key or a node-ID already used on the same interface throws
+// ConfigError naming the node; `into` is then unchanged.
+void merge_fleet(FleetConfig& into, const FleetConfig& extra);
+
 // `cansimd --profile P [--interface IF] [--node-id N]`: one node.
 FleetConfig single_node_fleet(const std::string& profile_ref, const std::string& interface,
                               std::optional<int> node_id, const ProfileSearch& search);

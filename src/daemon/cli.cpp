@@ -30,10 +30,16 @@ std::string usage_text() {
          "  --seed N             fleet random seed (default: the config's, else 1)\n"
          "  --record PATH        CSV of each node's true and reported values (scripts/plot-recording):\n"
          "                       with --profile the file, with --config a folder (one file per node)\n"
+         "  --bus BUS            control API on the system, user or no bus: system, user, none,\n"
+         "                       auto (default: system when root and there, else user when there)\n"
+         "  --control-socket PATH  the control API's private socket, or none (default\n"
+         "                       $RUNTIME_DIRECTORY/control, $XDG_RUNTIME_DIR/cansimd/control,\n"
+         "                       /run/cansimd/control as root, else /tmp/cansimd-UID/control)\n"
          "  --version            print the version and exit\n"
          "  --help               print this help and exit\n"
          "\n"
-         "Signals: SIGHUP reloads the configuration, SIGTERM / SIGINT stop.\n";
+         "Signals: SIGHUP reloads the configuration, SIGTERM / SIGINT stop.\n"
+         "Runtime control: cansimctl, or D-Bus io.cansim.Cansimd1 (docs/control-api.md).\n";
 }
 
 CliResult parse_cli(const std::vector<std::string>& args, const char* state_directory_env) {
@@ -108,6 +114,20 @@ CliResult parse_cli(const std::vector<std::string>& args, const char* state_dire
     } else if (arg == "--record") {
       if (!need_value()) return r;
       o.record = value;
+    } else if (arg == "--bus") {
+      if (!need_value()) return r;
+      if (value != "auto" && value != "system" && value != "user" && value != "none") {
+        r.error = "--bus: expected auto, system, user or none, got '" + value + "'";
+        return r;
+      }
+      o.bus = value;
+    } else if (arg == "--control-socket") {
+      if (!need_value()) return r;
+      if (value.empty() || value.size() > 107) {
+        r.error = "--control-socket: expected a socket path of 1..107 characters or none";
+        return r;
+      }
+      o.control_socket = value;
     } else if (arg == "--seed") {
       if (!need_value()) return r;
       std::int64_t v = 0;

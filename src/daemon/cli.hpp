@@ -19,6 +19,8 @@ struct CliOptions {
   std::string log_level = "info";      // --log-level
   std::optional<std::uint64_t> seed;   // --seed
   std::string record;                  // --record FILE (--profile) | DIR (--config)
+  std::string bus = "auto";            // --bus auto|system|user|none: the control API's bus
+  std::string control_socket;          // --control-socket PATH|none (empty: the default path)
   bool version = false;
   bool help = false;
 };

@@ -118,10 +118,15 @@ struct Daemon::Interface : io::FdHandler {
   TimeUs drain_at = kNever;
   TimeUs last_down_log = 0;
   bool reported_down = false;
+  std::uint64_t last_frames = 0;  // rx + tx at the last status report
+  double measured_load = 0;       // fraction of the bit rate over the last status period
 };
 
 Daemon::Daemon(DaemonSettings settings) : settings_(std::move(settings)) {}
-Daemon::~Daemon() = default;
+Daemon::~Daemon() {
+  endpoints_.reset();
+  core_.set_observer(nullptr);
+}
 
 Daemon::Interface& Daemon::ensure_interface(const config::InterfaceConfig& ic) {
   Interface* iface = nullptr;
@@ -263,6 +268,10 @@ void Daemon::report_status(TimeUs now) {
   for (const auto& i : interfaces_) {
     if (!i->configured) continue;
     up += i->can.is_open();
+    const std::uint64_t frames = i->can.stats().rx + i->can.stats().tx;
+    // 111 bits per 8-byte frame without stuffing (bus_load.hpp).
+    if (dt > 0 && i->bit_rate_kbit) i->measured_load = double(frames - i->last_frames) * 111.0 / dt / (i->bit_rate_kbit * 1000.0);
+    i->last_frames = frames;
     std::uint64_t drops = i->can.take_new_drops();
     if (drops && i->can.is_open())
       spdlog::warn("{}: {} frame(s) dropped in the last {:.0f} s (kernel queue full)", i->can.name(), drops, dt);
@@ -335,6 +344,7 @@ void Daemon::apply(config::FleetConfig cfg, TimeUs now) {
     if (!wanted.count(it->first) || replaced) {
       spdlog::info("{}: node 0x{:02X} {}", it->first, it->second.cfg.node_id, replaced ? "changed, restarting" : "removed");
       (replaced ? changed : removed) += 1;
+      if (control_) control_->node_removed(it->first);
       remove_node(it->second);
       it = nodes_.erase(it);
     } else {
@@ -361,8 +371,18 @@ void Daemon::apply(config::FleetConfig cfg, TimeUs now) {
     if (setup.bit_rate_index != e.bus_rate)
       spdlog::warn("{}: node runs at {} kbit/s but {} at {} kbit/s: it stays silent until its bit rate matches",
                    n.key, n.bit_rate_kbit, n.interface, iface->bit_rate_kbit);
+    e.handle.key = n.key;
+    e.handle.name = n.name;
+    e.handle.index = n.index;
+    e.handle.profile = n.profile->name;
+    e.handle.personality = n.profile->personality;
+    e.handle.interface = n.interface;
+    e.handle.ref = e.ref;
+    e.handle.app = core_.app(e.ref);
+    if (auto* overlay = dynamic_cast<SerialOverlay*>(e.handle.app)) e.handle.app = overlay->inner();
     fresh.push_back(e.ref);
-    nodes_[n.key] = std::move(e);
+    NodeEntry& stored = nodes_[n.key] = std::move(e);
+    if (control_) control_->node_added(stored.handle);
   }
   for (auto& i : interfaces_)
     if (!i->configured && i->can.is_open()) {
@@ -385,18 +405,134 @@ void Daemon::apply(config::FleetConfig cfg, TimeUs now) {
   check_bus_load();
 }
 
+config::FleetConfig Daemon::combined() const {
+  config::FleetConfig cfg = file_config_;
+  std::erase_if(cfg.nodes, [&](const config::NodeConfig& n) { return removed_.count(n.key) > 0; });
+  for (const config::FleetConfig& extra : added_) config::merge_fleet(cfg, extra);
+  return cfg;
+}
+
 void Daemon::reload(TimeUs now) {
-  // sd_notify wants the host's CLOCK_MONOTONIC here, not simulated time.
-  notify("RELOADING=1\nMONOTONIC_USEC=" + std::to_string(io::monotonic_now()));
   spdlog::info("SIGHUP: reloading the configuration");
   try {
-    apply(settings_.load(), now);
+    reload();
   } catch (const std::exception& e) {
     spdlog::error("reload failed, keeping the running fleet: {}", e.what());
   }
-  flush(now);  // the new nodes' boot-ups are on the bus before READY=1
-  report_status(now);
-  notify("READY=1");
+  (void)now;
+}
+
+// Throws config::ConfigError with the running fleet untouched.
+void Daemon::reload() {
+  // sd_notify wants the host's CLOCK_MONOTONIC here, not simulated time.
+  notify("RELOADING=1\nMONOTONIC_USEC=" + std::to_string(io::monotonic_now()));
+  struct Ready {
+    Daemon& d;
+    ~Ready() {
+      TimeUs t = d.clock_now();
+      d.flush(t);  // the new nodes' boot-ups are on the bus before READY=1
+      d.report_status(t);
+      d.notify("READY=1");
+    }
+  } ready{*this};
+  config::FleetConfig fresh = settings_.load();
+  std::swap(file_config_, fresh);
+  std::set<std::string> removed;
+  std::swap(removed_, removed);  // the file's nodes come back
+  try {
+    apply(combined(), clock_now());
+  } catch (...) {
+    std::swap(file_config_, fresh);
+    std::swap(removed_, removed);
+    throw;
+  }
+}
+
+// ---------------------------------------------------------------- control API
+
+std::vector<const control::NodeHandle*> Daemon::nodes() const {
+  std::vector<const control::NodeHandle*> out;
+  out.reserve(nodes_.size());
+  for (const auto& [key, e] : nodes_) out.push_back(&e.handle);
+  return out;
+}
+
+const control::NodeHandle* Daemon::find(const std::string& key) const {
+  auto it = nodes_.find(key);
+  return it == nodes_.end() ? nullptr : &it->second.handle;
+}
+
+std::vector<std::string> Daemon::add_nodes(const std::string& yaml) {
+  const std::string label = "<AddNodes #" + std::to_string(++fragments_) + ">";
+  config::FleetConfig running = combined();
+  config::FleetConfig extra = config::parse_fleet_fragment(yaml, label, profile_search(""), running);
+  config::merge_fleet(running, extra);  // throws on a collision
+  added_.push_back(extra);
+  try {
+    apply(std::move(running), clock_now());
+  } catch (...) {
+    added_.pop_back();
+    throw;
+  }
+  std::vector<std::string> keys;
+  for (const auto& n : extra.nodes) keys.push_back(n.key);
+  spdlog::info("control: added {} node(s)", keys.size());
+  return keys;
+}
+
+void Daemon::remove_node(const std::string& key) {
+  bool runtime = false;
+  for (config::FleetConfig& extra : added_)
+    runtime |= std::erase_if(extra.nodes, [&](const config::NodeConfig& n) { return n.key == key; }) > 0;
+  if (!runtime) removed_.insert(key);
+  apply(combined(), clock_now());
+}
+
+std::vector<control::BusStatistics> Daemon::bus_statistics() const {
+  std::vector<control::BusStatistics> out;
+  for (const auto& ip : interfaces_) {
+    const Interface& i = *ip;
+    if (!i.configured) continue;
+    control::BusStatistics b;
+    b.name = i.can.name();
+    b.up = i.can.is_open();
+    b.bit_rate_kbit = i.bit_rate_kbit;
+    b.frames_in = i.can.stats().rx;
+    b.frames_out = i.can.stats().tx;
+    b.drops = i.can.stats().tx_dropped;
+    b.offline = i.can.stats().tx_offline;
+    Traffic t;
+    for (const auto& [key, e] : nodes_)
+      if (core_.bus_of(e.ref) == i.bus) t += estimate_traffic(core_.node(e.ref));
+    b.offered_load = i.bit_rate_kbit ? t.bits_per_s / (i.bit_rate_kbit * 1000.0) : 0;
+    b.measured_load = i.measured_load;
+    out.push_back(b);
+  }
+  return out;
+}
+
+void Daemon::start_control() {
+  control_ = std::make_unique<control::ControlService>(*this);
+  core_.set_observer(control_.get());
+  endpoints_ = std::make_unique<control::ControlEndpoints>(loop_, *control_);
+  if (settings_.control_socket != "none") {
+    const std::string path =
+        settings_.control_socket.empty() ? control::default_control_socket() : settings_.control_socket;
+    try {
+      endpoints_->listen(path);
+      spdlog::info("control: private D-Bus socket {}", path);
+    } catch (const std::exception& e) {
+      if (!settings_.control_socket.empty()) throw;
+      spdlog::warn("control: no private socket: {}", e.what());
+    }
+  }
+  try {
+    std::string bus = endpoints_->connect_bus(settings_.bus);
+    if (!bus.empty()) spdlog::info("control: {} as {}", bus, control::kBusName);
+  } catch (const std::exception& e) {
+    if (settings_.bus != control::BusChoice::kAuto) throw;
+    spdlog::warn("control: {}", e.what());
+  }
 }
 
 // Simulated time is CLOCK_MONOTONIC counted from the daemon's start, so a
@@ -408,7 +544,9 @@ int Daemon::run() {
   loop_.watch_signals({SIGINT, SIGTERM, SIGHUP});
   TimeUs now = clock_now();
   last_status_ = now;
-  apply(settings_.load(), now);
+  file_config_ = settings_.load();
+  start_control();
+  apply(combined(), now);
   now = clock_now();
   if (sd_watchdog_enabled(0, &watchdog_us_) <= 0) watchdog_us_ = 0;
   next_watchdog_ = now;
@@ -421,10 +559,13 @@ int Daemon::run() {
   for (;;) {
     now = clock_now();
     core_.run_due(now);
+    // Control calls act here, between two passes: atomically with respect to frames.
+    const TimeUs control_at = endpoints_->process();
     flush(now);
     housekeeping(now);
     sweep_interfaces(now);
-    const TimeUs next = std::min(core_.next_deadline(), housekeeping_deadline());
+    TimeUs next = std::min(core_.next_deadline(), housekeeping_deadline());
+    if (control_at != kNever) next = std::min(next, control_at - epoch_);
     loop_.arm_timer(next == kNever ? kNever : next + epoch_);
     bool timer = false;
     loop_.wait(-1, timer, signal);
@@ -435,6 +576,7 @@ int Daemon::run() {
   spdlog::info("{}: stopping, {} node(s) fall silent", strsignal(signal), nodes_.size());
   for (auto& [key, e] : nodes_) remove_node(e);
   nodes_.clear();
+  endpoints_.reset();
   return 0;
 }
 

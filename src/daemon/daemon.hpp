@@ -10,10 +10,14 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
 #include "config/fleet.hpp"
+#include "control/control_host.hpp"
+#include "control/endpoints.hpp"
+#include "control/service.hpp"
 #include "core/application.hpp"
 #include "io/can_interface.hpp"
 #include "io/event_loop.hpp"
@@ -48,6 +52,7 @@ class SerialOverlay : public Application {
   void on_sync(Node& n, std::uint8_t c, TimeUs t) override;
   TimeUs process(Node& n, TimeUs t) override;
   TimeUs environment(Node& n, TimeUs t) override;
+  Application* inner() { return inner_.get(); }
 
  private:
   std::unique_ptr<Application> inner_;
@@ -58,15 +63,29 @@ struct DaemonSettings {
   std::string state_dir = "state";
   std::optional<std::uint64_t> seed;             // --seed overrides the config's
   std::function<config::FleetConfig()> load;     // (re)reads the configuration
+  std::string config_file;                       // the fleet file or the single profile
+  control::BusChoice bus = control::BusChoice::kAuto;
+  std::string control_socket;                    // empty: the default path; "none": no socket
 };
 
-class Daemon {
+class Daemon : public control::ControlHost {
  public:
   explicit Daemon(DaemonSettings settings);
-  ~Daemon();
+  ~Daemon() override;
   // Loads the configuration, runs until SIGTERM / SIGINT, returns the exit code.
   // Throws config::ConfigError when the initial configuration is invalid.
   int run();
+
+  // control::ControlHost
+  io::LoopCore& core() override { return core_; }
+  TimeUs now() const override { return clock_now(); }
+  std::vector<const control::NodeHandle*> nodes() const override;
+  const control::NodeHandle* find(const std::string& key) const override;
+  std::vector<std::string> add_nodes(const std::string& yaml) override;
+  void remove_node(const std::string& key) override;
+  void reload() override;
+  std::vector<control::BusStatistics> bus_statistics() const override;
+  std::string config_file() const override { return settings_.config_file; }
 
  private:
   struct Interface;
@@ -76,11 +95,16 @@ class Daemon {
     config::NodeConfig cfg;
     std::uint64_t seed = 0;
     std::uint8_t bus_rate = 0;
+    control::NodeHandle handle;
   };
   struct Pending;
 
+  // The running fleet: the file's nodes plus those added at run time, less
+  // those removed at run time.
+  config::FleetConfig combined() const;
   void apply(config::FleetConfig cfg, TimeUs now);
   void reload(TimeUs now);
+  void start_control();
   Interface& ensure_interface(const config::InterfaceConfig& ic);
   void remove_node(NodeEntry& e);
   void on_can_events(Interface& iface, std::uint32_t events);
@@ -99,6 +123,12 @@ class Daemon {
   io::LoopCore core_;
   std::vector<std::unique_ptr<Interface>> interfaces_;
   std::map<std::string, NodeEntry> nodes_;
+  config::FleetConfig file_config_;                // as last loaded from the file
+  std::vector<config::FleetConfig> added_;         // AddNodes fragments, in order
+  std::set<std::string> removed_;                  // RemoveNode keys (file ones until the next reload)
+  std::unique_ptr<control::ControlService> control_;
+  std::unique_ptr<control::ControlEndpoints> endpoints_;
+  std::uint64_t fragments_ = 0;
   std::uint64_t watchdog_us_ = 0;
   TimeUs next_watchdog_ = kNever;
   TimeUs next_status_ = kNever;
@@ -107,6 +137,7 @@ class Daemon {
   std::uint64_t last_frames_out_ = 0;
   std::uint64_t last_frames_in_ = 0;
   double frames_per_s_ = 0;
+  double status_period_s_ = 0;
 };
 
 }  // namespace cansim::daemon

@@ -56,6 +56,12 @@ int main(int argc, char** argv) {
     settings.state_dir = o.state_dir;
     settings.seed = o.seed;
     settings.load = [o] { return load(o); };
+    settings.config_file = o.config.empty() ? o.profile : o.config;
+    settings.bus = o.bus == "system" ? control::BusChoice::kSystem
+                   : o.bus == "user" ? control::BusChoice::kUser
+                   : o.bus == "none" ? control::BusChoice::kNone
+                                     : control::BusChoice::kAuto;
+    settings.control_socket = o.control_socket;
     spdlog::info("cansimd {} starting, stored parameters in {}", CANSIM_VERSION, o.state_dir);
     daemon::Daemon d(std::move(settings));
     return d.run();

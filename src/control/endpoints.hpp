@@ -1,0 +1,65 @@
+// Where the control API listens, on the daemon's one epoll loop (no thread):
+// the private peer-to-peer D-Bus socket (as systemd's /run/systemd/private)
+// and the system or user bus. After every loop pass the owner calls
+// process(): every connection is serviced (a connection served only when
+// its fd was readable can stall during authentication), its epoll interest
+// re-armed from sd_bus_get_events, and the earliest sd-bus timeout returned.
+#pragma once
+
+#include <systemd/sd-bus.h>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "control/service.hpp"
+#include "io/event_loop.hpp"
+
+namespace cansim::control {
+
+enum class BusChoice { kAuto, kSystem, kUser, kNone };
+
+// The private socket's default path: $RUNTIME_DIRECTORY/control under
+// systemd, else $XDG_RUNTIME_DIR/cansimd/control, else /run/cansimd/control
+// as root, else /tmp/cansimd-$UID/control.
+std::string default_control_socket();
+
+class ControlEndpoints {
+ public:
+  ControlEndpoints(io::EventLoop& loop, ControlService& service);
+  ~ControlEndpoints();
+
+  // Listens on a fresh socket at `path` (a stale one is replaced): mode
+  // 0660, group `cansim` when it exists. Throws std::runtime_error.
+  void listen(const std::string& path);
+  // Connects to the chosen bus and takes the name io.cansim.Cansimd1.
+  // kAuto: the system bus when root and it is there, else the user bus when
+  // it is there, else none. Returns a description ("system bus", ...) or ""
+  // when no bus is used; throws std::runtime_error when an explicitly chosen
+  // bus cannot be used.
+  std::string connect_bus(BusChoice choice);
+
+  // Services every connection (at most a bounded number of messages each:
+  // a flooding client cannot starve the nodes). Returns the earliest time
+  // (CLOCK_MONOTONIC µs) at which process() must run again, or kNever.
+  TimeUs process();
+  std::size_t connections() const { return connections_.size(); }
+  const std::string& socket_path() const { return socket_path_; }
+
+ private:
+  struct Connection;
+  struct Listener;
+  void accept_clients();
+  void add_connection(sd_bus* bus, bool peer);
+  void drop(Connection& c);
+  void rearm(Connection& c);
+
+  io::EventLoop& loop_;
+  ControlService& service_;
+  std::unique_ptr<Listener> listener_;
+  std::vector<std::unique_ptr<Connection>> connections_;
+  std::string socket_path_;
+  std::uint64_t next_id_ = 1;
+};
+
+}  // namespace cansim::control

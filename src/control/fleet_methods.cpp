@@ -1,0 +1,158 @@
+// io.cansim.Fleet1 on /io/cansim/Cansimd1.
+#include <exception>
+
+#include "config/profile.hpp"
+#include "control/node_names.hpp"
+#include "control/service_internal.hpp"
+
+#ifndef CANSIM_VERSION
+#define CANSIM_VERSION "unknown"
+#endif
+
+namespace cansim::control {
+
+namespace {
+
+ControlService& service_of(void* userdata) { return *static_cast<ControlService*>(userdata); }
+
+int list_nodes(sd_bus_message* m, void* userdata, sd_bus_error*) {
+  ControlService& s = service_of(userdata);
+  sd_bus_message* reply = nullptr;
+  int r = sd_bus_message_new_method_return(m, &reply);
+  if (r >= 0) r = sd_bus_message_open_container(reply, 'a', "(osssysss)");
+  for (const NodeHandle* h : s.host().nodes()) {
+    ControlService::NodeContext* n = s.context(h->key);
+    if (!n || r < 0) continue;
+    const Node& node = n->node();
+    r = sd_bus_message_append(reply, "(osssysss)", n->path.c_str(), h->key.c_str(), h->name.c_str(),
+                              h->interface.c_str(), node.node_id(), h->profile.c_str(), h->personality.c_str(),
+                              nmt_state_name(node.state()));
+  }
+  if (r >= 0) r = sd_bus_message_close_container(reply);
+  if (r >= 0) r = sd_bus_send(nullptr, reply, nullptr);
+  sd_bus_message_unref(reply);
+  return r;
+}
+
+int get_node(sd_bus_message* m, void* userdata, sd_bus_error* e) {
+  ControlService& s = service_of(userdata);
+  const char* spec = nullptr;
+  int r = sd_bus_message_read(m, "s", &spec);
+  if (r < 0) return r;
+  std::string why;
+  const NodeHandle* h = resolve_node(s.host(), spec, &why);
+  ControlService::NodeContext* n = h ? s.context(h->key) : nullptr;
+  if (!n) return fail(e, kErrorUnknownNode, why.empty() ? "no node '" + std::string(spec) + "'" : why);
+  return sd_bus_reply_method_return(m, "o", n->path.c_str());
+}
+
+int add_nodes(sd_bus_message* m, void* userdata, sd_bus_error* e) {
+  ControlService& s = service_of(userdata);
+  const char* yaml = nullptr;
+  int r = sd_bus_message_read(m, "s", &yaml);
+  if (r < 0) return r;
+  std::vector<std::string> keys;
+  try {
+    keys = s.host().add_nodes(yaml);
+  } catch (const std::exception& ex) {
+    return fail(e, kErrorConfig, ex.what());
+  }
+  sd_bus_message* reply = nullptr;
+  r = sd_bus_message_new_method_return(m, &reply);
+  if (r >= 0) r = sd_bus_message_open_container(reply, 'a', "o");
+  for (const std::string& k : keys)
+    if (ControlService::NodeContext* n = s.context(k); n && r >= 0) r = sd_bus_message_append(reply, "o", n->path.c_str());
+  if (r >= 0) r = sd_bus_message_close_container(reply);
+  if (r >= 0) r = sd_bus_send(nullptr, reply, nullptr);
+  sd_bus_message_unref(reply);
+  return r;
+}
+
+int remove_node(sd_bus_message* m, void* userdata, sd_bus_error* e) {
+  ControlService& s = service_of(userdata);
+  const char* spec = nullptr;
+  int r = sd_bus_message_read(m, "s", &spec);
+  if (r < 0) return r;
+  std::string why;
+  const NodeHandle* h = resolve_node(s.host(), spec, &why);
+  if (!h) return fail(e, kErrorUnknownNode, why);
+  s.host().remove_node(std::string(h->key));
+  return sd_bus_reply_method_return(m, "");
+}
+
+int reload(sd_bus_message* m, void* userdata, sd_bus_error* e) {
+  try {
+    service_of(userdata).host().reload();
+  } catch (const std::exception& ex) {
+    return fail(e, kErrorConfig, ex.what());
+  }
+  return sd_bus_reply_method_return(m, "");
+}
+
+int bus_statistics(sd_bus_message* m, void* userdata, sd_bus_error*) {
+  ControlService& s = service_of(userdata);
+  sd_bus_message* reply = nullptr;
+  int r = sd_bus_message_new_method_return(m, &reply);
+  if (r >= 0) r = sd_bus_message_open_container(reply, 'a', "(sbuttttdd)");
+  for (const BusStatistics& b : s.host().bus_statistics())
+    if (r >= 0)
+      r = sd_bus_message_append(reply, "(sbuttttdd)", b.name.c_str(), int(b.up), b.bit_rate_kbit, b.frames_in,
+                                b.frames_out, b.drops, b.offline, b.offered_load, b.measured_load);
+  if (r >= 0) r = sd_bus_message_close_container(reply);
+  if (r >= 0) r = sd_bus_send(nullptr, reply, nullptr);
+  sd_bus_message_unref(reply);
+  return r;
+}
+
+int subscribe(sd_bus_message* m, void* userdata, sd_bus_error*) {
+  service_of(userdata).subscribe(m, true);
+  return sd_bus_reply_method_return(m, "");
+}
+
+int unsubscribe(sd_bus_message* m, void* userdata, sd_bus_error*) {
+  service_of(userdata).subscribe(m, false);
+  return sd_bus_reply_method_return(m, "");
+}
+
+int get_version(sd_bus*, const char*, const char*, const char*, sd_bus_message* reply, void*, sd_bus_error*) {
+  return sd_bus_message_append(reply, "s", CANSIM_VERSION);
+}
+
+int get_time(sd_bus*, const char*, const char*, const char*, sd_bus_message* reply, void* userdata, sd_bus_error*) {
+  return sd_bus_message_append(reply, "x", std::int64_t(service_of(userdata).host().now()));
+}
+
+int get_node_count(sd_bus*, const char*, const char*, const char*, sd_bus_message* reply, void* userdata,
+                   sd_bus_error*) {
+  return sd_bus_message_append(reply, "u", std::uint32_t(service_of(userdata).host().nodes().size()));
+}
+
+int get_config_file(sd_bus*, const char*, const char*, const char*, sd_bus_message* reply, void* userdata,
+                    sd_bus_error*) {
+  return sd_bus_message_append(reply, "s", service_of(userdata).host().config_file().c_str());
+}
+
+constexpr std::uint64_t kCall = SD_BUS_VTABLE_UNPRIVILEGED;
+
+}  // namespace
+
+const sd_bus_vtable kFleetVtable[] = {
+    SD_BUS_VTABLE_START(0),
+    SD_BUS_METHOD_WITH_NAMES("ListNodes", "", , "a(osssysss)", SD_BUS_PARAM(nodes), list_nodes, kCall),
+    SD_BUS_METHOD_WITH_NAMES("GetNode", "s", SD_BUS_PARAM(node), "o", SD_BUS_PARAM(path), get_node, kCall),
+    SD_BUS_METHOD_WITH_NAMES("AddNodes", "s", SD_BUS_PARAM(yaml), "ao", SD_BUS_PARAM(paths), add_nodes, kCall),
+    SD_BUS_METHOD_WITH_NAMES("RemoveNode", "s", SD_BUS_PARAM(node), "", , remove_node, kCall),
+    SD_BUS_METHOD("Reload", "", "", reload, kCall),
+    SD_BUS_METHOD_WITH_NAMES("GetBusStatistics", "", , "a(sbuttttdd)", SD_BUS_PARAM(buses), bus_statistics, kCall),
+    SD_BUS_METHOD("Subscribe", "", "", subscribe, kCall),
+    SD_BUS_METHOD("Unsubscribe", "", "", unsubscribe, kCall),
+    SD_BUS_PROPERTY("Version", "s", get_version, 0, SD_BUS_VTABLE_PROPERTY_CONST),
+    SD_BUS_PROPERTY("SimulatedTime", "x", get_time, 0, 0),
+    SD_BUS_PROPERTY("NodeCount", "u", get_node_count, 0, 0),
+    SD_BUS_PROPERTY("ConfigFile", "s", get_config_file, 0, 0),
+    SD_BUS_SIGNAL_WITH_NAMES("NodeAdded", "os", SD_BUS_PARAM(path) SD_BUS_PARAM(key), 0),
+    SD_BUS_SIGNAL_WITH_NAMES("NodeRemoved", "os", SD_BUS_PARAM(path) SD_BUS_PARAM(key), 0),
+    SD_BUS_VTABLE_END,
+};
+
+}  // namespace cansim::control

@@ -1,0 +1,225 @@
+// io.cansim.Node1: identity and state properties, node life (power, NMT,
+// store / restore) and local object dictionary access. The measurement
+// methods (channels, overrides, faults, recording) are in node_physics.cpp.
+#include <cmath>
+#include <cstdio>
+
+#include "control/od_values.hpp"
+#include "control/service_internal.hpp"
+#include "core/emcy.hpp"
+#include "core/nmt.hpp"
+
+namespace cansim::control {
+
+namespace {
+
+using NodeContext = ControlService::NodeContext;
+NodeContext& ctx(void* userdata) { return *static_cast<NodeContext*>(userdata); }
+
+// Brings the node to the present: what was due before the call happens first.
+TimeUs act_now(NodeContext& n) {
+  io::LoopCore& core = n.service->host().core();
+  core.run_due(n.service->host().now());
+  return core.now();
+}
+
+std::string abort_text(SdoAbort a) {
+  char buf[16];
+  std::snprintf(buf, sizeof buf, "0x%08X", unsigned(a));
+  return buf;
+}
+
+int refused(sd_bus_error* e, const char* what, SdoAbort a) {
+  return fail(e, kErrorRefused, std::string(what) + ": the node answers SDO abort " + abort_text(a));
+}
+
+const OdEntry* find_entry(NodeContext& n, std::uint16_t index, std::uint8_t sub, sd_bus_error* e, int* r) {
+  SdoAbort why = SdoAbort::kNone;
+  const OdEntry* entry = n.node().od().lookup(index, sub, why);
+  if (!entry) {
+    char buf[80];
+    std::snprintf(buf, sizeof buf, "no object 0x%04X:%02X (%s)", index, sub,
+                  why == SdoAbort::kNoSubIndex ? "no such sub-index" : "no such object");
+    *r = fail(e, kErrorUnknownObject, buf);
+  }
+  return entry;
+}
+
+// ---- properties
+
+#define CANSIM_GETTER(fn) \
+  int fn(sd_bus*, const char*, const char*, const char*, sd_bus_message* reply, void* userdata, sd_bus_error*)
+
+CANSIM_GETTER(get_key) { return sd_bus_message_append(reply, "s", ctx(userdata).handle->key.c_str()); }
+CANSIM_GETTER(get_name) { return sd_bus_message_append(reply, "s", ctx(userdata).handle->name.c_str()); }
+CANSIM_GETTER(get_index) { return sd_bus_message_append(reply, "u", ctx(userdata).handle->index); }
+CANSIM_GETTER(get_profile) { return sd_bus_message_append(reply, "s", ctx(userdata).handle->profile.c_str()); }
+CANSIM_GETTER(get_personality) { return sd_bus_message_append(reply, "s", ctx(userdata).handle->personality.c_str()); }
+CANSIM_GETTER(get_interface) { return sd_bus_message_append(reply, "s", ctx(userdata).handle->interface.c_str()); }
+CANSIM_GETTER(get_node_id) { return sd_bus_message_append(reply, "y", ctx(userdata).node().node_id()); }
+CANSIM_GETTER(get_nmt_state) { return sd_bus_message_append(reply, "s", nmt_state_name(ctx(userdata).node().state())); }
+CANSIM_GETTER(get_powered) { return sd_bus_message_append(reply, "b", int(ctx(userdata).node().powered())); }
+CANSIM_GETTER(get_on_bus) { return sd_bus_message_append(reply, "b", int(ctx(userdata).node().on_bus())); }
+CANSIM_GETTER(get_emcy_count) { return sd_bus_message_append(reply, "u", ctx(userdata).node().emcy().sent_count()); }
+CANSIM_GETTER(get_last_emcy) {
+  const Emcy::Sent& last = ctx(userdata).node().emcy().last_emcy();
+  int r = sd_bus_message_open_container(reply, 'r', "xqyay");
+  if (r >= 0) r = sd_bus_message_append(reply, "xqy", std::int64_t(last.time == kNever ? -1 : last.time), last.code, last.reg);
+  if (r >= 0) r = sd_bus_message_append_array(reply, 'y', last.vendor, 5);
+  return r < 0 ? r : sd_bus_message_close_container(reply);
+}
+
+// ---- methods
+
+int power_cycle(sd_bus_message* m, void* userdata, sd_bus_error* e) {
+  NodeContext& n = ctx(userdata);
+  double off = 0;
+  int r = sd_bus_message_read(m, "d", &off);
+  if (r < 0) return r;
+  if (!std::isfinite(off) || off < 0 || off > 1e9)
+    return fail(e, kErrorOutOfRange, "expected an off time >= 0 s");
+  TimeUs t = act_now(n);
+  n.node().power_cycle(t, TimeUs(std::llround(off * 1e6)));
+  n.service->touched(n);
+  return sd_bus_reply_method_return(m, "");
+}
+
+int nmt(sd_bus_message* m, void* userdata, sd_bus_error* e) {
+  NodeContext& n = ctx(userdata);
+  const char* command = nullptr;
+  int r = sd_bus_message_read(m, "s", &command);
+  if (r < 0) return r;
+  static constexpr struct { const char* name; std::uint8_t cs; } kCommands[] = {
+      {"start", kNmtStart}, {"stop", kNmtStop}, {"preop", kNmtEnterPreOperational},
+      {"reset", kNmtResetNode}, {"reset-comm", kNmtResetCommunication}};
+  for (const auto& c : kCommands) {
+    if (std::string_view(command) != c.name) continue;
+    TimeUs t = act_now(n);
+    const bool done = n.node().nmt_local(c.cs, t);
+    n.service->touched(n);
+    if (!done) return fail(e, kErrorRefused, "the node is powered off");
+    return sd_bus_reply_method_return(m, "");
+  }
+  return fail(e, kErrorInvalidArgument,
+              "unknown NMT command '" + std::string(command) + "': expected start, stop, preop, reset or reset-comm");
+}
+
+// As if the master wrote "save" to 0x1010:sub or "load" to 0x1011:sub.
+int store_or_restore(sd_bus_message* m, NodeContext& n, bool store, sd_bus_error* e) {
+  std::uint8_t sub = 0;
+  int r = sd_bus_message_read(m, "y", &sub);
+  if (r < 0) return r;
+  if (sub == 0 || sub > 127) return fail(e, kErrorOutOfRange, "expected a sub-index 1..127 (1: all parameters)");
+  const std::uint16_t index = store ? 0x1010 : 0x1011;
+  if (!find_entry(n, index, sub, e, &r)) return r;
+  TimeUs t = act_now(n);
+  SdoAbort a = store ? n.node().store_local(sub, t) : n.node().restore_local(sub, t);
+  n.service->touched(n);
+  if (a != SdoAbort::kNone) return refused(e, store ? "store" : "restore", a);
+  return sd_bus_reply_method_return(m, "");
+}
+
+int store(sd_bus_message* m, void* userdata, sd_bus_error* e) { return store_or_restore(m, ctx(userdata), true, e); }
+int restore(sd_bus_message* m, void* userdata, sd_bus_error* e) { return store_or_restore(m, ctx(userdata), false, e); }
+
+int read_object(sd_bus_message* m, void* userdata, sd_bus_error* e) {
+  NodeContext& n = ctx(userdata);
+  std::uint16_t index = 0;
+  std::uint8_t sub = 0;
+  int r = sd_bus_message_read(m, "qy", &index, &sub);
+  if (r < 0) return r;
+  const OdEntry* entry = find_entry(n, index, sub, e, &r);
+  if (!entry) return r;
+  TimeUs t = act_now(n);
+  std::span<const std::uint8_t> bytes;
+  SdoAbort a = n.node().read_local(*entry, t, bytes);
+  if (a != SdoAbort::kNone) return refused(e, "read", a);
+  sd_bus_message* reply = nullptr;
+  r = sd_bus_message_new_method_return(m, &reply);
+  if (r >= 0) r = append_value(reply, *entry, bytes);
+  if (r >= 0) r = sd_bus_send(nullptr, reply, nullptr);
+  sd_bus_message_unref(reply);
+  return r;
+}
+
+int write_object(sd_bus_message* m, void* userdata, sd_bus_error* e) {
+  NodeContext& n = ctx(userdata);
+  std::uint16_t index = 0;
+  std::uint8_t sub = 0;
+  int r = sd_bus_message_read(m, "qy", &index, &sub);
+  if (r < 0) return r;
+  const OdEntry* entry = find_entry(n, index, sub, e, &r);
+  if (!entry) return r;
+  std::vector<std::uint8_t> bytes;
+  std::string error_name, message;
+  if (!read_value(m, *entry, bytes, error_name, message)) return fail(e, error_name.c_str(), message);
+  TimeUs t = act_now(n);
+  SdoAbort a = n.node().write_local(*entry, bytes, t);
+  n.service->touched(n);
+  if (a == SdoAbort::kValueTooHigh || a == SdoAbort::kValueTooLow || a == SdoAbort::kInvalidValue)
+    return fail(e, kErrorOutOfRange, "value outside the object's limits (SDO abort " + abort_text(a) + ")");
+  if (a != SdoAbort::kNone) return refused(e, "write", a);
+  return sd_bus_reply_method_return(m, "");
+}
+
+constexpr std::uint64_t kCall = SD_BUS_VTABLE_UNPRIVILEGED;
+constexpr std::uint64_t kEmits = SD_BUS_VTABLE_PROPERTY_EMITS_CHANGE;
+
+}  // namespace
+
+const sd_bus_vtable kNodeVtable[] = {
+    SD_BUS_VTABLE_START(0),
+    SD_BUS_PROPERTY("Key", "s", get_key, 0, SD_BUS_VTABLE_PROPERTY_CONST),
+    SD_BUS_PROPERTY("Name", "s", get_name, 0, SD_BUS_VTABLE_PROPERTY_CONST),
+    SD_BUS_PROPERTY("Index", "u", get_index, 0, SD_BUS_VTABLE_PROPERTY_CONST),
+    SD_BUS_PROPERTY("Profile", "s", get_profile, 0, SD_BUS_VTABLE_PROPERTY_CONST),
+    SD_BUS_PROPERTY("Personality", "s", get_personality, 0, SD_BUS_VTABLE_PROPERTY_CONST),
+    SD_BUS_PROPERTY("Interface", "s", get_interface, 0, SD_BUS_VTABLE_PROPERTY_CONST),
+    SD_BUS_PROPERTY("NodeId", "y", get_node_id, 0, kEmits),
+    SD_BUS_PROPERTY("NmtState", "s", get_nmt_state, 0, kEmits),
+    SD_BUS_PROPERTY("Powered", "b", get_powered, 0, kEmits),
+    SD_BUS_PROPERTY("OnBus", "b", get_on_bus, 0, 0),
+    SD_BUS_PROPERTY("Pressure", "(ddsy)", node_get_channel, 0, 0),
+    SD_BUS_PROPERTY("Temperature", "(ddsy)", node_get_channel, 0, 0),
+    SD_BUS_PROPERTY("Overrides", "a(sds)", node_get_overrides, 0, 0),
+    SD_BUS_PROPERTY("Faults", "a(usb)", node_get_faults, 0, kEmits),
+    SD_BUS_PROPERTY("EmcyCount", "u", get_emcy_count, 0, 0),
+    SD_BUS_PROPERTY("LastEmcy", "(xqyay)", get_last_emcy, 0, 0),
+    SD_BUS_PROPERTY("Recording", "s", node_get_recording, 0, 0),
+    SD_BUS_METHOD_WITH_NAMES("Hold", "s", SD_BUS_PARAM(channel), "", , node_hold, kCall),
+    SD_BUS_METHOD_WITH_NAMES("Step", "sds", SD_BUS_PARAM(channel) SD_BUS_PARAM(value) SD_BUS_PARAM(unit), "", ,
+                             node_step, kCall),
+    SD_BUS_METHOD_WITH_NAMES("Ramp", "sdsd",
+                             SD_BUS_PARAM(channel) SD_BUS_PARAM(value) SD_BUS_PARAM(unit) SD_BUS_PARAM(seconds), "", ,
+                             node_ramp, kCall),
+    SD_BUS_METHOD_WITH_NAMES("SetModel", "ss", SD_BUS_PARAM(channel) SD_BUS_PARAM(yaml), "", , node_set_model, kCall),
+    SD_BUS_METHOD_WITH_NAMES("RestoreModel", "s", SD_BUS_PARAM(channel), "", , node_restore_model, kCall),
+    SD_BUS_METHOD_WITH_NAMES("Override", "sds", SD_BUS_PARAM(channel) SD_BUS_PARAM(value) SD_BUS_PARAM(unit), "", ,
+                             node_override, kCall),
+    SD_BUS_METHOD_WITH_NAMES("ClearOverride", "s", SD_BUS_PARAM(channel), "", , node_clear_override, kCall),
+    SD_BUS_METHOD_WITH_NAMES("ArmFault", "sa{ss}", SD_BUS_PARAM(kind) SD_BUS_PARAM(params), "u", SD_BUS_PARAM(id),
+                             node_arm_fault, kCall),
+    SD_BUS_METHOD_WITH_NAMES("CancelFault", "u", SD_BUS_PARAM(id), "", , node_cancel_fault, kCall),
+    SD_BUS_METHOD_WITH_NAMES("ListFaults", "", , "a(ussbxxxu)", SD_BUS_PARAM(faults), node_list_faults, kCall),
+    SD_BUS_METHOD_WITH_NAMES("PowerCycle", "d", SD_BUS_PARAM(off_seconds), "", , power_cycle, kCall),
+    SD_BUS_METHOD_WITH_NAMES("Nmt", "s", SD_BUS_PARAM(command), "", , nmt, kCall),
+    SD_BUS_METHOD_WITH_NAMES("Store", "y", SD_BUS_PARAM(sub), "", , store, kCall),
+    SD_BUS_METHOD_WITH_NAMES("Restore", "y", SD_BUS_PARAM(sub), "", , restore, kCall),
+    SD_BUS_METHOD_WITH_NAMES("Read", "qy", SD_BUS_PARAM(index) SD_BUS_PARAM(sub), "v", SD_BUS_PARAM(value),
+                             read_object, kCall),
+    SD_BUS_METHOD_WITH_NAMES("Write", "qyv", SD_BUS_PARAM(index) SD_BUS_PARAM(sub) SD_BUS_PARAM(value), "", ,
+                             write_object, kCall),
+    SD_BUS_METHOD_WITH_NAMES("StartRecording", "s", SD_BUS_PARAM(path), "", , node_start_recording, kCall),
+    SD_BUS_METHOD("StopRecording", "", "", node_stop_recording, kCall),
+    SD_BUS_SIGNAL_WITH_NAMES("NmtStateChanged", "xss", SD_BUS_PARAM(t) SD_BUS_PARAM(old) SD_BUS_PARAM(new), 0),
+    SD_BUS_SIGNAL_WITH_NAMES("BootUp", "xy", SD_BUS_PARAM(t) SD_BUS_PARAM(node_id), 0),
+    SD_BUS_SIGNAL_WITH_NAMES("EmcySent", "xqyay",
+                             SD_BUS_PARAM(t) SD_BUS_PARAM(code) SD_BUS_PARAM(register) SD_BUS_PARAM(vendor), 0),
+    SD_BUS_SIGNAL_WITH_NAMES("ObjectWritten", "xqyvs",
+                             SD_BUS_PARAM(t) SD_BUS_PARAM(index) SD_BUS_PARAM(sub) SD_BUS_PARAM(value) SD_BUS_PARAM(via), 0),
+    SD_BUS_SIGNAL_WITH_NAMES("FaultStarted", "xus", SD_BUS_PARAM(t) SD_BUS_PARAM(id) SD_BUS_PARAM(kind), 0),
+    SD_BUS_SIGNAL_WITH_NAMES("FaultEnded", "xus", SD_BUS_PARAM(t) SD_BUS_PARAM(id) SD_BUS_PARAM(kind), 0),
+    SD_BUS_VTABLE_END,
+};
+
+}  // namespace cansim::control

@@ -1,0 +1,246 @@
+#include "control/service.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cstdlib>
+
+#include "control/od_values.hpp"
+#include "control/service_internal.hpp"
+
+namespace cansim::control {
+
+namespace {
+
+// ---- the bus daemon's own calls, answered on peer-to-peer connections:
+// busctl and gdbus send Hello (and AddMatch, GetNameOwner) first.
+int peer_hello(sd_bus_message* m, void*, sd_bus_error*) { return sd_bus_reply_method_return(m, "s", ":1.1"); }
+int peer_ignore(sd_bus_message* m, void*, sd_bus_error*) { return sd_bus_reply_method_return(m, ""); }
+int peer_name_owner(sd_bus_message* m, void*, sd_bus_error*) { return sd_bus_reply_method_return(m, "s", ":1.0"); }
+int peer_list_names(sd_bus_message* m, void*, sd_bus_error*) {
+  return sd_bus_reply_method_return(m, "as", 2, "org.freedesktop.DBus", kBusName);
+}
+const sd_bus_vtable kPeerBusVtable[] = {
+    SD_BUS_VTABLE_START(0),
+    SD_BUS_METHOD("Hello", "", "s", peer_hello, SD_BUS_VTABLE_UNPRIVILEGED),
+    SD_BUS_METHOD("AddMatch", "s", "", peer_ignore, SD_BUS_VTABLE_UNPRIVILEGED),
+    SD_BUS_METHOD("RemoveMatch", "s", "", peer_ignore, SD_BUS_VTABLE_UNPRIVILEGED),
+    SD_BUS_METHOD("GetNameOwner", "s", "s", peer_name_owner, SD_BUS_VTABLE_UNPRIVILEGED),
+    SD_BUS_METHOD("ListNames", "", "as", peer_list_names, SD_BUS_VTABLE_UNPRIVILEGED),
+    SD_BUS_VTABLE_END,
+};
+
+// Fallback lookup: the node behind a path, or 0 (sd-bus answers UnknownObject).
+int find_node(sd_bus*, const char* path, const char*, void* userdata, void** found, sd_bus_error*) {
+  auto* service = static_cast<ControlService*>(userdata);
+  char *iface = nullptr, *name = nullptr, *index = nullptr;
+  if (sd_bus_path_decode_many(path, "/io/cansim/Cansimd1/node/%/%/%", &iface, &name, &index) <= 0) return 0;
+  std::string key = std::string(iface) + "/" + name + "/" + index;
+  std::free(iface);
+  std::free(name);
+  std::free(index);
+  ControlService::NodeContext* n = service->context(key);
+  if (!n) return 0;
+  *found = n;
+  return 1;
+}
+
+int enumerate_nodes(sd_bus*, const char*, void* userdata, char*** nodes, sd_bus_error*) {
+  auto* service = static_cast<ControlService*>(userdata);
+  auto handles = service->host().nodes();
+  char** list = static_cast<char**>(std::calloc(handles.size() + 1, sizeof(char*)));
+  if (!list) return -ENOMEM;
+  std::size_t k = 0;
+  for (const NodeHandle* h : handles)
+    if (ControlService::NodeContext* n = service->context(h->key)) list[k++] = strdup(n->path.c_str());
+  *nodes = list;
+  return 1;
+}
+
+int on_track_empty(sd_bus_track*, void*) { return 0; }
+
+}  // namespace
+
+int fail(sd_bus_error* e, const char* name, const std::string& message) {
+  return sd_bus_error_set(e, name, message.c_str());
+}
+
+const char* nmt_state_name(NmtState s) {
+  switch (s) {
+    case NmtState::kInitialising: return "initialising";
+    case NmtState::kStopped: return "stopped";
+    case NmtState::kOperational: return "operational";
+    case NmtState::kPreOperational: return "pre-operational";
+  }
+  return "unknown";
+}
+
+std::string node_path(const NodeHandle& h) {
+  char* out = nullptr;
+  const std::string index = std::to_string(h.index);
+  if (sd_bus_path_encode_many(&out, "/io/cansim/Cansimd1/node/%/%/%", h.interface.c_str(), h.name.c_str(),
+                              index.c_str()) < 0)
+    return {};
+  std::string path(out);
+  std::free(out);
+  return path;
+}
+
+ControlService::ControlService(ControlHost& host) : host_(host) {}
+
+ControlService::~ControlService() {
+  while (!connections_.empty()) detach(connections_.back()->bus);
+}
+
+int ControlService::attach(sd_bus* bus, bool peer) {
+  auto c = std::make_unique<Connection>();
+  c->bus = bus;
+  c->peer = peer;
+  sd_bus_slot* slot = nullptr;
+  int r = 0;
+  auto add = [&](int result) {
+    if (result >= 0 && slot) c->slots.push_back(slot);
+    slot = nullptr;
+    if (r >= 0 && result < 0) r = result;
+  };
+  add(sd_bus_add_object_vtable(bus, &slot, kRootPath, kFleetInterface, kFleetVtable, this));
+  add(sd_bus_add_fallback_vtable(bus, &slot, kNodePrefix, kNodeInterface, kNodeVtable, find_node, this));
+  add(sd_bus_add_node_enumerator(bus, &slot, kNodePrefix, enumerate_nodes, this));
+  add(sd_bus_add_object_manager(bus, &slot, kRootPath));
+  if (peer) add(sd_bus_add_object_vtable(bus, &slot, "/org/freedesktop/DBus", "org.freedesktop.DBus", kPeerBusVtable, this));
+  else add(sd_bus_track_new(bus, &c->track, on_track_empty, this));
+  connections_.push_back(std::move(c));
+  if (r < 0) detach(bus);
+  return r;
+}
+
+void ControlService::detach(sd_bus* bus) {
+  auto it = std::find_if(connections_.begin(), connections_.end(), [&](const auto& c) { return c->bus == bus; });
+  if (it == connections_.end()) return;
+  for (sd_bus_slot* s : (*it)->slots) sd_bus_slot_unref(s);
+  if ((*it)->track) sd_bus_track_unref((*it)->track);
+  connections_.erase(it);
+}
+
+bool ControlService::has_subscribers() const {
+  return std::any_of(connections_.begin(), connections_.end(), [](const auto& c) { return c->subscribed(); });
+}
+
+void ControlService::subscribe(sd_bus_message* m, bool on) {
+  sd_bus* bus = sd_bus_message_get_bus(m);
+  for (auto& c : connections_) {
+    if (c->bus != bus) continue;
+    if (c->peer) c->peer_subscribed = on;
+    else if (on) sd_bus_track_add_sender(c->track, m);
+    else sd_bus_track_remove_sender(c->track, m);
+  }
+}
+
+ControlService::NodeContext* ControlService::context(const std::string& key) {
+  auto it = by_key_.find(key);
+  return it == by_key_.end() ? nullptr : it->second.get();
+}
+
+ControlService::NodeContext* ControlService::context(io::NodeRef ref) {
+  return ref < by_ref_.size() ? by_ref_[ref] : nullptr;
+}
+
+void ControlService::node_added(const NodeHandle& h) {
+  auto n = std::make_unique<NodeContext>();
+  n->service = this;
+  n->handle = &h;
+  n->path = node_path(h);
+  n->sensor = nullptr;  // TEMPORARY
+  if (false) {
+    NodeContext* raw = n.get();
+    (void)raw;
+  }
+  if (by_ref_.size() <= h.ref) by_ref_.resize(h.ref + 1, nullptr);
+  by_ref_[h.ref] = n.get();
+  const std::string path = n->path;
+  by_key_[h.key] = std::move(n);
+  emit(kRootPath, kFleetInterface, "NodeAdded", [&](sd_bus_message* m) {
+    return sd_bus_message_append(m, "os", path.c_str(), h.key.c_str());
+  });
+}
+
+void ControlService::node_removed(const std::string& key) {
+  auto it = by_key_.find(key);
+  if (it == by_key_.end()) return;
+  const std::string path = it->second->path;
+  const io::NodeRef ref = it->second->handle->ref;
+  if (ref < by_ref_.size() && by_ref_[ref] == it->second.get()) by_ref_[ref] = nullptr;
+  by_key_.erase(it);
+  emit(kRootPath, kFleetInterface, "NodeRemoved", [&](sd_bus_message* m) {
+    return sd_bus_message_append(m, "os", path.c_str(), key.c_str());
+  });
+}
+
+void ControlService::touched(const NodeContext& n) { host_.core().refresh(n.handle->ref); }
+
+void ControlService::emit_properties_changed(const std::string& path, const char* interface,
+                                             std::initializer_list<const char*> names) {
+  std::vector<char*> list;
+  for (const char* s : names) list.push_back(const_cast<char*>(s));
+  list.push_back(nullptr);
+  for (auto& c : connections_)
+    if (c->subscribed()) sd_bus_emit_properties_changed_strv(c->bus, path.c_str(), interface, list.data());
+}
+
+// ---------------------------------------------------------------- core events
+
+void ControlService::on_nmt_state(io::NodeRef ref, NmtState old, NmtState now, TimeUs t) {
+  NodeContext* n = context(ref);
+  if (!n || !has_subscribers()) return;
+  emit(n->path, kNodeInterface, "NmtStateChanged", [&](sd_bus_message* m) {
+    return sd_bus_message_append(m, "xss", std::int64_t(t), nmt_state_name(old), nmt_state_name(now));
+  });
+  emit_properties_changed(n->path, kNodeInterface, {"NmtState", "NodeId"});
+}
+
+void ControlService::on_boot_up(io::NodeRef ref, TimeUs t) {
+  NodeContext* n = context(ref);
+  if (!n || !has_subscribers()) return;
+  const std::uint8_t id = n->node().node_id();
+  emit(n->path, kNodeInterface, "BootUp", [&](sd_bus_message* m) {
+    return sd_bus_message_append(m, "xy", std::int64_t(t), id);
+  });
+}
+
+void ControlService::on_emcy(io::NodeRef ref, std::uint16_t code, std::uint8_t reg, const std::uint8_t vendor[5],
+                             TimeUs t) {
+  NodeContext* n = context(ref);
+  if (!n || !has_subscribers()) return;
+  emit(n->path, kNodeInterface, "EmcySent", [&](sd_bus_message* m) {
+    int r = sd_bus_message_append(m, "xqy", std::int64_t(t), code, reg);
+    return r < 0 ? r : sd_bus_message_append_array(m, 'y', vendor, 5);
+  });
+}
+
+void ControlService::on_remote_write(io::NodeRef ref, const OdEntry& e, WriteVia via, TimeUs t) {
+  NodeContext* n = context(ref);
+  if (!n || !has_subscribers()) return;
+  auto bytes = n->node().values().bytes(e);
+  emit(n->path, kNodeInterface, "ObjectWritten", [&](sd_bus_message* m) {
+    int r = sd_bus_message_append(m, "xqy", std::int64_t(t), e.index, e.sub);
+    if (r >= 0) r = append_value(m, e, bytes);
+    return r < 0 ? r : sd_bus_message_append(m, "s", via == WriteVia::kRpdo ? "rpdo" : "sdo");
+  });
+}
+
+void ControlService::on_power(io::NodeRef ref, bool, TimeUs) {
+  NodeContext* n = context(ref);
+  if (!n || !has_subscribers()) return;
+  emit_properties_changed(n->path, kNodeInterface, {"Powered"});
+}
+
+void ControlService::fault_edge(NodeContext& n, std::uint32_t id, std::uint8_t kind, bool started, TimeUs t) {
+  if (!has_subscribers()) return;
+  const std::string name(physics::to_string(physics::FaultKind(kind)));
+  emit(n.path, kNodeInterface, started ? "FaultStarted" : "FaultEnded", [&](sd_bus_message* m) {
+    return sd_bus_message_append(m, "xus", std::int64_t(t), id, name.c_str());
+  });
+  emit_properties_changed(n.path, kNodeInterface, {"Faults"});
+}
+
+}  // namespace cansim::control

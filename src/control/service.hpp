@@ -1,0 +1,80 @@
+// The control API's object model on sd-bus (docs/control-api.md): the fleet
+// object (io.cansim.Fleet1) and one object per node (io.cansim.Node1) served
+// by a fallback vtable and a node enumerator, so thousands of nodes cost no
+// per-node registration on any connection. Signals go only to connections
+// that called Subscribe().
+//
+// The service runs on the loop thread: method handlers run from
+// sd_bus_process() between loop passes and act on the nodes at once.
+#pragma once
+
+#include <systemd/sd-bus.h>
+
+#include <memory>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "control/control_host.hpp"
+#include "core/observer.hpp"
+#include "io/loop_core.hpp"
+
+namespace cansim::control {
+
+inline constexpr const char* kBusName = "io.cansim.Cansimd1";
+inline constexpr const char* kRootPath = "/io/cansim/Cansimd1";
+inline constexpr const char* kNodePrefix = "/io/cansim/Cansimd1/node";
+inline constexpr const char* kFleetInterface = "io.cansim.Fleet1";
+inline constexpr const char* kNodeInterface = "io.cansim.Node1";
+
+// The object path of a node: /io/cansim/Cansimd1/node/<interface>/<name>/<index>.
+std::string node_path(const NodeHandle& h);
+
+class ControlService : public io::LoopObserver {
+ public:
+  explicit ControlService(ControlHost& host);
+  ~ControlService() override;
+  ControlService(const ControlService&) = delete;
+  ControlService& operator=(const ControlService&) = delete;
+
+  // Serves the object model on a connection. `peer`: a peer-to-peer
+  // connection without a bus daemon (answers Hello / AddMatch itself).
+  // Returns a negative errno on failure.
+  int attach(sd_bus* bus, bool peer);
+  void detach(sd_bus* bus);
+
+  // The host tells the service about fleet changes (initial nodes included).
+  void node_added(const NodeHandle& h);
+  void node_removed(const std::string& key);
+
+  // io::LoopObserver: core events become signals.
+  void on_nmt_state(io::NodeRef ref, NmtState old, NmtState now, TimeUs t) override;
+  void on_boot_up(io::NodeRef ref, TimeUs t) override;
+  void on_emcy(io::NodeRef ref, std::uint16_t code, std::uint8_t reg, const std::uint8_t vendor[5], TimeUs t) override;
+  void on_remote_write(io::NodeRef ref, const OdEntry& e, WriteVia via, TimeUs t) override;
+  void on_power(io::NodeRef ref, bool powered, TimeUs t) override;
+
+  // Implementation detail shared by the handler files.
+  struct NodeContext;
+  struct Connection;
+  ControlHost& host() { return host_; }
+  NodeContext* context(const std::string& key);
+  NodeContext* context(io::NodeRef ref);
+  bool has_subscribers() const;
+  // Emits a signal on every connection with a subscriber; `build` appends the arguments.
+  template <typename Build>
+  void emit(const std::string& path, const char* interface, const char* member, Build&& build);
+  void emit_properties_changed(const std::string& path, const char* interface, std::initializer_list<const char*> names);
+  void subscribe(sd_bus_message* m, bool on);
+  // A method changed a node: its deadlines are re-read, its frames flushed.
+  void touched(const NodeContext& n);
+  void fault_edge(NodeContext& n, std::uint32_t id, std::uint8_t kind, bool started, TimeUs t);
+
+ private:
+  ControlHost& host_;
+  std::vector<std::unique_ptr<Connection>> connections_;
+  std::unordered_map<std::string, std::unique_ptr<NodeContext>> by_key_;
+  std::vector<NodeContext*> by_ref_;
+};
+
+}  // namespace cansim::control

@@ -1,0 +1,76 @@
+// Shared by the control service's files: per-node and per-connection state,
+// the method handlers of each interface, and small reply helpers.
+#pragma once
+
+#include <systemd/sd-bus.h>
+
+#include <cstdint>
+#include <string>
+
+#include "control/errors.hpp"
+#include "control/service.hpp"
+#include "core/node.hpp"
+#include "personalities/cia404.hpp"
+
+namespace cansim::control {
+
+struct ControlService::NodeContext {
+  ControlService* service = nullptr;
+  const NodeHandle* handle = nullptr;
+  std::string path;
+  personalities::Cia404Application* sensor = nullptr;  // null: no measurement chain
+  Node& node() const { return service->host().core().node(handle->ref); }
+};
+
+struct ControlService::Connection {
+  sd_bus* bus = nullptr;
+  bool peer = false;
+  bool peer_subscribed = false;  // peer-to-peer: messages carry no sender to track
+  sd_bus_track* track = nullptr;  // bus: subscribed unique names
+  std::vector<sd_bus_slot*> slots;
+  bool subscribed() const { return peer ? peer_subscribed : (track && sd_bus_track_count(track) > 0); }
+};
+
+// Fills `e` and returns the negative errno sd-bus expects from a handler.
+int fail(sd_bus_error* e, const char* name, const std::string& message);
+
+const char* nmt_state_name(NmtState s);
+
+// The vtables, one per interface (defined in fleet_methods.cpp / node_methods.cpp).
+extern const sd_bus_vtable kFleetVtable[];
+extern const sd_bus_vtable kNodeVtable[];
+
+// Node1 handlers defined in node_physics.cpp (channels, overrides, faults, recording).
+int node_hold(sd_bus_message* m, void* userdata, sd_bus_error* e);
+int node_step(sd_bus_message* m, void* userdata, sd_bus_error* e);
+int node_ramp(sd_bus_message* m, void* userdata, sd_bus_error* e);
+int node_set_model(sd_bus_message* m, void* userdata, sd_bus_error* e);
+int node_restore_model(sd_bus_message* m, void* userdata, sd_bus_error* e);
+int node_override(sd_bus_message* m, void* userdata, sd_bus_error* e);
+int node_clear_override(sd_bus_message* m, void* userdata, sd_bus_error* e);
+int node_arm_fault(sd_bus_message* m, void* userdata, sd_bus_error* e);
+int node_cancel_fault(sd_bus_message* m, void* userdata, sd_bus_error* e);
+int node_list_faults(sd_bus_message* m, void* userdata, sd_bus_error* e);
+int node_start_recording(sd_bus_message* m, void* userdata, sd_bus_error* e);
+int node_stop_recording(sd_bus_message* m, void* userdata, sd_bus_error* e);
+int node_get_channel(sd_bus* bus, const char* path, const char* iface, const char* property, sd_bus_message* reply,
+                     void* userdata, sd_bus_error* e);
+int node_get_overrides(sd_bus* bus, const char* path, const char* iface, const char* property, sd_bus_message* reply,
+                       void* userdata, sd_bus_error* e);
+int node_get_faults(sd_bus* bus, const char* path, const char* iface, const char* property, sd_bus_message* reply,
+                    void* userdata, sd_bus_error* e);
+int node_get_recording(sd_bus* bus, const char* path, const char* iface, const char* property, sd_bus_message* reply,
+                       void* userdata, sd_bus_error* e);
+
+template <typename Build>
+void ControlService::emit(const std::string& path, const char* interface, const char* member, Build&& build) {
+  for (auto& c : connections_) {
+    if (!c->subscribed()) continue;
+    sd_bus_message* m = nullptr;
+    if (sd_bus_message_new_signal(c->bus, &m, path.c_str(), interface, member) < 0) continue;
+    if (build(m) >= 0) sd_bus_send(c->bus, m, nullptr);
+    sd_bus_message_unref(m);
+  }
+}
+
+}  // namespace cansim::control

@@ -1,0 +1,213 @@
+#include "support/control_fleet.hpp"
+
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <stdexcept>
+
+#include "daemon/daemon.hpp"
+
+namespace cansim::test {
+
+namespace {
+config::ProfileSearch source_profiles() {
+  config::ProfileSearch s;
+  s.dirs.push_back(std::string(CANSIM_SOURCE_DIR) + "/profiles");
+  return s;
+}
+}  // namespace
+
+ControlFleet::ControlFleet(const std::string& fleet_yaml) {
+  running_ = config::parse_fleet(fleet_yaml, "<test>", source_profiles());
+  core_.set_observer(&service_);
+  add(running_);
+}
+
+ControlFleet::~ControlFleet() {
+  core_.set_observer(nullptr);
+  for (auto& [key, e] : entries_) core_.remove_node(e->handle.ref);
+}
+
+ControlFleet::Bus& ControlFleet::bus(const std::string& name) {
+  auto it = buses_.find(name);
+  if (it != buses_.end()) return it->second;
+  Bus& b = buses_[name];
+  b.wire = std::make_unique<io::MemoryTransport>(&core_.now());
+  b.id = core_.add_bus(name, *b.wire, 3);
+  return b;
+}
+
+void ControlFleet::add(const config::FleetConfig& cfg) {
+  config::FleetConfig prepared = cfg;
+  daemon::prepare_fleet(prepared);
+  std::vector<io::NodeRef> fresh;
+  for (const config::NodeConfig& n : prepared.nodes) {
+    NodeSetup setup;
+    setup.layout = n.profile->layout;
+    setup.options = n.profile->options;
+    setup.node_id = n.node_id;
+    setup.bit_rate_index = std::uint8_t(config::bit_rate_index(n.bit_rate_kbit));
+    auto e = std::make_unique<Entry>();
+    e->cfg = n;
+    e->handle.key = n.key;
+    e->handle.name = n.name;
+    e->handle.index = n.index;
+    e->handle.profile = n.profile->name;
+    e->handle.personality = n.profile->personality;
+    e->handle.interface = n.interface;
+    e->handle.ref = core_.add_node(bus(n.interface).id, setup, daemon::make_node_application(n, prepared.seed),
+                                   std::make_unique<MemoryStorage>());
+    e->handle.app = core_.app(e->handle.ref);
+    if (auto* overlay = dynamic_cast<daemon::SerialOverlay*>(e->handle.app)) e->handle.app = overlay->inner();
+    fresh.push_back(e->handle.ref);
+    Entry& stored = *(entries_[n.key] = std::move(e));
+    service_.node_added(stored.handle);
+  }
+  for (io::NodeRef ref : fresh) {
+    core_.power_on(ref, now_);
+    if (auto* overlay = dynamic_cast<daemon::SerialOverlay*>(core_.app(ref))) overlay->apply(core_.node(ref));
+  }
+}
+
+std::vector<const control::NodeHandle*> ControlFleet::nodes() const {
+  std::vector<const control::NodeHandle*> out;
+  for (const auto& [key, e] : entries_) out.push_back(&e->handle);
+  return out;
+}
+
+const control::NodeHandle* ControlFleet::find(const std::string& key) const {
+  auto it = entries_.find(key);
+  return it == entries_.end() ? nullptr : &it->second->handle;
+}
+
+std::vector<std::string> ControlFleet::add_nodes(const std::string& yaml) {
+  config::FleetConfig extra = config::parse_fleet_fragment(yaml, "<AddNodes>", source_profiles(), running_);
+  config::FleetConfig merged = running_;
+  config::merge_fleet(merged, extra);
+  running_ = merged;
+  add(extra);
+  std::vector<std::string> keys;
+  for (const auto& n : extra.nodes) keys.push_back(n.key);
+  return keys;
+}
+
+void ControlFleet::remove_node(const std::string& key) {
+  auto it = entries_.find(key);
+  if (it == entries_.end()) return;
+  service_.node_removed(key);
+  core_.remove_node(it->second->handle.ref);
+  entries_.erase(it);
+  std::erase_if(running_.nodes, [&](const config::NodeConfig& n) { return n.key == key; });
+}
+
+void ControlFleet::reload() { throw config::ConfigError("<test>: no configuration file to reload"); }
+
+std::vector<control::BusStatistics> ControlFleet::bus_statistics() const {
+  std::vector<control::BusStatistics> out;
+  for (const auto& [name, b] : buses_) {
+    control::BusStatistics s;
+    s.name = name;
+    s.up = true;
+    s.bit_rate_kbit = 250;
+    s.frames_out = b.wire->log.size();
+    out.push_back(s);
+  }
+  return out;
+}
+
+void ControlFleet::run_until(TimeUs t) {
+  now_ = t;
+  core_.run_until(t);
+}
+
+std::vector<io::MemoryTransport::Sent> ControlFleet::take(const std::string& name) { return bus(name).wire->take(); }
+
+void ControlFleet::receive(const std::string& name, const CanFrame& f) { core_.receive(bus(name).id, f, now_); }
+
+// ---------------------------------------------------------------- BusPair
+
+BusPair::BusPair(control::ControlService& service) : service_(service) {
+  int fds[2];
+  if (socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0, fds) < 0) throw std::runtime_error("socketpair");
+  sd_id128_t id;
+  sd_id128_randomize(&id);
+  sd_bus_new(&server_);
+  sd_bus_set_fd(server_, fds[0], fds[0]);
+  sd_bus_set_server(server_, 1, id);
+  sd_bus_new(&client_);
+  sd_bus_set_fd(client_, fds[1], fds[1]);
+  if (service_.attach(server_, true) < 0) throw std::runtime_error("attach");
+  if (sd_bus_start(server_) < 0 || sd_bus_start(client_) < 0) throw std::runtime_error("sd_bus_start");
+  sd_bus_add_filter(client_, &filter_, [](sd_bus_message* m, void* self, sd_bus_error*) -> int {
+    std::uint8_t type = 0;
+    if (sd_bus_message_get_type(m, &type) >= 0 && type == SD_BUS_MESSAGE_SIGNAL) {
+      sd_bus_message_ref(m);
+      static_cast<BusPair*>(self)->signals_.emplace_back(sd_bus_message_get_member(m), m);
+    }
+    return 0;
+  }, this);
+  pump();
+}
+
+BusPair::~BusPair() {
+  for (auto& s : signals_) sd_bus_message_unref(s.second);
+  sd_bus_slot_unref(filter_);
+  service_.detach(server_);
+  sd_bus_close_unref(client_);
+  sd_bus_close_unref(server_);
+}
+
+void BusPair::pump() {
+  for (int idle = 0; idle < 3;) {
+    int a = sd_bus_process(server_, nullptr);
+    int b = sd_bus_process(client_, nullptr);
+    idle = (a > 0 || b > 0) ? 0 : idle + 1;
+  }
+}
+
+sd_bus_message* BusPair::call(sd_bus_message* m, std::string* error_name, std::string* error_message) {
+  struct Result {
+    bool done = false;
+    sd_bus_message* reply = nullptr;
+  } result;
+  sd_bus_call_async(client_, nullptr, m, [](sd_bus_message* r, void* p, sd_bus_error*) -> int {
+    auto* res = static_cast<Result*>(p);
+    res->done = true;
+    res->reply = sd_bus_message_ref(r);
+    return 1;
+  }, &result, 0);
+  sd_bus_message_unref(m);
+  for (int i = 0; i < 10000 && !result.done; ++i) {
+    sd_bus_process(server_, nullptr);
+    sd_bus_process(client_, nullptr);
+  }
+  pump();
+  if (!result.reply) throw std::runtime_error("no answer");
+  if (const sd_bus_error* e = sd_bus_message_get_error(result.reply)) {
+    if (error_name) *error_name = e->name ? e->name : "";
+    if (error_message) *error_message = e->message ? e->message : "";
+    sd_bus_message_unref(result.reply);
+    return nullptr;
+  }
+  return result.reply;
+}
+
+sd_bus_message* BusPair::fleet_call(const char* member) {
+  sd_bus_message* m = nullptr;
+  sd_bus_message_new_method_call(client_, &m, nullptr, control::kRootPath, control::kFleetInterface, member);
+  return m;
+}
+
+sd_bus_message* BusPair::node_call(const std::string& path, const char* member) {
+  sd_bus_message* m = nullptr;
+  sd_bus_message_new_method_call(client_, &m, nullptr, path.c_str(), control::kNodeInterface, member);
+  return m;
+}
+
+std::vector<std::pair<std::string, sd_bus_message*>> BusPair::take_signals() {
+  std::vector<std::pair<std::string, sd_bus_message*>> out;
+  out.swap(signals_);
+  return out;
+}
+
+}  // namespace cansim::test
