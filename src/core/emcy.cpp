@@ -185,8 +185,19 @@ void Emcy::send_front(TimeUs now) {
   f.flags = extended_ ? CanFrame::kExtended : 0;
   f.dlc = 8;
   std::memcpy(f.data, p.data, 8);
-  node_.send(f);
+  const bool sent = node_.send(f);
   last_sent_ = now;
+  if (sent) note_sent(f.data, now);
+}
+
+// Frame layout [code lo, code hi, 0x1001, mfr0..mfr4] (CiA 301 §7.2.7).
+void Emcy::note_sent(const std::uint8_t data[8], TimeUs now) {
+  ++sent_count_;
+  last_emcy_.time = now;
+  last_emcy_.code = get_u16(data);
+  last_emcy_.reg = data[2];
+  std::memcpy(last_emcy_.vendor, data + 3, 5);
+  if (NodeObserver* o = node_.observer()) o->on_emcy(node_, last_emcy_.code, last_emcy_.reg, last_emcy_.vendor, now);
 }
 
 void Emcy::update_deadline(TimeUs) {

@@ -46,6 +46,17 @@ class Emcy {
   std::size_t active_count() const { return active_n_; }
   bool active(std::uint16_t code) const;
   std::uint8_t error_register() const { return register_; }
+  // An EMCY frame that left (handed to the sink; time kNever: none yet).
+  struct Sent {
+    TimeUs time = kNever;
+    std::uint16_t code = 0;
+    std::uint8_t reg = 0;
+    std::uint8_t vendor[5] = {};
+  };
+  // EMCY frames sent and the last one, kept over resets and power cycles
+  // (the node's lifetime; no observer needed).
+  std::uint32_t sent_count() const { return sent_count_; }
+  const Sent& last_emcy() const { return last_emcy_; }
   // Bits 0x1001 gets from an error code (CiA 301 Table 48 classes).
   static std::uint8_t class_bits(std::uint16_t code);
 
@@ -86,6 +97,7 @@ class Emcy {
   void emit(std::uint16_t code, std::uint8_t reg, const std::uint8_t* mfr, TimeUs now);
   bool may_send_now(TimeUs now) const;
   void send_front(TimeUs now);
+  void note_sent(const std::uint8_t data[8], TimeUs now);
   void update_deadline(TimeUs now);
   SdoAbort write_cob_id(const OdEntry& e, std::uint32_t v);
 
@@ -104,6 +116,8 @@ class Emcy {
   Pending queue_[kQueueSize] = {};
   std::uint8_t queue_head_ = 0;
   std::uint8_t queue_n_ = 0;
+  std::uint32_t sent_count_ = 0;
+  Sent last_emcy_;
 };
 
 }  // namespace cansim

@@ -238,7 +238,7 @@ void LssSlave::process(TimeUs now) {
       next_ = kNever;
       node_.set_silent(false);
       if (node_.options().lss_boot_up_after_bit_rate_switch)
-        node_.send(CanFrame::make(0x700u + node_.node_id(), {0x00}));
+        node_.nmt().send_boot_up(now);
     }
   }
 }

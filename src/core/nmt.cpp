@@ -56,11 +56,16 @@ void NmtSlave::reset(TimeUs) {
 void NmtSlave::boot_up(TimeUs now) {
   boot_at_ = kNever;
   booted_ = true;
-  if (plan_.send_boot_up) node_.send(CanFrame::make(kErrorControlBase + node_.node_id(), {0x00}));
+  if (plan_.send_boot_up) send_boot_up(now);
   node_.heartbeat().start(now);  // first heartbeat one period after the boot-up
   set_state(NmtState::kPreOperational, now);
   if (plan_.self_start) start_at_ = now + plan_.self_start_delay;
   if (plan_.start_all_delay >= 0) start_all_at_ = now + plan_.start_all_delay;
+}
+
+void NmtSlave::send_boot_up(TimeUs now) {
+  if (!node_.send(CanFrame::make(kErrorControlBase + node_.node_id(), {0x00}))) return;
+  if (NodeObserver* o = node_.observer()) o->on_boot_up(node_, now);
 }
 
 // Like CANopenNode, a node that sends "start all" applies it to itself too

@@ -75,6 +75,9 @@ class NmtSlave {
   BootPlan& boot_plan() { return plan_; }
   // True once the boot-up of the current reset cycle happened.
   bool booted() const { return booted_; }
+  // Sends the boot-up frame 0x700+id [00] (CiA 301 §7.2.8.3.2, boot-up
+  // protocol); the observer hears of it when it left (the node is on the bus).
+  void send_boot_up(TimeUs now);
 
   // Re-reads its configuration from the OD (after a reset / power-on).
   void reset(TimeUs now);

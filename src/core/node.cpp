@@ -37,10 +37,12 @@ void Node::for_each_service(Fn&& fn) const {
 // Power-on: what LSS "store configuration" saved overrides the configured
 // node-ID and bit rate (CiA 305).
 void Node::power_on(TimeUs now) {
+  const bool was_powered = powered_;
   powered_ = true;
   silent_ = false;
   bus_off_ = false;
   power_on_at_ = kNever;
+  if (observer_ && !was_powered) observer_->on_power(*this, true, now);
   if (app_) {
     env_next_ = app_->environment(*this, now);
     if (!powered_) return;  // cycled again at once
@@ -59,8 +61,19 @@ void Node::power_off() {
   rx_changed();
 }
 
-void Node::power_cycle(TimeUs now, TimeUs off_for) {
+// The NMT state falls back to INITIALISING silently (nobody hears a dead
+// node); only the observer learns of it.
+void Node::power_off(TimeUs now) {
+  const bool was_powered = powered_;
+  const NmtState old = state();
   power_off();
+  if (!observer_ || !was_powered) return;
+  observer_->on_power(*this, false, now);
+  if (old != state()) observer_->on_nmt_state(*this, old, state(), now);
+}
+
+void Node::power_cycle(TimeUs now, TimeUs off_for) {
+  power_off(now);
   power_on_at_ = now + std::max<TimeUs>(off_for, 0);
 }
 
@@ -91,8 +104,10 @@ bool Node::allowed(Service s) const {
   }
 }
 
-void Node::send(const CanFrame& frame) {
-  if (on_bus()) sink_.send(frame);
+bool Node::send(const CanFrame& frame) {
+  if (!on_bus()) return false;
+  sink_.send(frame);
+  return true;
 }
 
 void Node::on_frame(const CanFrame& frame, TimeUs now) {
@@ -135,6 +150,14 @@ void Node::collect_rx_ids(std::vector<std::uint32_t>& out) const {
 
 SdoAbort Node::read(const OdEntry& e, TimeUs now, std::span<const std::uint8_t>& out) {
   if (!readable(e.access)) return SdoAbort::kWriteOnly;
+  return read_value(e, now, out);
+}
+
+SdoAbort Node::read_local(const OdEntry& e, TimeUs now, std::span<const std::uint8_t>& out) {
+  return read_value(e, now, out);
+}
+
+SdoAbort Node::read_value(const OdEntry& e, TimeUs now, std::span<const std::uint8_t>& out) {
   // Owning services may refuse a read (0x1003 sub above the error count).
   SdoAbort refused = SdoAbort::kNone;
   for_each_service([&](auto& s) {
@@ -160,6 +183,14 @@ void Node::refresh(const OdEntry& e, TimeUs now) {
 
 SdoAbort Node::write(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now) {
   if (!writable(e.access)) return SdoAbort::kReadOnly;
+  return write_value(e, data, now);
+}
+
+SdoAbort Node::write_local(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now) {
+  return write_value(e, data, now);
+}
+
+SdoAbort Node::write_value(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now) {
   if (SdoAbort a = check_value(e, data); !ok(a)) return a;
   SdoAbort result = SdoAbort::kNone;
   bool handled = false;
@@ -185,6 +216,46 @@ SdoAbort Node::write(std::uint16_t index, std::uint8_t sub, std::span<const std:
   return e ? write(*e, data, now) : why;
 }
 
+SdoAbort Node::store_local(std::uint8_t sub, TimeUs now) {
+  return write_signature(0x1010, sub, StoreRestore::kSave, now);
+}
+
+SdoAbort Node::restore_local(std::uint8_t sub, TimeUs now) {
+  return write_signature(0x1011, sub, StoreRestore::kLoad, now);
+}
+
+// The signature is what a master writes to 0x1010 / 0x1011 (CiA 301
+// §7.5.2.13-14): the same owning service and checks run.
+SdoAbort Node::write_signature(std::uint16_t index, std::uint8_t sub, std::uint32_t signature, TimeUs now) {
+  SdoAbort why = SdoAbort::kNone;
+  const OdEntry* e = od().lookup(index, sub, why);
+  if (!e) return why;
+  std::uint8_t bytes[4];
+  put_u32(bytes, signature);
+  return write_local(*e, bytes, now);
+}
+
+// As the master's NMT frame, except that a start / stop / pre-operational
+// command does nothing before the boot-up (CiA 301 §7.3.2: INITIALISING
+// ends on its own); resets are always possible while powered.
+bool Node::nmt_local(std::uint8_t cs, TimeUs now) {
+  if (!powered_) return false;
+  switch (cs) {
+    case kNmtResetNode:
+    case kNmtResetCommunication:
+      break;
+    case kNmtStart:
+    case kNmtStop:
+    case kNmtEnterPreOperational:
+      if (state() == NmtState::kInitialising) return false;
+      break;
+    default:
+      return false;
+  }
+  nmt_.command(cs, now);
+  return true;
+}
+
 void Node::prepare_reset(ResetKind kind, TimeUs now) {
   for_each_service([&](auto& s) {
     if constexpr (requires { s.prepare_reset(kind, now); }) s.prepare_reset(kind, now);
@@ -192,6 +263,9 @@ void Node::prepare_reset(ResetKind kind, TimeUs now) {
 }
 
 void Node::nmt_state_changed(NmtState old, TimeUs now) {
+  // The observer first, so it hears the change before its consequences
+  // (e.g. EMCYs that waited for the boot-up).
+  if (observer_) observer_->on_nmt_state(*this, old, state(), now);
   for_each_service([&](auto& s) {
     if constexpr (requires { s.on_nmt_state(old, now); }) s.on_nmt_state(old, now);
   });

@@ -17,6 +17,7 @@
 #include "core/lss_slave.hpp"
 #include "core/nmt.hpp"
 #include "core/node_options.hpp"
+#include "core/observer.hpp"
 #include "core/od.hpp"
 #include "core/pdo.hpp"
 #include "core/sdo_server.hpp"
@@ -43,7 +44,11 @@ class Node {
 
   // ---- lifecycle and I/O (called by the loop or a test)
   void power_on(TimeUs now);
-  void power_off();                     // falls silent, as an unpowered sensor
+  // Falls silent, as an unpowered sensor. With a time the observer hears of
+  // it (on_power, then the NMT state INITIALISING); without, nobody does
+  // (the node is being destroyed).
+  void power_off(TimeUs now);
+  void power_off();
   bool powered() const { return powered_; }
   // Power cut now, power back `off_for` later (>= 0): then the node boots as
   // at power-on (stored values kept, volatile ones lost). Safe to call from
@@ -71,8 +76,12 @@ class Node {
   void set_bus_off(bool off, TimeUs now);
   bool bus_off() const { return bus_off_; }
 
-  // Sends a frame if the node is on the bus.
-  void send(const CanFrame& frame);
+  // Sends a frame if the node is on the bus; true when it was handed to the sink.
+  bool send(const CanFrame& frame);
+
+  // ---- observation: one observer per node (null: none, zero cost)
+  void set_observer(NodeObserver* observer) { observer_ = observer; }
+  NodeObserver* observer() const { return observer_; }
 
   // ---- identity and state
   std::uint8_t node_id() const { return node_id_; }
@@ -105,6 +114,24 @@ class Node {
   SdoAbort write(std::uint16_t index, std::uint8_t sub, std::span<const std::uint8_t> data, TimeUs now);
   // Refreshes a kHookRead entry (TPDO sampling) without access checks.
   void refresh(const OdEntry& e, TimeUs now);
+
+  // ---- local access, as the device's own application: no access-right check
+  // (read-only / const objects may be written, write-only ones read); type
+  // length, limits, owning service, application hooks and their consequences
+  // (PDO events, reconfiguration) as for a remote access. Not observed as a
+  // remote write. After a local operation the caller re-reads next_deadline()
+  // and the rx set (LoopCore::refresh).
+  SdoAbort read_local(const OdEntry& e, TimeUs now, std::span<const std::uint8_t>& out);
+  SdoAbort write_local(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
+  // "save" to 0x1010:sub / "load" to 0x1011:sub (CiA 301 §7.5.2.13-14);
+  // kNoObject / kNoSubIndex when the profile lacks it.
+  SdoAbort store_local(std::uint8_t sub, TimeUs now);
+  SdoAbort restore_local(std::uint8_t sub, TimeUs now);
+  // An NMT command specifier (0x01, 0x02, 0x80, 0x81, 0x82) executed by the
+  // device itself, through the same path as the master's frame (state
+  // changes, reset node / communication, boot-up). False when the node is
+  // unpowered or the specifier unknown (then nothing happens).
+  bool nmt_local(std::uint8_t cs, TimeUs now);
 
   // ---- reset building blocks (used by NMT and LSS)
   // First step of every reset: services that define
@@ -139,6 +166,11 @@ class Node {
 
  private:
   void load_all_values();
+  // The access-right independent part of read / write (owning service,
+  // limits, application hooks).
+  SdoAbort read_value(const OdEntry& e, TimeUs now, std::span<const std::uint8_t>& out);
+  SdoAbort write_value(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
+  SdoAbort write_signature(std::uint16_t index, std::uint8_t sub, std::uint32_t signature, TimeUs now);
   template <typename Fn>
   void for_each_service(Fn&& fn);
   template <typename Fn>
@@ -154,6 +186,7 @@ class Node {
   FrameSink& sink_;
   Application* app_;
   NodeStorage* storage_;
+  NodeObserver* observer_ = nullptr;
   OdValues values_;
   std::uint8_t node_id_;
   std::uint8_t bit_rate_;

@@ -693,13 +693,15 @@ void PdoEngine::apply(Rpdo& r, TimeUs now) {
 }
 
 // RPDO data skips SDO access rules (the mapping was checked for writability)
-// but keeps the value limits and the application's write hooks.
+// but keeps the value limits and the application's write hooks. The observer
+// hears of each object stored.
 void PdoEngine::store_received(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now) {
   if (!ok(check_value(e, data))) return;
   Application* app = (e.hooks & kHookWrite) ? node_.app() : nullptr;
   if (app && !ok(app->check_write(node_, e, data, now))) return;
   node_.values().set_bytes(e, data);
   if (app) app->after_write(node_, e, now);
+  if (NodeObserver* o = node_.observer()) o->on_remote_write(node_, e, WriteVia::kRpdo, now);
 }
 
 void PdoEngine::collect_rx_ids(std::vector<std::uint32_t>& out) const {

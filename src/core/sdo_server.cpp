@@ -309,7 +309,7 @@ void SdoServer::initiate_download(Bytes d, TimeUs now) {
   if (d[0] & kExpedited) {
     std::size_t n = (d[0] & kSizeBit) ? 4u - ((d[0] >> 2) & 0x03u) : unspecified_length(*e, d + 4);
     const std::uint32_t resets = node_.nmt().reset_count();
-    SdoAbort result = node_.write(*e, {d + 4, n}, now);
+    SdoAbort result = write_remote(*e, {d + 4, n}, now);
     if (!ok(result)) return abort(result);
     if (node_.nmt().reset_count() != resets) return;  // the write rebooted the node: no answer
     return send_initiate_response(0x60);
@@ -445,11 +445,20 @@ void SdoServer::on_upload_segment(Bytes d, TimeUs now) {
   touch(now);
 }
 
+// Every download ends here: the OD write with the client's access rights;
+// the observer hears of it once the value was stored.
+SdoAbort SdoServer::write_remote(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now) {
+  SdoAbort result = node_.write(e, data, now);
+  if (ok(result))
+    if (NodeObserver* o = node_.observer()) o->on_remote_write(node_, e, WriteVia::kSdo, now);
+  return result;
+}
+
 // The assembled value is written once, then confirmed with `confirm`.
 void SdoServer::finish_download(TimeUs now, std::uint8_t confirm) {
   if (size_indicated_ && size_ != indicated_)
     return abort(size_ < indicated_ ? SdoAbort::kLengthTooLow : SdoAbort::kLengthTooHigh);
-  SdoAbort result = node_.write(*entry_, {buf_.data(), size_}, now);
+  SdoAbort result = write_remote(*entry_, {buf_.data(), size_}, now);
   if (!ok(result)) return abort(result);
   idle();
   send_command(confirm);

@@ -149,6 +149,7 @@ class SdoServer {
   // First answer to an upload (expedited value, or segmented initiate).
   void answer_upload(TimeUs now);
   void finish_download(TimeUs now, std::uint8_t confirm);
+  SdoAbort write_remote(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
   void send_block_download_ack();
   void arm_block_ack(TimeUs now);
   void send_block_upload_sub(TimeUs now);

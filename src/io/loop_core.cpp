@@ -42,6 +42,7 @@ NodeRef LoopCore::add_node(BusId bus, NodeSetup setup, std::unique_ptr<Applicati
   slot->storage = std::move(storage);
   slot->node = std::make_unique<Node>(std::move(setup), *slot, slot->app.get(), slot->storage.get());
   slot->node->set_bus_bit_rate(buses_[bus]->bit_rate_index);
+  if (observer_) slot->node->set_observer(slot.get());
   slot->epoch_seen = slot->node->rx_epoch() - 1;  // forces the first registration
   slots_[ref] = std::move(slot);
   heap_.reserve_slots(slots_.size());
@@ -61,6 +62,7 @@ void LoopCore::power_on(NodeRef ref, TimeUs now) {
 
 void LoopCore::remove_node(NodeRef ref) {
   Slot& s = *slots_[ref];
+  s.node->set_observer(nullptr);
   s.node->power_off();
   buses_[s.bus]->dispatch.remove(ref);
   heap_.set(ref, kNever);
@@ -74,6 +76,12 @@ void LoopCore::remove_node(NodeRef ref) {
   --live_;
   slots_[ref].reset();
   free_.push_back(ref);
+}
+
+void LoopCore::set_observer(LoopObserver* observer) {
+  observer_ = observer;
+  for (auto& s : slots_)
+    if (s) s->node->set_observer(observer ? s.get() : nullptr);
 }
 
 void LoopCore::refresh(NodeRef ref) {

@@ -29,6 +29,18 @@ using BusId = std::uint32_t;
 using NodeRef = std::uint32_t;
 constexpr NodeRef kNoNode = 0xFFFFFFFFu;
 
+// A node's NodeObserver events as the loop sees them: the same meaning and
+// timing (core/observer.hpp), named by NodeRef (node(ref) gives the node).
+class LoopObserver {
+ public:
+  virtual ~LoopObserver() = default;
+  virtual void on_nmt_state(NodeRef, NmtState /*old*/, NmtState /*now*/, TimeUs) {}
+  virtual void on_boot_up(NodeRef, TimeUs) {}
+  virtual void on_emcy(NodeRef, std::uint16_t /*code*/, std::uint8_t /*reg*/, const std::uint8_t /*vendor*/[5], TimeUs) {}
+  virtual void on_remote_write(NodeRef, const OdEntry&, WriteVia, TimeUs) {}
+  virtual void on_power(NodeRef, bool /*powered*/, TimeUs) {}
+};
+
 struct LoopStats {
   std::uint64_t frames_in = 0;      // frames received from transports
   std::uint64_t frames_out = 0;     // frames nodes sent
@@ -53,8 +65,12 @@ class LoopCore {
                    std::unique_ptr<NodeStorage> storage = nullptr);
   // Powers the node on (boot-up) at `now`.
   void power_on(NodeRef ref, TimeUs now);
-  // The node falls silent and is destroyed; its NodeRef may be reused.
+  // The node falls silent and is destroyed; its NodeRef may be reused. The
+  // observer hears nothing of it.
   void remove_node(NodeRef ref);
+  // Every node's events, present and future ones, go to `observer` (null:
+  // none; then the nodes have no observer at all).
+  void set_observer(LoopObserver* observer);
 
   Node& node(NodeRef ref) { return *slots_[ref]->node; }
   const Node& node(NodeRef ref) const { return *slots_[ref]->node; }
@@ -78,14 +94,18 @@ class LoopCore {
   const TimeUs& now() const { return now_; }
 
   const LoopStats& stats() const { return stats_; }
-  // Re-reads every node's deadline and rx set (after the caller touched
-  // nodes directly, e.g. node(ref).write() in tests or set-up code).
+  // Re-reads the node's deadline and rx set and delivers the frames it sent
+  // to the other local nodes, after the caller touched it directly: a local
+  // operation (write_local, store_local, nmt_local, power_cycle, ...) or
+  // node(ref).write() in tests and set-up code. Call it at core time now().
   void refresh(NodeRef ref);
 
  private:
   // A node with everything it owns. The slot is the node's FrameSink, so the
   // core knows who sent each frame.
-  struct Slot : FrameSink {
+  // The slot is also the node's observer while the core has one: it adds
+  // the NodeRef.
+  struct Slot : FrameSink, NodeObserver {
     LoopCore* core = nullptr;
     NodeRef ref = kNoNode;
     BusId bus = 0;
@@ -95,6 +115,17 @@ class LoopCore {
     std::unique_ptr<NodeStorage> storage;
     std::unique_ptr<Node> node;
     void send(const CanFrame& frame) override { core->on_send(ref, frame); }
+    void on_nmt_state(Node&, NmtState old, NmtState now, TimeUs t) override {
+      core->observer_->on_nmt_state(ref, old, now, t);
+    }
+    void on_boot_up(Node&, TimeUs t) override { core->observer_->on_boot_up(ref, t); }
+    void on_emcy(Node&, std::uint16_t code, std::uint8_t reg, const std::uint8_t vendor[5], TimeUs t) override {
+      core->observer_->on_emcy(ref, code, reg, vendor, t);
+    }
+    void on_remote_write(Node&, const OdEntry& e, WriteVia via, TimeUs t) override {
+      core->observer_->on_remote_write(ref, e, via, t);
+    }
+    void on_power(Node&, bool powered, TimeUs t) override { core->observer_->on_power(ref, powered, t); }
   };
   struct Bus {
     std::string name;
@@ -126,6 +157,7 @@ class LoopCore {
   std::size_t ring_head_ = 0;
   std::size_t ring_size_ = 0;
   DeadlineHeap heap_;
+  LoopObserver* observer_ = nullptr;
   std::size_t live_ = 0;
   TimeUs now_ = 0;
   bool flushing_ = false;
