@@ -264,6 +264,12 @@ TermSpec parse_term(const Where& w, const std::string& kind, const YAML::Node& m
                  "random_walk, ou, gas_law)");
 }
 
+YAML::Node sequence_of(const YAML::Node& item) {
+  YAML::Node seq(YAML::NodeType::Sequence);
+  seq.push_back(item);
+  return seq;
+}
+
 void parse_channel_terms(const Where& w, const YAML::Node& n, bool pressure, std::vector<TermSpec>& out,
                          const std::string& file) {
   const Dim abs_dim = pressure ? Dim::kPressure : Dim::kTemperature;
@@ -273,11 +279,8 @@ void parse_channel_terms(const Where& w, const YAML::Node& n, bool pressure, std
     out.push_back(ConstantSpec{get_quantity(w, n, abs_dim)});
     return;
   }
-  YAML::Node list = n;
-  if (n.IsMap()) {  // a single term
-    list = YAML::Node(YAML::NodeType::Sequence);
-    list.push_back(n);
-  }
+  // Not assigned after construction: yaml-cpp's operator= would overwrite the aliased `n`.
+  const YAML::Node list = n.IsMap() ? sequence_of(n) : n;  // a map: a single term
   if (!list.IsSequence() || list.size() == 0) fail(w, n, "expected a list of process terms");
   for (std::size_t i = 0; i < list.size(); ++i) {
     Where wi = n.IsMap() ? w : w.item(i);
@@ -404,6 +407,8 @@ FaultChannel parse_fault_channel(const Where& w, const YAML::Node& n) {
   fail(w, n, "expected pressure, temperature or both");
 }
 
+}  // namespace
+
 FaultSpec parse_fault(const Where& w, const YAML::Node& m) {
   check_keys(w, m, {"kind", "channel", "at", "after", "duration", "period", "count", "value", "drift",
                     "amplitude", "rate", "noise", "over_temperature", "sdo_delay", "drop_every",
@@ -445,8 +450,6 @@ FaultSpec parse_fault(const Where& w, const YAML::Node& m) {
   if (m["id"]) f.id = std::uint32_t(get_int(w.child("id"), m["id"], 0, UINT32_MAX));
   return f;
 }
-
-}  // namespace
 
 double get_quantity(const Where& w, const YAML::Node& n, Dim dim) {
   if (!n.IsScalar()) fail(w, n, std::string("expected ") + expected_units(dim));
@@ -506,6 +509,13 @@ ProcessSpec parse_process(const Where& w, const YAML::Node& n) {
   }
   if (std::string e = validate(p); !e.empty()) fail(w, n, "invalid process model: " + e);
   return p;
+}
+
+std::vector<TermSpec> parse_channel_model(const Where& w, const YAML::Node& n, Channel channel) {
+  std::vector<TermSpec> terms;
+  parse_channel_terms(w, n, channel == Channel::Pressure, terms, w.file);
+  if (std::string e = validate(channel, terms); !e.empty()) fail(w, n, "invalid process model: " + e);
+  return terms;
 }
 
 SensorSpec parse_sensor(const Where& w, const YAML::Node& n, const SensorSpec& base) {

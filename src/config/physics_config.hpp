@@ -42,9 +42,14 @@ physics::ProcessSpec default_process();
 physics::SensorSpec default_sensor();
 
 physics::ProcessSpec parse_process(const Where& w, const YAML::Node& physics);
+// One channel's model as a profile's `physics: pressure:` (or `temperature:`)
+// accepts it: a term list, one term or a constant ("5 bar"); validated.
+std::vector<physics::TermSpec> parse_channel_model(const Where& w, const YAML::Node& model, physics::Channel channel);
 // `base` supplies every value a channel map does not set.
 physics::SensorSpec parse_sensor(const Where& w, const YAML::Node& sensor, const physics::SensorSpec& base);
 std::vector<physics::FaultSpec> parse_faults(const Where& w, const YAML::Node& faults);
+// One entry of `faults:` (a mapping with `kind` and its keys).
+physics::FaultSpec parse_fault(const Where& w, const YAML::Node& fault);
 
 // All three sections of a profile (defaults for the missing ones).
 PhysicsConfig parse_physics_config(const Profile& profile);

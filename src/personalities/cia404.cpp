@@ -438,16 +438,42 @@ std::shared_ptr<const Cia404Profile> Cia404Profile::build(const config::Where& w
 SensorSource::SensorSource(const physics::SensorSpec& sensor, const physics::ProcessSpec& process,
                            std::span<const physics::FaultSpec> faults, std::uint64_t node_seed)
     : faults_(std::make_unique<physics::FaultSet>(faults.size() + 4)),
-      sensor_(sensor, physics::ProcessModel(process, physics::derive_seed(node_seed, physics::hash_string("process"))),
+      process_seed_(physics::derive_seed(node_seed, physics::hash_string("process"))),
+      sensor_(sensor, physics::ProcessModel(process, process_seed_),
               physics::derive_seed(node_seed, physics::hash_string("sensor")), faults_.get()) {
   for (const physics::FaultSpec& f : faults) faults_->add(f, 0);
+}
+
+void SensorSource::set_process(physics::Channel ch, const std::vector<physics::TermSpec>& terms, TimeUs now) {
+  catch_up(now);
+  // Seeded by the time as well: two models set at different times draw different noise.
+  sensor_.process().set_channel(ch, terms, physics::derive_seed(process_seed_, std::uint64_t(now)),
+                                physics::us_to_seconds(now));
+}
+
+void SensorSource::restore_process(physics::Channel ch, TimeUs now) {
+  catch_up(now);
+  sensor_.process().restore_channel(ch);
+}
+
+double SensorSource::true_value(physics::Channel ch, TimeUs now) {
+  catch_up(now);  // stochastic terms at the latest sample
+  const physics::Quantity q = sensor_.process().peek(physics::us_to_seconds(now));
+  return ch == physics::Channel::Pressure ? q.pressure_pa : q.temperature_k;
 }
 
 bool SensorSource::record_to(const std::string& path, std::string* error) {
   auto rec = std::make_unique<physics::CsvRecorder>();
   if (!rec->open(path, error)) return false;
   recorder_ = std::move(rec);
+  recording_ = path;
+  recorded_at_ = -1;
   return true;
+}
+
+void SensorSource::stop_recording() {
+  recorder_.reset();  // the destructor flushes and closes
+  recording_.clear();
 }
 
 MeasurementSource::Sample SensorSource::sample(physics::Channel ch, TimeUs now) {
@@ -472,6 +498,7 @@ Cia404Application::Cia404Application(std::shared_ptr<const Cia404Profile> profil
                                      std::uint32_t node_index)
     : profile_(std::move(profile)),
       source_(std::move(source)),
+      sensor_(dynamic_cast<SensorSource*>(source_.get())),
       identity_(identity),
       node_index_(node_index),
       comm_faults_(source_->fault_set(), 0x9E3779B97F4A7C15ull * (node_index + 1)) {
@@ -521,7 +548,10 @@ void Cia404Application::set(Node& node, std::size_t ch, Role role, double value)
 
 UnitChoice Cia404Application::resolve(const Node& node, const UnitChoice& u) const {
   UnitChoice r = u;
-  if (u.scale_object) r.scale.si_per_unit *= node.values().get_f(*u.scale_object);
+  if (u.scale_object) {
+    r.scale.si_per_unit *= node.values().get_f(*u.scale_object);
+    r.scale.name = {};  // no longer the named unit
+  }
   return r;
 }
 
@@ -556,23 +586,38 @@ Cia404Application::Measurement Cia404Application::evaluate(const Node& node, std
   const ChannelConfig& c = profile_->channels[ch];
   const ChannelState& st = state_[ch];
   const MeasurementSource::Sample s = source_->sample(c.source, now);
+  const double offset = get(node, ch, Role::kOffset);
   Measurement m;
   m.raw = s.raw;
-  m.input = input_value(c, s, st.unit.scale) + st.unit.scale.delta_from_si(st.zero_si);
-  m.pv = m.input + get(node, ch, Role::kOffset);
-  // 0x6150: bit 0 from the sensor; overload against the span objects when
-  // the profile has them, else the sensor's own range check.
-  m.status = s.status & physics::kStatusInvalid;
+  if (const std::optional<double>& reported = override_si_[std::size_t(c.source)]) {
+    // Reported as it is: the input is what gives that PV with the offset.
+    m.pv = st.unit.scale.from_si(*reported);
+    m.input = m.pv - offset;
+    m.status = status_bits(node, ch, m, 0);
+  } else {
+    m.input = input_value(c, s, st.unit.scale) + st.unit.scale.delta_from_si(st.zero_si);
+    m.pv = m.input + offset;
+    m.status = status_bits(node, ch, m, s.status);
+  }
+  return m;
+}
+
+// 0x6150: bit 0 from the sensor; overload against the span objects when
+// the profile has them, else the sensor's own range check.
+std::uint8_t Cia404Application::status_bits(const Node& node, std::size_t ch, const Measurement& m,
+                                            std::uint8_t sensor_status) const {
+  const ChannelConfig& c = profile_->channels[ch];
+  std::uint8_t status = sensor_status & physics::kStatusInvalid;
   const Param& start = c.param(Role::kSpanStart);
   const Param& end = c.param(Role::kSpanEnd);
   if (start.present() || end.present()) {
     const double x = profile_->settings.span_compares_input ? m.input : m.pv;
-    if (end.present() && x > get(node, ch, Role::kSpanEnd)) m.status |= physics::kStatusPositiveOverload;
-    if (start.present() && x < get(node, ch, Role::kSpanStart)) m.status |= physics::kStatusNegativeOverload;
+    if (end.present() && x > get(node, ch, Role::kSpanEnd)) status |= physics::kStatusPositiveOverload;
+    if (start.present() && x < get(node, ch, Role::kSpanStart)) status |= physics::kStatusNegativeOverload;
   } else {
-    m.status |= s.status & (physics::kStatusPositiveOverload | physics::kStatusNegativeOverload);
+    status |= sensor_status & (physics::kStatusPositiveOverload | physics::kStatusNegativeOverload);
   }
-  return m;
+  return status;
 }
 
 void Cia404Application::apply_filter(Node& node, std::size_t ch) {
@@ -881,19 +926,119 @@ physics::FaultHandle Cia404Application::arm_fault(Node& node, const physics::Fau
   physics::FaultSet* set = source_->fault_set();
   if (!set) return physics::kInvalidFaultHandle;
   const physics::FaultHandle h = set->add(spec, now);
-  comm_faults_.changed();
-  ++config_epoch_;
-  node.wake_environment(now);
+  fault_schedule_changed(node, now);
   return h;
 }
 
 bool Cia404Application::cancel_fault(Node& node, physics::FaultHandle h, TimeUs now) {
   physics::FaultSet* set = source_->fault_set();
-  if (!set || !set->cancel(h, now)) return false;
-  comm_faults_.changed();
-  ++config_epoch_;
-  node.wake_environment(now);
+  if (!set) return false;
+  const physics::FaultSpec* spec = set->spec(h);
+  // The node is in this cycle's off time: power comes back now (an unpowered
+  // node runs no environment step, so the end edge alone would not boot it).
+  const bool powered_off_by_it =
+      spec && spec->kind == physics::FaultKind::PowerCycle && set->active(h, now) && !node.powered();
+  if (!set->cancel(h, now)) return false;
+  fault_schedule_changed(node, now);
+  if (powered_off_by_it) node.power_on(now);
   return true;
+}
+
+void Cia404Application::fault_schedule_changed(Node& node, TimeUs now) {
+  comm_faults_.changed();
+  invalidate();
+  node.wake_environment(now);
+}
+
+std::vector<physics::FaultInfo> Cia404Application::faults(TimeUs now) const {
+  const physics::FaultSet* set = source_->fault_set();
+  return set ? set->armed_faults(now) : std::vector<physics::FaultInfo>{};
+}
+
+// ---- runtime control
+
+void Cia404Application::control_changed(Node& node, TimeUs now) {
+  invalidate();
+  node.wake_app(now);
+}
+
+std::optional<std::size_t> Cia404Application::chain_channel(physics::Channel ch) const {
+  for (std::size_t i = 0; i < profile_->channels.size(); ++i)
+    if (profile_->channels[i].source == ch) return i;
+  return std::nullopt;
+}
+
+bool Cia404Application::set_process(Node& node, physics::Channel ch, const std::vector<physics::TermSpec>& terms,
+                                    TimeUs now) {
+  if (!sensor_) return false;
+  sensor_->set_process(ch, terms, now);
+  control_changed(node, now);
+  return true;
+}
+
+bool Cia404Application::restore_process(Node& node, physics::Channel ch, TimeUs now) {
+  if (!sensor_) return false;
+  sensor_->restore_process(ch, now);
+  control_changed(node, now);
+  return true;
+}
+
+bool Cia404Application::hold(Node& node, physics::Channel ch, TimeUs now) {
+  return step(node, ch, true_value_si(ch, now), now);
+}
+
+bool Cia404Application::step(Node& node, physics::Channel ch, double si, TimeUs now) {
+  return set_process(node, ch, physics::constant_terms(si), now);
+}
+
+bool Cia404Application::ramp(Node& node, physics::Channel ch, double si, double seconds, TimeUs now) {
+  return set_process(node, ch, physics::ramp_terms(true_value_si(ch, now), si, 0.0, seconds), now);
+}
+
+double Cia404Application::true_value_si(physics::Channel ch, TimeUs now) {
+  return sensor_ ? sensor_->true_value(ch, now) : std::numeric_limits<double>::quiet_NaN();
+}
+
+Cia404Application::ChannelView Cia404Application::view(Node& node, physics::Channel ch, TimeUs now) {
+  ChannelView v;
+  const std::optional<std::size_t> c = chain_channel(ch);
+  if (!c) return v;
+  const Measurement m = measure(node, *c, now);
+  v.true_value = unit(*c).from_si(true_value_si(ch, now));
+  v.reported = m.pv;
+  v.unit = unit(*c).name;
+  v.status = m.status;
+  return v;
+}
+
+void Cia404Application::set_override(Node& node, physics::Channel ch, std::optional<double> si, TimeUs now) {
+  override_si_[std::size_t(ch)] = si;
+  control_changed(node, now);
+}
+
+std::vector<Cia404Application::OverrideView> Cia404Application::overrides() const {
+  std::vector<OverrideView> out;
+  for (physics::Channel ch : {physics::Channel::Pressure, physics::Channel::Temperature}) {
+    const std::optional<double>& si = override_si_[std::size_t(ch)];
+    const std::optional<std::size_t> c = chain_channel(ch);
+    if (si && c) out.push_back({ch, unit(*c).from_si(*si), unit(*c).name});
+  }
+  return out;
+}
+
+bool Cia404Application::start_recording(const std::string& path, std::string* error) {
+  if (sensor_) return sensor_->record_to(path, error);
+  if (error) *error = "the node has no sensor to record";
+  return false;
+}
+
+void Cia404Application::stop_recording() {
+  if (sensor_) sensor_->stop_recording();
+}
+
+const std::string& Cia404Application::recording() const {
+  static const std::string kNone;
+  return sensor_ ? sensor_->recording() : kNone;
 }
 
 TimeUs Cia404Application::process(Node& node, TimeUs now) {

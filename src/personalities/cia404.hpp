@@ -15,8 +15,12 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <memory>
+#include <optional>
 #include <span>
+#include <string>
+#include <string_view>
 #include <vector>
 
 #include "config/profile.hpp"
@@ -183,15 +187,33 @@ class SensorSource : public MeasurementSource {
   physics::FaultSet* fault_set() override { return faults_.get(); }
   physics::Sensor& sensor() { return sensor_; }
   physics::FaultSet& faults() { return *faults_; }
+
+  // ---- the process model at run time. The sensor first catches up to `now`
+  // with the old model, so what it sampled before `now` stays (its filters
+  // then follow the new truth). set_process: the terms' time 0 is `now`;
+  // throws std::invalid_argument, changing nothing, on invalid terms.
+  void set_process(physics::Channel ch, const std::vector<physics::TermSpec>& terms, TimeUs now);
+  void restore_process(physics::Channel ch, TimeUs now);  // back to the profile's model
+  // The process model's value (Pa / K) at `now`.
+  double true_value(physics::Channel ch, TimeUs now);
+
   // Records one CSV row (physics::CsvRecorder) per instant the node reads its
-  // sensor. Returns false with *error when the file cannot be created.
+  // sensor, replacing a running recording. Returns false with *error (the
+  // running recording kept) when the file cannot be created.
   bool record_to(const std::string& path, std::string* error);
+  // Flushes and closes the recording.
+  void stop_recording();
+  const std::string& recording() const { return recording_; }  // its path, "" when none
   const physics::CsvRecorder* recorder() const { return recorder_.get(); }
 
  private:
+  void catch_up(TimeUs now) { sensor_.read(now); }
+
   std::unique_ptr<physics::FaultSet> faults_;  // the sensor keeps a pointer to it
+  std::uint64_t process_seed_;
   physics::Sensor sensor_;
   std::unique_ptr<physics::CsvRecorder> recorder_;
+  std::string recording_;
   TimeUs recorded_at_ = -1;
 };
 
@@ -242,6 +264,58 @@ class Cia404Application : public Application {
     const physics::FaultSet* set = source_->fault_set();
     return set && set->active(kind, now);
   }
+  // The faults still armed at `now` (ids = handles), profile faults included.
+  std::vector<physics::FaultInfo> faults(TimeUs now) const;
+  // Told of every start / end edge of every armed fault (measurement and
+  // communication, profile and run time) when the node reaches it: at the
+  // edge time, or at power-on for edges in a power-off time. The listener
+  // must not arm or cancel faults.
+  void set_fault_listener(FaultListener listener) { comm_faults_.set_listener(std::move(listener)); }
+
+  // ---- runtime control: the hooks of the control API (docs/control-api.md).
+  // A physics channel is served by the first chain channel with that source.
+  // Each change acts at `now` and wakes the node, so PV reads, event TPDOs
+  // and change events follow as for a sensor change.
+  std::optional<std::size_t> chain_channel(physics::Channel ch) const;
+  bool has_channel(physics::Channel ch) const { return chain_channel(ch).has_value(); }
+  // The source has a process model (false: a test's fake source; then the
+  // process methods below return false and change nothing).
+  bool has_process() const { return sensor_ != nullptr; }
+  // The channel's process model from `now` on (the terms' time 0 is `now`).
+  // Throws std::invalid_argument, changing nothing, on invalid terms.
+  bool set_process(Node& node, physics::Channel ch, const std::vector<physics::TermSpec>& terms, TimeUs now);
+  bool restore_process(Node& node, physics::Channel ch, TimeUs now);  // back to the profile's model
+  // The control verbs: the true value stays at its present level / is `si` /
+  // ramps linearly from its present level to `si` over `seconds` (>= 0).
+  bool hold(Node& node, physics::Channel ch, TimeUs now);
+  bool step(Node& node, physics::Channel ch, double si, TimeUs now);
+  bool ramp(Node& node, physics::Channel ch, double si, double seconds, TimeUs now);
+  // The process model's value, Pa / K (NaN without a process model).
+  double true_value_si(physics::Channel ch, TimeUs now);
+
+  struct ChannelView {
+    double true_value = std::numeric_limits<double>::quiet_NaN();  // in `unit`
+    double reported = std::numeric_limits<double>::quiet_NaN();    // the PV the node answers
+    std::string_view unit;    // the channel's current 0x6131 unit; "" without the channel
+    std::uint8_t status = 0;  // 0x6150
+  };
+  ChannelView view(Node& node, physics::Channel ch, TimeUs now);
+
+  // The node reports `si` (Pa / K) on the channel: PV views, events, TPDOs,
+  // status valid; the sensor goes on (field value, recording). nullopt clears.
+  void set_override(Node& node, physics::Channel ch, std::optional<double> si, TimeUs now);
+  struct OverrideView {
+    physics::Channel channel;
+    double value;           // in `unit`
+    std::string_view unit;  // the channel's current unit
+  };
+  std::vector<OverrideView> overrides() const;
+
+  // CSV recording of the sensor (SensorSource::record_to); false with *error
+  // when the file cannot be created or the source has no sensor.
+  bool start_recording(const std::string& path, std::string* error);
+  void stop_recording();
+  const std::string& recording() const;  // "" when none
 
  protected:
   // ---- override points for device personalities
@@ -309,9 +383,14 @@ class Cia404Application : public Application {
   TimeUs check_period(std::size_t ch) const;
   TimeUs check_events_due(Node& node, TimeUs now);
   Measurement evaluate(const Node& node, std::size_t ch, TimeUs now);
+  std::uint8_t status_bits(const Node& node, std::size_t ch, const Measurement& m, std::uint8_t sensor_status) const;
+  void fault_schedule_changed(Node& node, TimeUs now);
+  void control_changed(Node& node, TimeUs now);
 
   std::shared_ptr<const Cia404Profile> profile_;
   std::unique_ptr<MeasurementSource> source_;
+  SensorSource* sensor_;  // source_ when it is the node's physics, else null
+  std::optional<double> override_si_[2];  // per physics::Channel
   IdentitySettings identity_;
   std::uint32_t node_index_;
   std::vector<ChannelState> state_;
@@ -323,5 +402,9 @@ class Cia404Application : public Application {
   TimeUs next_check_ = 0;
   TimeUs next_supervision_ = 0;
 };
+
+// The Cia404Application behind a node's Application (null: none, e.g. a
+// plain CiA 301 node). Pass the personality's own application, not a wrapper.
+inline Cia404Application* as_cia404(Application* app) { return dynamic_cast<Cia404Application*>(app); }
 
 }  // namespace cansim::personalities

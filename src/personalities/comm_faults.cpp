@@ -12,6 +12,7 @@ TimeUs CommFaultDriver::apply(Node& node, TimeUs now) {
   if (!faults_) return kNever;
   physics::FaultEdge edge;
   while (faults_->poll(now, edge)) {
+    if (listener_) listener_(edge);
     if (edge.kind != FaultKind::PowerCycle || !edge.started) continue;
     // Off for the fault's duration (none given: an immediate reboot), counted
     // from the scheduled edge so a late poll does not stretch it. A cycle

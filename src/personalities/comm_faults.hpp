@@ -7,12 +7,20 @@
 // power-on before the boot-up, and at each fault edge before the services of
 // that instant. Levels are applied idempotently, so a fault that outlasts a
 // power cycle is in force again when the node is back.
+//
+// It polls the edges of every fault, measurement faults included, so it runs
+// at the next edge of any fault: a listener hears each edge then.
 #pragma once
+
+#include <functional>
 
 #include "core/node.hpp"
 #include "physics/fault.hpp"
 
 namespace cansim::personalities {
+
+// Told of a fault's start / end edge (edge.time_us: when it was due).
+using FaultListener = std::function<void(const physics::FaultEdge&)>;
 
 class CommFaultDriver {
  public:
@@ -24,6 +32,7 @@ class CommFaultDriver {
   TimeUs apply(Node& node, TimeUs now);
   // A fault was armed or cancelled at run time (the set may have moved its entries).
   void changed() { drop_spec_ = nullptr; }
+  void set_listener(FaultListener listener) { listener_ = std::move(listener); }
 
  private:
   void apply_levels(Node& node, TimeUs now);
@@ -31,6 +40,7 @@ class CommFaultDriver {
   physics::FaultSet* faults_;
   std::uint64_t seed_;
   const physics::FaultSpec* drop_spec_ = nullptr;
+  FaultListener listener_;
 };
 
 }  // namespace cansim::personalities

@@ -34,6 +34,9 @@ struct UnitScale {
   QuantityKind kind = QuantityKind::kPressure;
   double si_per_unit = 1.0;  // Pa or K per one unit (prefix included)
   double si_zero = 0.0;      // SI value of 0 units (273.15 K for degC)
+  // As the control API names it ("bar", "mbar", "kPa", "degC", ...); "" for a
+  // code without a name of its own (a rare prefix, a user-scaled unit).
+  std::string_view name;
 
   double from_si(double si) const { return (si - si_zero) / si_per_unit; }
   double to_si(double v) const { return v * si_per_unit + si_zero; }
@@ -43,7 +46,7 @@ struct UnitScale {
 };
 
 // The scale of a CiA 303-2 code with a built-in unit (Pa, bar, psi, degC,
-// degF, K, with any prefix). nullopt for other codes.
+// degF, K, with any prefix; bits 15-0 ignored). nullopt for other codes.
 std::optional<UnitScale> builtin_unit(std::uint32_t code);
 
 // A unit by name as written in profiles: "bar", "dbar", "cbar", "mbar", "kPa",

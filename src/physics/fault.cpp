@@ -21,6 +21,15 @@ std::string_view to_string(FaultKind k) noexcept {
   return i < kFaultKindCount ? kNames[i] : std::string_view("?");
 }
 
+std::string_view to_string(FaultChannel c) noexcept {
+  switch (c) {
+    case FaultChannel::Pressure: return "pressure";
+    case FaultChannel::Temperature: return "temperature";
+    case FaultChannel::Both: return "both";
+  }
+  return "?";
+}
+
 std::optional<FaultKind> parse_fault_kind(std::string_view s) noexcept {
   for (std::size_t i = 0; i < kFaultKindCount; ++i)
     if (kNames[i] == s) return static_cast<FaultKind>(i);
@@ -77,6 +86,27 @@ bool FaultSet::occurrence_at(const Entry& e, TimeUs t, TimeUs* onset) const noex
   if (tm.duration_us >= 0 && t >= on + tm.duration_us) return false;
   if (onset) *onset = on;
   return true;
+}
+
+bool FaultSet::armed(const Entry& e, TimeUs t) const noexcept {
+  if (t >= e.cancel_at) return false;
+  const auto& tm = e.spec.timing;
+  const bool endless = tm.duration_us < 0 || (tm.period_us > 0 && tm.count == 0);
+  if (endless) return true;
+  const TimeUs last_start = e.start + static_cast<TimeUs>(tm.period_us > 0 ? tm.count - 1 : 0) * tm.period_us;
+  return t < last_start + tm.duration_us;
+}
+
+std::vector<FaultInfo> FaultSet::armed_faults(TimeUs t) const {
+  std::vector<FaultInfo> out;
+  for (std::size_t h = 0; h < entries_.size(); ++h) {
+    const Entry& e = entries_[h];
+    if (!armed(e, t)) continue;
+    const FaultTiming& tm = e.spec.timing;
+    out.push_back({static_cast<FaultHandle>(h), e.spec.kind, e.spec.channel, occurrence_at(e, t, nullptr), e.start,
+                   tm.duration_us, tm.period_us, tm.count});
+  }
+  return out;
 }
 
 bool FaultSet::active(FaultKind kind, TimeUs t) const noexcept {

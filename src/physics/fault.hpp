@@ -59,6 +59,8 @@ std::optional<FaultKind> parse_fault_kind(std::string_view s) noexcept;
 /// Which measurement channel a measurement fault affects (ignored by OverTemperature,
 /// which heats the whole sensor, and by communication faults).
 enum class FaultChannel : std::uint8_t { Pressure = 1, Temperature = 2, Both = 3 };
+/// "pressure", "temperature", "both" (the profile's `channel:` values).
+std::string_view to_string(FaultChannel c) noexcept;
 
 struct FaultTiming {
   /// Absolute start of the first occurrence (simulated time, us). If unset, the fault
@@ -103,6 +105,18 @@ struct FaultEdge {
   std::uint32_t occurrence; ///< 0-based occurrence index
   FaultHandle handle;
   const FaultSpec* spec;    ///< valid until the set is modified
+};
+
+/// One armed fault as a control API lists it (FaultSet::armed_faults).
+struct FaultInfo {
+  FaultHandle handle = kInvalidFaultHandle;
+  FaultKind kind = FaultKind::SensorOpen;
+  FaultChannel channel = FaultChannel::Pressure;  ///< meaningful for measurement faults
+  bool active = false;                            ///< an occurrence is in force
+  TimeUs first_start = 0;                         ///< start of the first occurrence
+  TimeUs duration_us = -1;                        ///< each occurrence; < 0: until cancelled
+  TimeUs period_us = 0;                           ///< 0: one occurrence
+  std::uint32_t count = 1;                        ///< occurrences; 0: unlimited
 };
 
 /// Measurement faults in effect for one channel at one instant (combined).
@@ -151,6 +165,10 @@ class FaultSet {
   /// Time of the next pending edge (INT64_MAX if none): lets an event loop schedule a timer.
   TimeUs next_edge_time() const noexcept;
 
+  /// The faults still armed at t (not cancelled, an occurrence in force or to come), in
+  /// handle order, timing normalised as add() does. Allocates (control path).
+  std::vector<FaultInfo> armed_faults(TimeUs t) const;
+
   /// Combined measurement faults for `channel` at t. Cheap when no measurement fault exists.
   MeasurementFaults measurement(FaultChannel channel, TimeUs t) const noexcept;
   bool has_measurement_faults() const noexcept { return measurement_count_ > 0; }
@@ -166,6 +184,7 @@ class FaultSet {
     bool done = false;
   };
   bool occurrence_at(const Entry& e, TimeUs t, TimeUs* onset) const noexcept;
+  bool armed(const Entry& e, TimeUs t) const noexcept;
   TimeUs pending_edge_time(const Entry& e) const noexcept;  // INT64_MAX if none
   void advance_cursor(Entry& e) noexcept;
 

@@ -408,6 +408,33 @@ double eval_term(ProcessModel::Term& term, double t, double temperature) noexcep
                     term.c);
 }
 
+// eval_term without advancing the stochastic terms.
+double peek_term(const ProcessModel::Term& term, double t, double temperature) noexcept {
+  return std::visit(overloaded{
+                        [&](const CRandomWalk& c) { return c.x; },
+                        [&](const COU& c) { return c.x; },
+                        [&](const CGasLaw& c) { return c.ratio * temperature; },
+                        [&](const auto& c) { return c.eval(t); },
+                    },
+                    term.c);
+}
+
+template <class Terms, class Eval>
+double sum_terms(Terms& channel, double t, double temperature, Eval eval) noexcept {
+  double v = 0.0;
+  for (auto& term : channel.terms) v += eval(term, t - channel.start_s, temperature);
+  return v;
+}
+
+std::vector<ProcessModel::Term> compile_terms(const std::vector<TermSpec>& specs, std::uint64_t seed, Channel ch) {
+  const std::uint64_t tag = ch == Channel::Pressure ? 0x1000 : 0x2000;
+  std::vector<ProcessModel::Term> out;
+  out.reserve(specs.size());
+  for (std::size_t i = 0; i < specs.size(); ++i)
+    out.push_back(ProcessModel::Term{compile(specs[i], derive_seed(seed, tag + i))});
+  return out;
+}
+
 // ------------------------------------------------------------------ validation
 
 bool finite(double v) { return std::isfinite(v); }
@@ -510,31 +537,35 @@ void add_gas_volume(ProcessSpec& spec, const GasVolumeSpec& gas) {
   spec.pressure.emplace_back(GasLawSpec{gas.initial_pressure_pa, gas.initial_temperature_k});
 }
 
-std::string validate(const ProcessSpec& spec) {
-  for (std::size_t i = 0; i < spec.pressure.size(); ++i) {
-    auto e = check_term(spec.pressure[i], true);
-    if (!e.empty()) return "pressure[" + std::to_string(i) + "]: " + e;
-  }
-  for (std::size_t i = 0; i < spec.temperature.size(); ++i) {
-    auto e = check_term(spec.temperature[i], false);
-    if (!e.empty()) return "temperature[" + std::to_string(i) + "]: " + e;
+std::vector<TermSpec> constant_terms(double value) { return {ConstantSpec{value}}; }
+
+std::vector<TermSpec> ramp_terms(double from, double to, double start_s, double duration_s) {
+  return {RampSpec{from, to, start_s, duration_s}};
+}
+
+std::string validate(Channel channel, const std::vector<TermSpec>& terms) {
+  const bool pressure = channel == Channel::Pressure;
+  for (std::size_t i = 0; i < terms.size(); ++i) {
+    auto e = check_term(terms[i], pressure);
+    if (!e.empty()) return (pressure ? "pressure[" : "temperature[") + std::to_string(i) + "]: " + e;
   }
   return {};
 }
 
+std::string validate(const ProcessSpec& spec) {
+  if (auto e = validate(Channel::Pressure, spec.pressure); !e.empty()) return e;
+  return validate(Channel::Temperature, spec.temperature);
+}
+
 ProcessModel::ProcessModel() {
-  pressure_.push_back(Term{CConst{1.0e5}});
-  temperature_.push_back(Term{CConst{293.15}});
+  terms(Channel::Pressure).terms.push_back(Term{CConst{1.0e5}});
+  terms(Channel::Temperature).terms.push_back(Term{CConst{293.15}});
 }
 
 ProcessModel::ProcessModel(const ProcessSpec& spec, std::uint64_t seed) {
   if (auto e = validate(spec); !e.empty()) throw std::invalid_argument("process: " + e);
-  pressure_.reserve(spec.pressure.size());
-  temperature_.reserve(spec.temperature.size());
-  for (std::size_t i = 0; i < spec.pressure.size(); ++i)
-    pressure_.push_back(Term{compile(spec.pressure[i], derive_seed(seed, 0x1000 + i))});
-  for (std::size_t i = 0; i < spec.temperature.size(); ++i)
-    temperature_.push_back(Term{compile(spec.temperature[i], derive_seed(seed, 0x2000 + i))});
+  terms(Channel::Pressure).terms = compile_terms(spec.pressure, seed, Channel::Pressure);
+  terms(Channel::Temperature).terms = compile_terms(spec.temperature, seed, Channel::Temperature);
 }
 
 ProcessModel::ProcessModel(ProcessModel&&) noexcept = default;
@@ -544,28 +575,49 @@ ProcessModel& ProcessModel::operator=(const ProcessModel&) = default;
 ProcessModel::~ProcessModel() = default;
 
 Quantity ProcessModel::at(double t) noexcept {
-  double temp = 0.0;
-  for (auto& term : temperature_) temp += eval_term(term, t, 0.0);
-  double p = 0.0;
-  for (auto& term : pressure_) p += eval_term(term, t, temp);
-  return {p, temp};
+  const double temp = sum_terms(terms(Channel::Temperature), t, 0.0, eval_term);
+  return {sum_terms(terms(Channel::Pressure), t, temp, eval_term), temp};
+}
+
+Quantity ProcessModel::peek(double t) const noexcept {
+  const double temp = sum_terms(terms(Channel::Temperature), t, 0.0, peek_term);
+  return {sum_terms(terms(Channel::Pressure), t, temp, peek_term), temp};
+}
+
+void ProcessModel::set_channel(Channel channel, const std::vector<TermSpec>& specs, std::uint64_t seed,
+                               double start_s) {
+  if (auto e = validate(channel, specs); !e.empty()) throw std::invalid_argument("process: " + e);
+  Terms replacement{compile_terms(specs, seed, channel), start_s};
+  std::optional<Terms>& constructed = constructed_[static_cast<std::size_t>(channel)];
+  if (!constructed) constructed = std::move(terms(channel));
+  terms(channel) = std::move(replacement);
+}
+
+void ProcessModel::restore_channel(Channel channel) noexcept {
+  std::optional<Terms>& constructed = constructed_[static_cast<std::size_t>(channel)];
+  if (!constructed) return;
+  terms(channel) = std::move(*constructed);
+  constructed.reset();
 }
 
 void ProcessModel::reset() noexcept {
-  auto r = [](Term& term) {
-    if (auto* a = std::get_if<CRandomWalk>(&term.c)) a->reset();
-    if (auto* b = std::get_if<COU>(&term.c)) b->reset();
+  auto r = [](Terms& channel) {
+    for (Term& term : channel.terms) {
+      if (auto* a = std::get_if<CRandomWalk>(&term.c)) a->reset();
+      if (auto* b = std::get_if<COU>(&term.c)) b->reset();
+    }
   };
-  for (auto& t : pressure_) r(t);
-  for (auto& t : temperature_) r(t);
+  for (Terms& channel : channels_) r(channel);
+  for (std::optional<Terms>& constructed : constructed_)
+    if (constructed) r(*constructed);
 }
 
 bool ProcessModel::has_stochastic_terms() const noexcept {
   auto s = [](const Term& term) {
     return std::holds_alternative<CRandomWalk>(term.c) || std::holds_alternative<COU>(term.c);
   };
-  return std::any_of(pressure_.begin(), pressure_.end(), s) ||
-         std::any_of(temperature_.begin(), temperature_.end(), s);
+  return std::any_of(std::begin(channels_), std::end(channels_),
+                     [&](const Terms& c) { return std::any_of(c.terms.begin(), c.terms.end(), s); });
 }
 
 }  // namespace cansim::physics

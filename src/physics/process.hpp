@@ -14,10 +14,15 @@
 //
 // Values in the specs are SI (Pa, K, s, Hz); the config layer converts YAML units with
 // physics/units.hpp (note: temperature *amplitudes / rates* use delta_to_kelvin).
+//
+// At run time a channel's terms can be replaced (set_channel, the control API's Step /
+// Ramp / SetModel): the new terms run on their own time axis starting when they were set,
+// and restore_channel brings the constructed terms back (their state kept meanwhile).
 #pragma once
 
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <string>
 #include <variant>
 #include <vector>
@@ -148,6 +153,14 @@ struct ProcessSpec {
   std::vector<TermSpec> temperature;  ///< additive terms, K
 };
 
+enum class Channel : std::uint8_t { Pressure = 0, Temperature = 1 };
+
+/// Term lists for the control verbs. Times are on the terms' own axis (0 = start_s of
+/// ProcessModel::set_channel). Hold / step: constant_terms(value).
+std::vector<TermSpec> constant_terms(double value);
+/// Linear from `from` to `to` between start_s and start_s + duration_s, then `to`.
+std::vector<TermSpec> ramp_terms(double from, double to, double start_s, double duration_s);
+
 /// Closed gas volume exchanging heat with an ambient (Newton's law, time constant tau):
 ///   T' = (T_ambient(t) - T) / tau,  T(0) = initial_temperature_k,  p = p0 * T / T(0).
 struct GasVolumeSpec {
@@ -161,6 +174,8 @@ void add_gas_volume(ProcessSpec& spec, const GasVolumeSpec& gas);
 
 /// Returns "" if valid, else a human-readable reason ("pressure[2]: ...").
 std::string validate(const ProcessSpec& spec);
+/// The same for the terms of one channel.
+std::string validate(Channel channel, const std::vector<TermSpec>& terms);
 
 /// Evaluates a ProcessSpec. Construction compiles the spec (allocates); at() does not.
 class ProcessModel {
@@ -178,6 +193,17 @@ class ProcessModel {
   Quantity at(double t_s) noexcept;
   /// Same, with the project's microsecond time base.
   Quantity at_us(std::int64_t t_us) noexcept { return at(static_cast<double>(t_us) * 1e-6); }
+  /// at() for an observer: stochastic terms are not advanced (they give their latest
+  /// value), so looking does not change the series the sensor samples.
+  Quantity peek(double t_s) const noexcept;
+
+  /// Replaces one channel's terms; their time 0 is start_s (simulated seconds: the
+  /// time they are set at). Compiles (allocates). Throws std::invalid_argument, changing nothing,
+  /// when validate(channel, terms) fails. Stochastic terms are seeded from `seed` as
+  /// the constructor does. A temperature change reaches GasLaw pressure terms.
+  void set_channel(Channel channel, const std::vector<TermSpec>& terms, std::uint64_t seed, double start_s = 0.0);
+  /// Back to the constructed terms (no-op when the channel was never replaced).
+  void restore_channel(Channel channel) noexcept;
 
   /// Restart stochastic terms (same seed -> same series again).
   void reset() noexcept;
@@ -187,8 +213,15 @@ class ProcessModel {
   struct Term;  // compiled term (implementation detail)
 
  private:
-  std::vector<Term> pressure_;
-  std::vector<Term> temperature_;
+  struct Terms {
+    std::vector<Term> terms;
+    double start_s = 0.0;  // the terms' time 0
+  };
+  Terms& terms(Channel c) noexcept { return channels_[static_cast<std::size_t>(c)]; }
+  const Terms& terms(Channel c) const noexcept { return channels_[static_cast<std::size_t>(c)]; }
+
+  Terms channels_[2];                    // [Pressure], [Temperature]
+  std::optional<Terms> constructed_[2];  // set while the channel is replaced
 };
 
 // Closed forms used by the response terms (exposed for tests).

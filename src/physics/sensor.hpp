@@ -162,8 +162,6 @@ struct SensorSpec {
 /// Returns "" if valid, else the reason ("pressure: ...").
 std::string validate(const SensorSpec& spec);
 
-enum class Channel : std::uint8_t { Pressure = 0, Temperature = 1 };
-
 struct ChannelReading {
   double value = 0.0;          ///< reported value, SI (Pa / K)
   double fraction = 0.0;       ///< (value - range_min) / span: 0..1 inside the span
