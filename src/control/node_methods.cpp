@@ -97,7 +97,9 @@ int nmt(sd_bus_message* m, void* userdata, sd_bus_error* e) {
     TimeUs t = act_now(n);
     const bool done = n.node().nmt_local(c.cs, t);
     n.service->touched(n);
-    if (!done) return fail(e, kErrorRefused, "the node is powered off");
+    if (!done)
+      return fail(e, kErrorRefused, n.node().powered() ? "the node has not booted (INITIALISING, e.g. LSS-unconfigured)"
+                                                       : "the node is powered off");
     return sd_bus_reply_method_return(m, "");
   }
   return fail(e, kErrorInvalidArgument,
