@@ -150,10 +150,12 @@ void ControlService::node_added(const NodeHandle& h) {
   n->service = this;
   n->handle = &h;
   n->path = node_path(h);
-  n->sensor = nullptr;  // TEMPORARY
-  if (false) {
+  n->sensor = personalities::as_cia404(h.app);
+  if (n->sensor) {
     NodeContext* raw = n.get();
-    (void)raw;
+    n->sensor->set_fault_listener([raw](const physics::FaultEdge& edge) {
+      raw->service->fault_edge(*raw, edge.handle, std::uint8_t(edge.kind), edge.started, edge.time_us);
+    });
   }
   if (by_ref_.size() <= h.ref) by_ref_.resize(h.ref + 1, nullptr);
   by_ref_[h.ref] = n.get();
@@ -169,6 +171,7 @@ void ControlService::node_removed(const std::string& key) {
   if (it == by_key_.end()) return;
   const std::string path = it->second->path;
   const io::NodeRef ref = it->second->handle->ref;
+  if (it->second->sensor) it->second->sensor->set_fault_listener(nullptr);
   if (ref < by_ref_.size() && by_ref_[ref] == it->second.get()) by_ref_[ref] = nullptr;
   by_key_.erase(it);
   emit(kRootPath, kFleetInterface, "NodeRemoved", [&](sd_bus_message* m) {

@@ -339,7 +339,7 @@ TEST_F(ControlServiceTest, IntrospectionListsNodesAndManagedObjects) {
   ASSERT_NE(r, nullptr);
   const char* xml = nullptr;
   sd_bus_message_read(r, "s", &xml);
-  EXPECT_NE(std::string(xml).find("node name=\"dps\""), std::string::npos) << xml;
+  EXPECT_NE(std::string(xml).find("node name=\"dps/_30\""), std::string::npos) << xml;
   sd_bus_message_unref(r);
   sd_bus_message_new_method_call(bus.client(), &m, nullptr, control::kRootPath, "org.freedesktop.DBus.ObjectManager",
                                  "GetManagedObjects");
@@ -366,6 +366,200 @@ TEST_F(ControlServiceTest, MalformedCallsAreRefusedByName) {
   m = bus.node_call(path_of("generic/0"), "NoSuchMethod");
   EXPECT_EQ(bus.call(m, &name), nullptr);
   EXPECT_EQ(name, "org.freedesktop.DBus.Error.UnknownMethod");
+}
+
+
+// (true, reported, unit, status) of a channel property.
+struct ChannelValue {
+  double truth = 0, reported = 0;
+  std::string unit;
+  std::uint8_t status = 0;
+};
+
+class ControlPhysicsTest : public ControlServiceTest {
+ protected:
+  ChannelValue channel(const std::string& node, const char* prop) {
+    sd_bus_message* m = nullptr;
+    sd_bus_message_new_method_call(bus.client(), &m, nullptr, path_of(node).c_str(), "org.freedesktop.DBus.Properties", "Get");
+    sd_bus_message_append(m, "ss", control::kNodeInterface, prop);
+    sd_bus_message* r = bus.call(m);
+    ChannelValue v;
+    const char* unit = nullptr;
+    if (r && sd_bus_message_enter_container(r, 'v', "(ddsy)") > 0 &&
+        sd_bus_message_read(r, "(ddsy)", &v.truth, &v.reported, &unit, &v.status) > 0)
+      v.unit = unit;
+    if (r) sd_bus_message_unref(r);
+    return v;
+  }
+  // The REAL32 PV of the last TPDO1 (0x180 + id) on vcan0.
+  float last_tpdo1(std::uint32_t id) {
+    auto pdos = frames_with_id(fleet.take("vcan0"), 0x180 + id);
+    float v = std::nanf("");
+    if (!pdos.empty()) std::memcpy(&v, pdos.back().data, 4);
+    return v;
+  }
+};
+
+TEST_F(ControlPhysicsTest, StepMovesTheTruthAndTheTpdosFollow) {
+  fleet.run_until(10 * kMs);
+  EXPECT_EQ(node_call("generic/0", "Nmt", "s", "start"), "");
+  EXPECT_EQ(node_call("generic/0", "Step", "sds", "pressure", 3.0, "bar"), "");
+  fleet.run_until(400 * kMs);
+  ChannelValue p = channel("generic/0", "Pressure");
+  EXPECT_DOUBLE_EQ(p.truth, 3.0);
+  EXPECT_NEAR(p.reported, 3.0, 0.02);
+  EXPECT_EQ(p.unit, "bar");
+  EXPECT_NEAR(last_tpdo1(0x10), 3.0, 0.02);
+  // Units convert: 100 kPa = 1 bar; psi.
+  EXPECT_EQ(node_call("generic/0", "Step", "sds", "pressure", 100.0, "kPa"), "");
+  EXPECT_DOUBLE_EQ(channel("generic/0", "Pressure").truth, 1.0);
+  EXPECT_EQ(node_call("generic/0", "Step", "sds", "temperature", 50.0, "degC"), "");
+  EXPECT_DOUBLE_EQ(channel("generic/0", "Temperature").truth, 50.0);
+}
+
+TEST_F(ControlPhysicsTest, RampReachesTheTargetAfterItsDuration) {
+  fleet.run_until(10 * kMs);
+  EXPECT_EQ(node_call("generic/0", "Step", "sds", "pressure", 2.0, "bar"), "");
+  EXPECT_EQ(node_call("generic/0", "Ramp", "sdsd", "pressure", 6.0, "bar", 2.0), "");
+  fleet.run_until(1010 * kMs);
+  EXPECT_NEAR(channel("generic/0", "Pressure").truth, 4.0, 1e-6);
+  fleet.run_until(3000 * kMs);
+  EXPECT_NEAR(channel("generic/0", "Pressure").truth, 6.0, 1e-9);
+  EXPECT_EQ(node_call("generic/0", "Ramp", "sdsd", "pressure", 6.0, "bar", -1.0), "io.cansim.Error.OutOfRange");
+}
+
+TEST_F(ControlPhysicsTest, OverrideReportsExactlyAndClears) {
+  fleet.run_until(10 * kMs);
+  EXPECT_EQ(node_call("generic/0", "Override", "sds", "pressure", 7.25, "bar"), "");
+  fleet.run_until(20 * kMs);
+  ChannelValue p = channel("generic/0", "Pressure");
+  EXPECT_EQ(p.reported, 7.25);
+  EXPECT_NE(p.truth, 7.25);
+  EXPECT_EQ(node_call("generic/0", "ClearOverride", "s", "pressure"), "");
+  EXPECT_NE(channel("generic/0", "Pressure").reported, 7.25);
+}
+
+TEST_F(ControlPhysicsTest, SetModelTakesAnyProfileModelAndRestoreModelUndoesIt) {
+  fleet.run_until(10 * kMs);
+  EXPECT_EQ(node_call("generic/0", "SetModel", "ss", "pressure", "- constant: 4 bar\n- constant: 0.5 bar\n"), "");
+  EXPECT_DOUBLE_EQ(channel("generic/0", "Pressure").truth, 4.5);
+  EXPECT_EQ(node_call("generic/0", "SetModel", "ss", "pressure", "- constant: 4 bar\n- bogus: 1\n"),
+            "io.cansim.Error.InvalidArgument");
+  EXPECT_NE(last_error.find("<SetModel>:2:"), std::string::npos) << last_error;
+  EXPECT_EQ(node_call("generic/0", "SetModel", "ss", "pressure", "[unclosed"), "io.cansim.Error.InvalidArgument");
+  EXPECT_DOUBLE_EQ(channel("generic/0", "Pressure").truth, 4.5) << "a refused model changes nothing";
+  EXPECT_EQ(node_call("generic/0", "RestoreModel", "s", "pressure"), "");
+  EXPECT_NE(channel("generic/0", "Pressure").truth, 4.5);
+}
+
+TEST_F(ControlPhysicsTest, BadChannelsAndUnitsAreRefusedByName) {
+  EXPECT_EQ(node_call("generic/0", "Step", "sds", "flow", 1.0, "bar"), "io.cansim.Error.UnknownChannel");
+  EXPECT_EQ(node_call("generic/0", "Step", "sds", "pressure", 1.0, "furlong"), "io.cansim.Error.UnknownUnit");
+  EXPECT_EQ(node_call("generic/0", "Step", "sds", "pressure", 1.0, "degC"), "io.cansim.Error.UnknownUnit");
+  EXPECT_EQ(node_call("generic/0", "Step", "sds", "temperature", -300.0, "degC"), "io.cansim.Error.OutOfRange");
+  EXPECT_EQ(node_call("generic/0", "Step", "sds", "pressure", std::nan(""), "bar"), "io.cansim.Error.OutOfRange");
+}
+
+TEST_F(ControlPhysicsTest, ArmedFaultSendsItsEmcyIsListedAndCancels) {
+  subscribe();
+  fleet.run_until(10 * kMs);
+  fleet.take("vcan0");
+  sd_bus_message* m = bus.node_call(path_of("dps"), "ArmFault");
+  sd_bus_message_append(m, "sa{ss}", "open", 1, "after", "100 ms");
+  sd_bus_message* r = bus.call(m);
+  ASSERT_NE(r, nullptr);
+  std::uint32_t id = 0;
+  sd_bus_message_read(r, "u", &id);
+  sd_bus_message_unref(r);
+  fleet.run_until(300 * kMs);
+  auto emcy = frames_with_id(fleet.take("vcan0"), 0xFF);
+  ASSERT_FALSE(emcy.empty()) << "sensor open raises an EMCY";
+  bus.pump();
+  std::int64_t started = -1;
+  int emcy_signals = 0;
+  for (auto& [name, s] : bus.take_signals()) {
+    if (name == "FaultStarted") {
+      std::uint32_t sid = 0;
+      const char* kind = nullptr;
+      sd_bus_message_read(s, "xus", &started, &sid, &kind);
+      EXPECT_EQ(sid, id);
+      EXPECT_STREQ(kind, "open");
+    }
+    emcy_signals += name == "EmcySent";
+    sd_bus_message_unref(s);
+  }
+  EXPECT_EQ(started, 110 * kMs);
+  EXPECT_GE(emcy_signals, 1);
+  // The DPS (node 0x7F) reports an open sensor (manual §5.4). Listed as active; cancelled it is gone.
+  r = bus.call(bus.node_call(path_of("dps"), "ListFaults"));
+  ASSERT_NE(r, nullptr);
+  ASSERT_GT(sd_bus_message_enter_container(r, 'a', "(ussbxxxu)"), 0);
+  std::uint32_t lid = 0, count = 0;
+  const char *kind = nullptr, *ch = nullptr;
+  int active = 0;
+  std::int64_t first = 0, duration = 0, period = 0;
+  ASSERT_GT(sd_bus_message_read(r, "(ussbxxxu)", &lid, &kind, &ch, &active, &first, &duration, &period, &count), 0);
+  EXPECT_EQ(lid, id);
+  EXPECT_TRUE(active);
+  EXPECT_EQ(first, 110 * kMs);
+  EXPECT_EQ(duration, -1);
+  sd_bus_message_unref(r);
+  EXPECT_EQ(node_call("dps", "CancelFault", "u", id), "");
+  EXPECT_EQ(node_call("dps", "CancelFault", "u", id), "io.cansim.Error.UnknownFault");
+  fleet.run_until(400 * kMs);
+  auto reset = frames_with_id(fleet.take("vcan0"), 0xFF);
+  ASSERT_FALSE(reset.empty());
+  EXPECT_EQ(reset.back().data[0], 0x00);
+  EXPECT_EQ(reset.back().data[1], 0x00) << "error reset EMCY when the fault ends";
+}
+
+TEST_F(ControlPhysicsTest, FaultArgumentsAreCheckedByTheProfileParser) {
+  sd_bus_message* m = bus.node_call(path_of("generic/0"), "ArmFault");
+  sd_bus_message_append(m, "sa{ss}", "melt", 0);
+  std::string name, message;
+  EXPECT_EQ(bus.call(m, &name, &message), nullptr);
+  EXPECT_EQ(name, "io.cansim.Error.UnknownFault");
+  m = bus.node_call(path_of("generic/0"), "ArmFault");
+  sd_bus_message_append(m, "sa{ss}", "drift", 1, "duration", "-2 s");
+  EXPECT_EQ(bus.call(m, &name, &message), nullptr);
+  EXPECT_EQ(name, "io.cansim.Error.InvalidArgument");
+  EXPECT_NE(message.find("duration"), std::string::npos) << message;
+  m = bus.node_call(path_of("generic/0"), "ArmFault");
+  sd_bus_message_append(m, "sa{ss}", "drift", 1, "colour", "red");
+  EXPECT_EQ(bus.call(m, &name, &message), nullptr);
+  EXPECT_NE(message.find("colour"), std::string::npos) << message;
+}
+
+TEST_F(ControlPhysicsTest, CancellingAPowerCycleBootsTheNodeAtOnce) {
+  fleet.run_until(10 * kMs);
+  sd_bus_message* m = bus.node_call(path_of("generic/0"), "ArmFault");
+  sd_bus_message_append(m, "sa{ss}", "power_cycle", 1, "duration", "10 s");
+  sd_bus_message* r = bus.call(m);
+  ASSERT_NE(r, nullptr);
+  std::uint32_t id = 0;
+  sd_bus_message_read(r, "u", &id);
+  sd_bus_message_unref(r);
+  fleet.run_until(500 * kMs);
+  EXPECT_EQ(string_property("generic/0", "NmtState"), "initialising");
+  fleet.take("vcan0");
+  EXPECT_EQ(node_call("generic/0", "CancelFault", "u", id), "");
+  auto boot = fleet.take("vcan0");
+  ASSERT_EQ(frames_with_id(boot, 0x710).size(), 1u);
+  EXPECT_EQ(frames_with_id(boot, 0x710)[0].data[0], 0x00);
+}
+
+TEST_F(ControlPhysicsTest, GetAllAnswersForEveryNodeKind) {
+  for (const char* node : {"generic/0", "dps", "other"}) {
+    sd_bus_message* m = nullptr;
+    sd_bus_message_new_method_call(bus.client(), &m, nullptr, path_of(node).c_str(), "org.freedesktop.DBus.Properties", "GetAll");
+    sd_bus_message_append(m, "s", control::kNodeInterface);
+    std::string name;
+    sd_bus_message* r = bus.call(m, &name);
+    EXPECT_NE(r, nullptr) << node << ": " << name;
+    if (r) sd_bus_message_unref(r);
+  }
+  ChannelValue p = channel("dps", "Pressure");
+  EXPECT_EQ(p.unit, "psi");
 }
 
 }  // namespace
