@@ -1,0 +1,350 @@
+#include "ctl/decode.hpp"
+
+#include <cstdlib>
+#include <cstring>
+#include <string_view>
+
+#include "ctl/connection.hpp"
+#include "ctl/output.hpp"
+
+namespace cansim::ctl {
+
+namespace {
+
+[[noreturn]] void malformed(const std::string& what) { throw Failure("unexpected reply from cansimd: " + what); }
+
+void expect(int r) {
+  if (r < 0) malformed(std::strerror(-r));
+}
+
+// r of a read that must find a value: 0 means the container ended early.
+void expect_value(int r) {
+  expect(r);
+  if (r == 0) malformed("a value is missing");
+}
+
+template <typename T>
+T read_basic(sd_bus_message* m, char type) {
+  T v{};
+  expect_value(sd_bus_message_read_basic(m, type, &v));
+  return v;
+}
+
+std::string read_string(sd_bus_message* m, char type = 's') { return read_basic<const char*>(m, type); }
+
+bool read_bool(sd_bus_message* m) { return read_basic<int>(m, 'b') != 0; }
+
+Bytes read_bytes(sd_bus_message* m) {
+  const void* data = nullptr;
+  std::size_t size = 0;
+  expect(sd_bus_message_read_array(m, 'y', &data, &size));
+  const auto* bytes = static_cast<const std::uint8_t*>(data);
+  return size ? Bytes(bytes, bytes + size) : Bytes();
+}
+
+void enter(sd_bus_message* m, char type, const char* contents) {
+  expect_value(sd_bus_message_enter_container(m, type, contents));
+}
+
+void leave(sd_bus_message* m) { expect(sd_bus_message_exit_container(m)); }
+
+bool at_end(sd_bus_message* m) {
+  int r = sd_bus_message_at_end(m, 0);
+  expect(r);
+  return r > 0;
+}
+
+// An array whose elements (of signature element) read_one reads.
+template <typename ReadOne>
+auto read_array(sd_bus_message* m, const char* element, ReadOne read_one) {
+  enter(m, 'a', element);
+  std::vector<decltype(read_one(m))> out;
+  while (!at_end(m)) out.push_back(read_one(m));
+  leave(m);
+  return out;
+}
+
+bool is_basic(char type) { return type != '\0' && std::strchr("ybnqiuxtdsog", type); }
+
+Value read_basic_value(sd_bus_message* m, char type) {
+  switch (type) {
+    case 'b': return read_bool(m);
+    case 'y': return read_basic<std::uint8_t>(m, type);
+    case 'n': return read_basic<std::int16_t>(m, type);
+    case 'q': return read_basic<std::uint16_t>(m, type);
+    case 'i': return read_basic<std::int32_t>(m, type);
+    case 'u': return read_basic<std::uint32_t>(m, type);
+    case 'x': return read_basic<std::int64_t>(m, type);
+    case 't': return read_basic<std::uint64_t>(m, type);
+    case 'd': return read_basic<double>(m, type);
+    default: return read_string(m, type);  // s, o, g
+  }
+}
+
+struct PeekedType {
+  char type = 0;
+  std::string contents;
+};
+
+PeekedType peek(sd_bus_message* m) {
+  char type = 0;
+  const char* contents = nullptr;
+  expect_value(sd_bus_message_peek_type(m, &type, &contents));
+  return {type, contents ? contents : ""};
+}
+
+// ---------------------------------------------------------------- node properties
+
+Reading read_reading(sd_bus_message* m) {
+  Reading r;
+  const char* unit = "";
+  expect_value(sd_bus_message_read(m, "(ddsy)", &r.true_value, &r.reported, &unit, &r.status));
+  r.unit = unit;
+  return r;
+}
+
+OverrideRow read_override(sd_bus_message* m) {
+  OverrideRow o;
+  const char *channel = "", *unit = "";
+  expect_value(sd_bus_message_read(m, "(sds)", &channel, &o.value, &unit));
+  o.channel = channel;
+  o.unit = unit;
+  return o;
+}
+
+FaultBrief read_fault_brief(sd_bus_message* m) {
+  FaultBrief f;
+  const char* kind = "";
+  int active = 0;
+  expect_value(sd_bus_message_read(m, "(usb)", &f.id, &kind, &active));
+  f.kind = kind;
+  f.active = active;
+  return f;
+}
+
+EmcyRecord read_emcy(sd_bus_message* m) {
+  EmcyRecord e;
+  enter(m, 'r', "xqyay");
+  expect_value(sd_bus_message_read(m, "xqy", &e.time_us, &e.code, &e.error_register));
+  e.vendor = read_bytes(m);
+  leave(m);
+  return e;
+}
+
+struct PropertyReader {
+  std::string_view name;
+  std::string_view signature;
+  void (*read)(sd_bus_message*, NodeStatus&);
+};
+
+constexpr PropertyReader kNodeProperties[] = {
+    {"Key", "s", [](sd_bus_message* m, NodeStatus& s) { s.key = read_string(m); }},
+    {"Name", "s", [](sd_bus_message* m, NodeStatus& s) { s.name = read_string(m); }},
+    {"Index", "u", [](sd_bus_message* m, NodeStatus& s) { s.index = read_basic<std::uint32_t>(m, 'u'); }},
+    {"Profile", "s", [](sd_bus_message* m, NodeStatus& s) { s.profile = read_string(m); }},
+    {"Personality", "s", [](sd_bus_message* m, NodeStatus& s) { s.personality = read_string(m); }},
+    {"Interface", "s", [](sd_bus_message* m, NodeStatus& s) { s.interface = read_string(m); }},
+    {"NodeId", "y", [](sd_bus_message* m, NodeStatus& s) { s.node_id = read_basic<std::uint8_t>(m, 'y'); }},
+    {"NmtState", "s", [](sd_bus_message* m, NodeStatus& s) { s.nmt_state = read_string(m); }},
+    {"Powered", "b", [](sd_bus_message* m, NodeStatus& s) { s.powered = read_bool(m); }},
+    {"OnBus", "b", [](sd_bus_message* m, NodeStatus& s) { s.on_bus = read_bool(m); }},
+    {"Pressure", "(ddsy)", [](sd_bus_message* m, NodeStatus& s) { s.pressure = read_reading(m); }},
+    {"Temperature", "(ddsy)", [](sd_bus_message* m, NodeStatus& s) { s.temperature = read_reading(m); }},
+    {"Overrides", "a(sds)",
+     [](sd_bus_message* m, NodeStatus& s) { s.overrides = read_array(m, "(sds)", read_override); }},
+    {"Faults", "a(usb)",
+     [](sd_bus_message* m, NodeStatus& s) { s.faults = read_array(m, "(usb)", read_fault_brief); }},
+    {"EmcyCount", "u", [](sd_bus_message* m, NodeStatus& s) { s.emcy_count = read_basic<std::uint32_t>(m, 'u'); }},
+    {"LastEmcy", "(xqyay)", [](sd_bus_message* m, NodeStatus& s) { s.last_emcy = read_emcy(m); }},
+    {"Recording", "s", [](sd_bus_message* m, NodeStatus& s) { s.recording = read_string(m); }},
+};
+
+// One a{sv} entry: a known property of the expected type is read, any other skipped.
+void read_node_property(sd_bus_message* m, NodeStatus& status) {
+  enter(m, 'e', "sv");
+  std::string name = read_string(m);
+  std::string type = peek(m).contents;
+  for (const PropertyReader& p : kNodeProperties) {
+    if (p.name != name || p.signature != type) continue;
+    enter(m, 'v', type.c_str());
+    p.read(m, status);
+    leave(m);
+    return leave(m);
+  }
+  expect(sd_bus_message_skip(m, "v"));
+  leave(m);
+}
+
+// ---------------------------------------------------------------- signals
+
+struct ArgName {
+  std::string_view name;
+  IntegerStyle style = IntegerStyle::kDecimal;
+};
+
+struct SignalSpec {
+  std::string_view name;
+  bool timed;  // starts with the simulated time (x)
+  std::vector<ArgName> args;
+};
+
+const std::vector<SignalSpec>& signal_specs() {
+  constexpr auto kHex = IntegerStyle::kHex;
+  static const std::vector<SignalSpec> kSpecs = {
+      {"NmtStateChanged", true, {{"old"}, {"new"}}},
+      {"BootUp", true, {{"node_id", kHex}}},
+      {"EmcySent", true, {{"code", kHex}, {"register", kHex}, {"vendor"}}},
+      {"ObjectWritten", true, {{"index", kHex}, {"sub"}, {"value"}, {"via"}}},
+      {"FaultStarted", true, {{"id"}, {"kind"}}},
+      {"FaultEnded", true, {{"id"}, {"kind"}}},
+      {"NodeAdded", false, {{"path"}, {"key"}}},
+      {"NodeRemoved", false, {{"path"}, {"key"}}},
+  };
+  return kSpecs;
+}
+
+const SignalSpec* find_signal(std::string_view name) {
+  for (const SignalSpec& s : signal_specs()) {
+    if (s.name == name) return &s;
+  }
+  return nullptr;
+}
+
+// A signal argument or property value; what is neither basic, bytes nor the
+// fault list prints as "…".
+Value read_field(sd_bus_message* m) {
+  PeekedType t = peek(m);
+  if (t.type == 'v') {
+    enter(m, 'v', t.contents.c_str());
+    Value v = read_field(m);
+    leave(m);
+    return v;
+  }
+  if (t.type == 'a' && t.contents == "(usb)") return format_fault_briefs(read_array(m, "(usb)", read_fault_brief));
+  if (is_basic(t.type) || (t.type == 'a' && t.contents == "y")) return read_value(m);
+  expect(sd_bus_message_skip(m, nullptr));
+  return std::string("…");
+}
+
+void read_properties_changed(sd_bus_message* m, Event& e) {
+  read_string(m);  // interface
+  enter(m, 'a', "{sv}");
+  while (!at_end(m)) {
+    enter(m, 'e', "sv");
+    std::string name = read_string(m);
+    e.fields.push_back({name, read_field(m)});
+    leave(m);
+  }
+  leave(m);
+  for (const std::string& name : read_array(m, "s", [](sd_bus_message* m) { return read_string(m); }))
+    e.fields.push_back({name, std::string("(changed)")});
+}
+
+std::string source_of(const char* path) {
+  std::string p = path ? path : "";
+  if (p == kFleetPath) return "fleet";
+  std::string key = node_key_of_path(p);
+  return key.empty() ? p : key;
+}
+
+}  // namespace
+
+Value read_value(sd_bus_message* m) {
+  PeekedType t = peek(m);
+  if (t.type == 'v') {
+    enter(m, 'v', t.contents.c_str());
+    Value v = read_value(m);
+    leave(m);
+    return v;
+  }
+  if (t.type == 'a' && t.contents == "y") return read_bytes(m);
+  if (is_basic(t.type)) return read_basic_value(m, t.type);
+  malformed(std::string("a value of type ") + t.type + t.contents);
+}
+
+std::int64_t read_int64(sd_bus_message* m) {
+  Value v = read_value(m);
+  if (const auto* x = std::get_if<std::int64_t>(&v)) return *x;
+  malformed(std::string("expected x, got ") + signature(v));
+}
+
+std::uint32_t read_uint32(sd_bus_message* m) { return read_basic<std::uint32_t>(m, 'u'); }
+
+std::string read_object_path(sd_bus_message* m) { return read_string(m, 'o'); }
+
+std::vector<std::string> read_object_paths(sd_bus_message* m) { return read_array(m, "o", read_object_path); }
+
+std::vector<NodeRow> read_node_rows(sd_bus_message* m) {
+  return read_array(m, "(osssysss)", [](sd_bus_message* m) {
+    const char *path, *key, *name, *interface, *profile, *personality, *state;
+    NodeRow r;
+    expect_value(sd_bus_message_read(m, "(osssysss)", &path, &key, &name, &interface, &r.node_id, &profile,
+                                     &personality, &state));
+    r.path = path, r.key = key, r.name = name, r.interface = interface;
+    r.profile = profile, r.personality = personality, r.nmt_state = state;
+    return r;
+  });
+}
+
+std::vector<FaultRow> read_fault_rows(sd_bus_message* m) {
+  return read_array(m, "(ussbxxxu)", [](sd_bus_message* m) {
+    const char *kind, *channel;
+    int active = 0;
+    FaultRow f;
+    expect_value(sd_bus_message_read(m, "(ussbxxxu)", &f.id, &kind, &channel, &active, &f.start_us, &f.duration_us,
+                                     &f.period_us, &f.count));
+    f.kind = kind, f.channel = channel, f.active = active;
+    return f;
+  });
+}
+
+std::vector<BusStats> read_bus_stats(sd_bus_message* m) {
+  return read_array(m, "(sbuttttdd)", [](sd_bus_message* m) {
+    const char* name;
+    int up = 0;
+    BusStats b;
+    expect_value(sd_bus_message_read(m, "(sbuttttdd)", &name, &up, &b.bit_rate_kbit, &b.frames_in, &b.frames_out,
+                                     &b.frames_dropped, &b.local_deliveries, &b.offered_load, &b.measured_load));
+    b.name = name, b.up = up;
+    return b;
+  });
+}
+
+NodeStatus read_node_status(sd_bus_message* m) {
+  NodeStatus status;
+  enter(m, 'a', "{sv}");
+  while (!at_end(m)) read_node_property(m, status);
+  leave(m);
+  return status;
+}
+
+std::string node_key_of_path(const std::string& path) {
+  char *interface = nullptr, *name = nullptr, *index = nullptr;
+  int r = sd_bus_path_decode_many(path.c_str(), (std::string(kNodePathPrefix) + "/%/%/%").c_str(), &interface, &name,
+                                  &index);
+  std::string key = r > 0 ? std::string(interface) + "/" + name + "/" + index : "";
+  std::free(interface);
+  std::free(name);
+  std::free(index);
+  return key;
+}
+
+Event read_event(sd_bus_message* signal) {
+  Event e;
+  e.source = source_of(sd_bus_message_get_path(signal));
+  e.name = sd_bus_message_get_member(signal);
+  if (sd_bus_message_is_signal(signal, kPropertiesInterface, "PropertiesChanged")) {
+    read_properties_changed(signal, e);
+    return e;
+  }
+  const SignalSpec* spec = find_signal(e.name);
+  if (spec && spec->timed) e.time_us = read_int64(signal);
+  for (std::size_t i = 0; !at_end(signal); ++i) {
+    bool named = spec && i < spec->args.size();
+    std::string name = named ? std::string(spec->args[i].name) : "arg" + std::to_string(i);
+    e.fields.push_back({name, read_field(signal), named ? spec->args[i].style : IntegerStyle::kDecimal});
+  }
+  return e;
+}
+
+}  // namespace cansim::ctl

@@ -1,0 +1,35 @@
+// Reads the control API's replies and signals (sd-bus messages) into the
+// plain data of replies.hpp. A reply of another shape throws Failure.
+#pragma once
+
+#include <systemd/sd-bus.h>
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "ctl/replies.hpp"
+
+namespace cansim::ctl {
+
+// The next argument: a basic type, "ay", or a variant holding one of them.
+Value read_value(sd_bus_message* m);
+
+std::int64_t read_int64(sd_bus_message* m);  // x, or a variant holding x (Properties.Get)
+std::uint32_t read_uint32(sd_bus_message* m);
+std::string read_object_path(sd_bus_message* m);
+std::vector<std::string> read_object_paths(sd_bus_message* m);  // ao
+std::vector<NodeRow> read_node_rows(sd_bus_message* m);
+std::vector<FaultRow> read_fault_rows(sd_bus_message* m);
+std::vector<BusStats> read_bus_stats(sd_bus_message* m);
+NodeStatus read_node_status(sd_bus_message* m);  // a{sv} of io.cansim.Node1
+
+// "vcan0/dps/0" for a node object path, "" for any other path.
+std::string node_key_of_path(const std::string& path);
+
+// A signal of the fleet or a node object (PropertiesChanged included) as
+// watch prints it.
+Event read_event(sd_bus_message* signal);
+
+}  // namespace cansim::ctl

@@ -1,0 +1,60 @@
+// A minimal streaming JSON writer for cansimctl --json (no dependency).
+#pragma once
+
+#include <concepts>
+#include <cstdint>
+#include <ostream>
+#include <string>
+#include <string_view>
+#include <type_traits>
+#include <vector>
+
+namespace cansim::ctl {
+
+// The JSON string literal for text, quotes included. Control characters are
+// escaped as \uXXXX; bytes >= 0x80 pass through (the text is UTF-8).
+std::string json_quote(std::string_view text);
+
+// Writes one JSON value; commas between members and elements are automatic.
+// Inside an object, call key() before each member's value.
+class JsonWriter {
+ public:
+  explicit JsonWriter(std::ostream& out) : out_(out) {}
+
+  void begin_object();
+  void end_object();
+  void begin_array();
+  void end_array();
+  void key(std::string_view name);
+
+  void value(std::string_view text);
+  void value(const char* text) { value(std::string_view(text)); }
+  void value(bool b);
+  void value(double d);  // NaN and infinities: null
+  template <std::integral T>
+    requires(!std::same_as<T, bool>)
+  void value(T n) {
+    if constexpr (std::is_signed_v<T>)
+      integer(std::to_string(std::int64_t(n)));
+    else
+      integer(std::to_string(std::uint64_t(n)));
+  }
+  void null();
+
+  // key(name) then value(v).
+  template <typename T>
+  void member(std::string_view name, const T& v) {
+    key(name);
+    value(v);
+  }
+
+ private:
+  void before_value();
+  void integer(const std::string& digits);
+
+  std::ostream& out_;
+  std::vector<bool> first_;  // per open container: no element written yet
+  bool after_key_ = false;
+};
+
+}  // namespace cansim::ctl

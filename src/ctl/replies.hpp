@@ -1,0 +1,103 @@
+// The control API's replies and signals as plain data (docs/control-api.md),
+// decoded by decode.hpp and printed by output.hpp.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "ctl/values.hpp"
+
+namespace cansim::ctl {
+
+// ListNodes: a(osssysss).
+struct NodeRow {
+  std::string path, key, name, interface;
+  std::uint8_t node_id = 0;
+  std::string profile, personality, nmt_state;
+};
+
+// A node object and its fleet key (AddNodes).
+struct NodeRef {
+  std::string path, key;
+};
+
+// ListFaults: a(ussbxxxu). Times in µs; duration -1: until cancelled.
+struct FaultRow {
+  std::uint32_t id = 0;
+  std::string kind, channel;
+  bool active = false;
+  std::int64_t start_us = -1, duration_us = -1, period_us = 0;
+  std::uint32_t count = 0;
+};
+
+// GetBusStatistics: a(sbuttttdd). Loads are fractions of the bit rate.
+struct BusStats {
+  std::string name;
+  bool up = false;
+  std::uint32_t bit_rate_kbit = 0;
+  std::uint64_t frames_in = 0, frames_out = 0, frames_dropped = 0, local_deliveries = 0;
+  double offered_load = 0, measured_load = 0;
+};
+
+// Node1.Pressure / Temperature: (ddsy). NaN and "" without such a channel.
+struct Reading {
+  double true_value = NAN, reported = NAN;
+  std::string unit;
+  std::uint8_t status = 0;
+};
+
+struct OverrideRow {  // Node1.Overrides: a(sds)
+  std::string channel;
+  double value = 0;
+  std::string unit;
+};
+
+struct FaultBrief {  // Node1.Faults: a(usb)
+  std::uint32_t id = 0;
+  std::string kind;
+  bool active = false;
+};
+
+struct EmcyRecord {  // Node1.LastEmcy: (xqyay); time -1: none yet
+  std::int64_t time_us = -1;
+  std::uint16_t code = 0;
+  std::uint8_t error_register = 0;
+  Bytes vendor;
+};
+
+// Properties.GetAll of a node (io.cansim.Node1).
+struct NodeStatus {
+  std::string path;
+  std::string key, name;
+  std::uint32_t index = 0;
+  std::string profile, personality, interface;
+  std::uint8_t node_id = 0;
+  std::string nmt_state;
+  bool powered = false, on_bus = false;
+  Reading pressure, temperature;
+  std::vector<OverrideRow> overrides;
+  std::vector<FaultBrief> faults;
+  std::uint32_t emcy_count = 0;
+  EmcyRecord last_emcy;
+  std::string recording;
+};
+
+// One argument of a signal, or one changed property.
+struct Field {
+  std::string name;
+  Value value;
+  IntegerStyle style = IntegerStyle::kDecimal;  // human output; JSON always prints numbers
+};
+
+// A signal as watch prints it.
+struct Event {
+  std::optional<std::int64_t> time_us;  // simulated time
+  std::string source;                   // node key, "fleet", or the object path
+  std::string name;                     // signal name, or PropertiesChanged
+  std::vector<Field> fields;
+};
+
+}  // namespace cansim::ctl

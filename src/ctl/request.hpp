@@ -1,0 +1,68 @@
+// What one cansimctl command asks of the daemon: a method call of the control
+// API (docs/control-api.md) and how to print its reply. Pure data, built by
+// parse_command_line (args.hpp) and carried out by run_request (commands.hpp).
+#pragma once
+
+#include <map>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "ctl/values.hpp"
+
+namespace cansim::ctl {
+
+inline constexpr const char* kBusName = "io.cansim.Cansimd1";
+inline constexpr const char* kFleetPath = "/io/cansim/Cansimd1";
+inline constexpr const char* kNodePathPrefix = "/io/cansim/Cansimd1/node";
+inline constexpr const char* kFleetInterface = "io.cansim.Fleet1";
+inline constexpr const char* kNodeInterface = "io.cansim.Node1";
+inline constexpr const char* kPropertiesInterface = "org.freedesktop.DBus.Properties";
+
+using StringMap = std::map<std::string, std::string>;  // "a{ss}"
+
+// An argument sent as a D-Bus variant "v" (Write's value).
+struct Variant {
+  Value value;
+  bool operator==(const Variant&) const = default;
+};
+
+using Arg = std::variant<Value, Variant, StringMap>;
+
+enum class Target {
+  kFleet,  // the fleet object
+  kNode,   // the object path GetNode returns for Request::node
+};
+
+struct Call {
+  Target target = Target::kFleet;
+  std::string interface;
+  std::string method;
+  std::vector<Arg> args;
+  bool operator==(const Call&) const = default;
+};
+
+// How the reply is printed (and, for kWatch and kAdded, what happens around
+// the call).
+enum class Output {
+  kNothing,
+  kNodes,    // ListNodes
+  kStatus,   // Properties.GetAll of a node
+  kFaultId,  // ArmFault
+  kFaults,   // ListFaults
+  kValue,    // Read
+  kAdded,    // AddNodes: its argument is the text of Request::file
+  kTime,     // Properties.Get SimulatedTime
+  kStats,    // GetBusStatistics
+  kWatch,    // Subscribe, then print signals until SIGINT/SIGTERM (only Request::node's, if given)
+};
+
+struct Request {
+  std::string node;       // NODE as given on the command line, "" when none
+  Call call;
+  Output output = Output::kNothing;
+  std::string file;       // kAdded
+  ObjectAddress object;   // kValue
+};
+
+}  // namespace cansim::ctl

@@ -1,0 +1,629 @@
+// cansimctl without a daemon: command lines -> method calls, value typing,
+// object addresses, durations, endpoints, and the printed output.
+#include <gtest/gtest.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <sstream>
+
+#include "ctl/args.hpp"
+#include "ctl/commands.hpp"
+#include "ctl/connection.hpp"
+#include "ctl/decode.hpp"
+#include "ctl/json.hpp"
+#include "ctl/output.hpp"
+
+namespace cansim::ctl {
+namespace {
+
+Request parse(std::vector<std::string> args) { return parse_command_line(args).request; }
+
+Arg s(const char* text) { return Value(std::string(text)); }
+Arg d(double v) { return Value(v); }
+
+Call node_call(const char* method, std::vector<Arg> args = {}) {
+  return {Target::kNode, kNodeInterface, method, std::move(args)};
+}
+
+Call fleet_call(const char* method, std::vector<Arg> args = {}) {
+  return {Target::kFleet, kFleetInterface, method, std::move(args)};
+}
+
+void expect_usage_error(std::vector<std::string> args) {
+  EXPECT_THROW(parse_command_line(args), UsageError) << ::testing::PrintToString(args);
+}
+
+// ---------------------------------------------------------------- verbs
+
+TEST(CtlArgs, FleetVerbs) {
+  EXPECT_EQ(parse({"list"}).call, fleet_call("ListNodes"));
+  EXPECT_EQ(parse({"list"}).output, Output::kNodes);
+  EXPECT_EQ(parse({"reload"}).call, fleet_call("Reload"));
+  EXPECT_EQ(parse({"stats"}).call, fleet_call("GetBusStatistics"));
+  EXPECT_EQ(parse({"stats"}).output, Output::kStats);
+  EXPECT_EQ(parse({"remove", "dps"}).call, fleet_call("RemoveNode", {s("dps")}));
+  EXPECT_EQ(parse({"remove", "dps"}).node, "");  // RemoveNode resolves the name itself
+
+  Request time = parse({"time"});
+  EXPECT_EQ(time.call, (Call{Target::kFleet, kPropertiesInterface, "Get", {s(kFleetInterface), s("SimulatedTime")}}));
+  EXPECT_EQ(time.output, Output::kTime);
+
+  Request add = parse({"add", "more.yaml"});
+  EXPECT_EQ(add.call, fleet_call("AddNodes"));  // the file's text is added when run
+  EXPECT_EQ(add.file, "more.yaml");
+  EXPECT_EQ(add.output, Output::kAdded);
+}
+
+TEST(CtlArgs, StatusGetsAllNodeProperties) {
+  Request r = parse({"status", "vcan0/0x10"});
+  EXPECT_EQ(r.node, "vcan0/0x10");
+  EXPECT_EQ(r.call, (Call{Target::kNode, kPropertiesInterface, "GetAll", {s(kNodeInterface)}}));
+  EXPECT_EQ(r.output, Output::kStatus);
+}
+
+TEST(CtlArgs, SetStepsOrRamps) {
+  Request step = parse({"set", "dps", "pressure", "5", "bar"});
+  EXPECT_EQ(step.node, "dps");
+  EXPECT_EQ(step.call, node_call("Step", {s("pressure"), d(5), s("bar")}));
+  EXPECT_EQ(parse({"set", "dps", "temperature", "-5.5", "degC", "--ramp", "500ms"}).call,
+            node_call("Ramp", {s("temperature"), d(-5.5), s("degC"), d(0.5)}));
+  EXPECT_EQ(parse({"set", "--ramp=2 min", "dps", "pressure", "1", "bar"}).call,
+            node_call("Ramp", {s("pressure"), d(1), s("bar"), d(120)}));
+  EXPECT_EQ(parse({"hold", "dps", "pressure"}).call, node_call("Hold", {s("pressure")}));
+  EXPECT_EQ(parse({"model", "dps", "pressure", "{sine: {amplitude: 1 bar}}"}).call,
+            node_call("SetModel", {s("pressure"), s("{sine: {amplitude: 1 bar}}")}));
+  EXPECT_EQ(parse({"restore-model", "dps", "temperature"}).call, node_call("RestoreModel", {s("temperature")}));
+}
+
+TEST(CtlArgs, OverrideAndItsEnd) {
+  EXPECT_EQ(parse({"override", "dps", "pressure", "3", "bar"}).call,
+            node_call("Override", {s("pressure"), d(3), s("bar")}));
+  EXPECT_EQ(parse({"override", "dps", "pressure", "--off"}).call, node_call("ClearOverride", {s("pressure")}));
+}
+
+TEST(CtlArgs, FaultMapsOptionsToParameters) {
+  Request r = parse({"fault", "dps", "drift", "--for", "10s", "--at=1.5", "rate=0.1 bar/s", "channel=pressure"});
+  StringMap params{{"duration", "10 s"}, {"at", "1.5 s"}, {"rate", "0.1 bar/s"}, {"channel", "pressure"}};
+  EXPECT_EQ(r.call, node_call("ArmFault", {s("drift"), params}));
+  EXPECT_EQ(r.output, Output::kFaultId);
+  EXPECT_EQ(parse({"fault", "dps", "power_loss"}).call, node_call("ArmFault", {s("power_loss"), StringMap{}}));
+}
+
+TEST(CtlArgs, FaultListCancelPowerCycleNmt) {
+  EXPECT_EQ(parse({"faults", "dps"}).call, node_call("ListFaults"));
+  EXPECT_EQ(parse({"faults", "dps"}).output, Output::kFaults);
+  EXPECT_EQ(parse({"cancel", "dps", "3"}).call, node_call("CancelFault", {Value(std::uint32_t(3))}));
+  EXPECT_EQ(parse({"power-cycle", "dps"}).call, node_call("PowerCycle", {d(0)}));
+  EXPECT_EQ(parse({"power-cycle", "dps", "--off", "2 s"}).call, node_call("PowerCycle", {d(2)}));
+  for (const char* c : {"start", "stop", "preop", "reset", "reset-comm"})
+    EXPECT_EQ(parse({"nmt", "dps", c}).call, node_call("Nmt", {s(c)}));
+}
+
+TEST(CtlArgs, ReadAndWriteObjects) {
+  Request read = parse({"read", "dps", "0x6130:1"});
+  EXPECT_EQ(read.call, node_call("Read", {Value(std::uint16_t(0x6130)), Value(std::uint8_t(1))}));
+  EXPECT_EQ(read.object, (ObjectAddress{0x6130, 1}));
+  EXPECT_EQ(read.output, Output::kValue);
+
+  EXPECT_EQ(parse({"write", "dps", "0x1017", "1000"}).call,
+            node_call("Write", {Value(std::uint16_t(0x1017)), Value(std::uint8_t(0)), Variant{std::int64_t(1000)}}));
+  EXPECT_EQ(parse({"write", "dps", "0x1017", "1000", "--type", "u16"}).call,
+            node_call("Write", {Value(std::uint16_t(0x1017)), Value(std::uint8_t(0)), Variant{std::uint16_t(1000)}}));
+  EXPECT_EQ(parse({"write", "dps", "0x1008", "--type=str", "12"}).call,
+            node_call("Write", {Value(std::uint16_t(0x1008)), Value(std::uint8_t(0)), Variant{std::string("12")}}));
+}
+
+TEST(CtlArgs, RecordStoreRestore) {
+  Request r = parse({"record", "dps", "out/dps.csv"});
+  ASSERT_EQ(r.call.method, "StartRecording");
+  std::string path = std::get<std::string>(std::get<Value>(r.call.args.at(0)));
+  EXPECT_EQ(path.front(), '/');  // the daemon's working directory is not ours
+  EXPECT_TRUE(path.ends_with("/out/dps.csv")) << path;
+  EXPECT_EQ(parse({"record", "dps", "--stop"}).call, node_call("StopRecording"));
+
+  EXPECT_EQ(parse({"store", "dps"}).call, node_call("Store", {Value(std::uint8_t(1))}));
+  EXPECT_EQ(parse({"store", "dps", "2"}).call, node_call("Store", {Value(std::uint8_t(2))}));
+  EXPECT_EQ(parse({"restore", "dps", "0x4"}).call, node_call("Restore", {Value(std::uint8_t(4))}));
+}
+
+TEST(CtlArgs, WatchSubscribesForTheFleetOrOneNode) {
+  Request all = parse({"watch"});
+  EXPECT_EQ(all.call, fleet_call("Subscribe"));
+  EXPECT_EQ(all.output, Output::kWatch);
+  EXPECT_EQ(all.node, "");
+  EXPECT_EQ(parse({"watch", "generic/1"}).node, "generic/1");
+}
+
+TEST(CtlArgs, GlobalOptionsAnywhere) {
+  CommandLine line = parse_command_line({"--json", "list", "--timeout", "2.5", "--socket=/tmp/c"});
+  EXPECT_TRUE(line.global.json);
+  EXPECT_EQ(line.global.timeout_s, 2.5);
+  EXPECT_EQ(line.global.bus, BusKind::kSocket);
+  EXPECT_EQ(line.global.socket, "/tmp/c");
+  EXPECT_EQ(parse_command_line({"--system", "list"}).global.bus, BusKind::kSystem);
+  EXPECT_EQ(parse_command_line({"list", "--user"}).global.bus, BusKind::kUser);
+  EXPECT_TRUE(parse_command_line({"-h"}).global.help);
+  EXPECT_TRUE(parse_command_line({"set", "--help"}).global.help);  // help wins over an incomplete line
+  EXPECT_TRUE(parse_command_line({"--version"}).global.version);
+}
+
+TEST(CtlArgs, NegativeNumbersAndDoubleDashArePositional) {
+  EXPECT_EQ(parse({"set", "dps", "temperature", "-.5", "degC"}).call,
+            node_call("Step", {s("temperature"), d(-0.5), s("degC")}));
+  EXPECT_EQ(parse({"write", "dps", "0x2000", "--", "-text"}).call,
+            node_call("Write", {Value(std::uint16_t(0x2000)), Value(std::uint8_t(0)), Variant{std::string("-text")}}));
+}
+
+TEST(CtlArgs, BadLinesAreUsageErrors) {
+  expect_usage_error({});
+  expect_usage_error({"--json"});
+  expect_usage_error({"frobnicate"});
+  expect_usage_error({"list", "extra"});
+  expect_usage_error({"status"});
+  expect_usage_error({"status", "a", "b"});
+  expect_usage_error({"set", "dps", "pressure", "5"});
+  expect_usage_error({"set", "dps", "humidity", "5", "%"});
+  expect_usage_error({"set", "dps", "pressure", "five", "bar"});
+  expect_usage_error({"set", "dps", "pressure", "5", "bar", "--ramp"});
+  expect_usage_error({"set", "dps", "pressure", "5", "bar", "--ramp", "soon"});
+  expect_usage_error({"set", "dps", "pressure", "5", "bar", "--ramp", "1s", "--ramp", "2s"});
+  expect_usage_error({"set", "dps", "pressure", "5", "bar", "--ramp", "-1s"});
+  expect_usage_error({"hold", "dps", "pressure", "--off"});  // not an option of hold
+  expect_usage_error({"override", "dps", "pressure", "3"});
+  expect_usage_error({"override", "dps", "pressure", "3", "bar", "--off"});
+  expect_usage_error({"override", "dps", "pressure", "--off=yes"});
+  expect_usage_error({"fault", "dps"});
+  expect_usage_error({"fault", "dps", "drift", "rate"});
+  expect_usage_error({"fault", "dps", "drift", "=1"});
+  expect_usage_error({"fault", "dps", "drift", "--for", "1 s", "duration=2 s"});
+  expect_usage_error({"fault", "dps", "drift", "--at", "tomorrow"});
+  expect_usage_error({"cancel", "dps", "x"});
+  expect_usage_error({"cancel", "dps", "4294967296"});
+  expect_usage_error({"power-cycle", "dps", "--off", "1 day"});
+  expect_usage_error({"nmt", "dps", "go"});
+  expect_usage_error({"read", "dps", "0x10000"});
+  expect_usage_error({"read", "dps", "0x1017:256"});
+  expect_usage_error({"read", "dps", "index"});
+  expect_usage_error({"write", "dps", "0x1017"});
+  expect_usage_error({"write", "dps", "0x1017", "70000", "--type", "u16"});
+  expect_usage_error({"write", "dps", "0x1017", "1", "--type", "u12"});
+  expect_usage_error({"write", "dps", "0x1017", "99999999999999999999"});
+  expect_usage_error({"record", "dps"});
+  expect_usage_error({"record", "dps", "f.csv", "--stop"});
+  expect_usage_error({"store", "dps", "256"});
+  expect_usage_error({"watch", "a", "b"});
+  expect_usage_error({"add"});
+  expect_usage_error({"list", "--socket"});
+  expect_usage_error({"list", "--socket", "/a", "--system"});
+  expect_usage_error({"list", "--system", "--user"});
+  expect_usage_error({"list", "--timeout", "0"});
+  expect_usage_error({"list", "--timeout", "soon"});
+  expect_usage_error({"list", "--json=yes"});
+  expect_usage_error({"--ramp", "1s", "list"});
+}
+
+TEST(CtlArgs, MainExitCodes) {
+  std::ostringstream out, err;
+  EXPECT_EQ(cansimctl_main({"set", "dps"}, out, err), 2);
+  EXPECT_EQ(out.str(), "");
+  EXPECT_TRUE(err.str().starts_with("cansimctl: usage: cansimctl set NODE CHANNEL VALUE UNIT")) << err.str();
+  EXPECT_NE(err.str().find("\nusage: cansimctl [OPTIONS] COMMAND"), std::string::npos);
+
+  std::ostringstream help;
+  EXPECT_EQ(cansimctl_main({"--help"}, help, err), 0);
+  EXPECT_EQ(help.str(), usage_text());
+  std::ostringstream version;
+  EXPECT_EQ(cansimctl_main({"--version"}, version, err), 0);
+  EXPECT_TRUE(version.str().starts_with("cansimctl ")) << version.str();
+
+  std::ostringstream none, refused;
+  EXPECT_EQ(cansimctl_main({"--socket", "/nonexistent/control", "list"}, none, refused), 1);
+  EXPECT_TRUE(refused.str().starts_with("cansimctl: cannot connect to the control socket /nonexistent/control"))
+      << refused.str();
+}
+
+TEST(CtlArgs, UsageListsEveryVerb) {
+  std::string usage = usage_text();
+  for (const char* verb : {"list", "status", "set", "hold", "model", "restore-model", "override", "fault", "faults",
+                           "cancel", "power-cycle", "nmt", "read", "write", "record", "store", "restore", "watch",
+                           "add", "remove", "reload", "time", "stats"})
+    EXPECT_NE(usage.find(std::string("\n  ") + verb + " "), std::string::npos) << verb;
+}
+
+// ---------------------------------------------------------------- values
+
+TEST(CtlValues, WriteValueTypedByItsLook) {
+  EXPECT_EQ(typed_value("1000"), Value(std::int64_t(1000)));
+  EXPECT_EQ(typed_value("-5"), Value(std::int64_t(-5)));
+  EXPECT_EQ(typed_value("+7"), Value(std::int64_t(7)));
+  EXPECT_EQ(typed_value("18446744073709551615"), Value(std::uint64_t(UINT64_MAX)));
+  EXPECT_EQ(typed_value("0x3E8"), Value(std::uint64_t(1000)));
+  EXPECT_EQ(typed_value("1.5"), Value(1.5));
+  EXPECT_EQ(typed_value("-.25"), Value(-0.25));
+  EXPECT_EQ(typed_value("2e3"), Value(2000.0));
+  EXPECT_EQ(typed_value("\"123\""), Value(std::string("123")));
+  EXPECT_EQ(typed_value("hello world"), Value(std::string("hello world")));
+  EXPECT_EQ(typed_value("nan"), Value(std::string("nan")));
+  EXPECT_EQ(typed_value(""), Value(std::string("")));
+  EXPECT_FALSE(typed_value("99999999999999999999"));  // beyond 64 bits
+  EXPECT_FALSE(typed_value("1.2.3"));
+  EXPECT_FALSE(typed_value("0xZZ"));
+}
+
+TEST(CtlValues, WriteValueOfAForcedType) {
+  EXPECT_EQ(typed_value("255", "u8"), Value(std::uint8_t(255)));
+  EXPECT_FALSE(typed_value("256", "u8"));
+  EXPECT_FALSE(typed_value("-1", "u8"));
+  EXPECT_EQ(typed_value("0xffff", "u16"), Value(std::uint16_t(0xFFFF)));
+  EXPECT_EQ(typed_value("4294967295", "u32"), Value(std::uint32_t(UINT32_MAX)));
+  EXPECT_EQ(typed_value("0xffffffffffffffff", "u64"), Value(std::uint64_t(UINT64_MAX)));
+  EXPECT_EQ(typed_value("-128", "i8"), Value(std::int16_t(-128)));  // D-Bus has no signed byte
+  EXPECT_FALSE(typed_value("128", "i8"));
+  EXPECT_EQ(typed_value("-32768", "i16"), Value(std::int16_t(-32768)));
+  EXPECT_EQ(typed_value("-2147483648", "i32"), Value(std::int32_t(INT32_MIN)));
+  EXPECT_EQ(typed_value("-9223372036854775808", "i64"), Value(std::int64_t(INT64_MIN)));
+  EXPECT_FALSE(typed_value("9223372036854775808", "i64"));
+  EXPECT_EQ(typed_value("3", "f32"), Value(3.0));
+  EXPECT_EQ(typed_value("-1.5", "f64"), Value(-1.5));
+  EXPECT_FALSE(typed_value("x", "f64"));
+  EXPECT_EQ(typed_value("true", "bool"), Value(true));
+  EXPECT_EQ(typed_value("0", "bool"), Value(false));
+  EXPECT_FALSE(typed_value("2", "bool"));
+  EXPECT_EQ(typed_value("\"q\"", "str"), Value(std::string("\"q\"")));
+  EXPECT_EQ(typed_value("01:02:ff", "bytes"), Value(Bytes{1, 2, 0xFF}));
+  EXPECT_FALSE(typed_value("1", "u12"));
+}
+
+TEST(CtlValues, Signatures) {
+  EXPECT_STREQ(signature(Value(true)), "b");
+  EXPECT_STREQ(signature(Value(std::int16_t(1))), "n");
+  EXPECT_STREQ(signature(Value(std::uint64_t(1))), "t");
+  EXPECT_STREQ(signature(Value(Bytes{})), "ay");
+}
+
+TEST(CtlValues, Bytes) {
+  EXPECT_EQ(parse_bytes("0102ff"), (Bytes{1, 2, 0xFF}));
+  EXPECT_EQ(parse_bytes("0x01 02 FF"), (Bytes{1, 2, 0xFF}));
+  EXPECT_EQ(parse_bytes("01-02"), (Bytes{1, 2}));
+  EXPECT_EQ(parse_bytes(""), Bytes{});
+  EXPECT_FALSE(parse_bytes("012"));
+  EXPECT_FALSE(parse_bytes("0 12"));
+  EXPECT_FALSE(parse_bytes("gg"));
+}
+
+TEST(CtlValues, ObjectAddresses) {
+  EXPECT_EQ(parse_object_address("0x6130:1"), (ObjectAddress{0x6130, 1}));
+  EXPECT_EQ(parse_object_address("0x1017"), (ObjectAddress{0x1017, 0}));
+  EXPECT_EQ(parse_object_address("1017h"), (ObjectAddress{0x1017, 0}));
+  EXPECT_EQ(parse_object_address("6130h:0x2"), (ObjectAddress{0x6130, 2}));
+  EXPECT_EQ(parse_object_address("4119:255"), (ObjectAddress{4119, 255}));
+  EXPECT_EQ(parse_object_address("0xFFFF"), (ObjectAddress{0xFFFF, 0}));
+  EXPECT_FALSE(parse_object_address("0x10000"));
+  EXPECT_FALSE(parse_object_address("0x1017:256"));
+  EXPECT_FALSE(parse_object_address("0x1017:"));
+  EXPECT_FALSE(parse_object_address(":1"));
+  EXPECT_FALSE(parse_object_address("-1"));
+  EXPECT_FALSE(parse_object_address("0x"));
+  EXPECT_FALSE(parse_object_address("h"));
+}
+
+TEST(CtlValues, Durations) {
+  EXPECT_EQ(normalise_duration("500ms"), "500 ms");
+  EXPECT_EQ(normalise_duration("2 s"), "2 s");
+  EXPECT_EQ(normalise_duration("1.5s"), "1.5 s");
+  EXPECT_EQ(normalise_duration("10 min"), "10 min");
+  EXPECT_EQ(normalise_duration(" 3  h "), "3 h");
+  EXPECT_EQ(normalise_duration("1.5"), "1.5 s");
+  EXPECT_EQ(normalise_duration("250us"), "250 us");
+  EXPECT_EQ(normalise_duration("1e3ms"), "1e3 ms");
+  EXPECT_FALSE(normalise_duration("-1s"));
+  EXPECT_FALSE(normalise_duration("1 day"));
+  EXPECT_FALSE(normalise_duration("ms"));
+  EXPECT_FALSE(normalise_duration(""));
+  EXPECT_EQ(parse_duration_seconds("500ms"), 0.5);
+  EXPECT_EQ(parse_duration_seconds("10 min"), 600.0);
+  EXPECT_EQ(parse_duration_seconds("2"), 2.0);
+  EXPECT_EQ(parse_duration_seconds("1h"), 3600.0);
+  EXPECT_FALSE(parse_duration_seconds("soon"));
+}
+
+TEST(CtlValues, Printing) {
+  EXPECT_EQ(format_value(Value(std::uint16_t(1000))), "1000 (0x3e8)");
+  EXPECT_EQ(format_value(Value(std::int16_t(-5))), "-5 (0xfffb)");
+  EXPECT_EQ(format_value(Value(std::uint8_t(16)), IntegerStyle::kHex), "0x10");
+  EXPECT_EQ(format_value(Value(std::int64_t(7)), IntegerStyle::kDecimal), "7");
+  EXPECT_EQ(format_value(Value(true)), "true");
+  EXPECT_EQ(format_value(Value(std::string("DPS 1"))), "DPS 1");
+  EXPECT_EQ(format_value(Value(Bytes{0x00, 0xAB, 0x10})), "00 ab 10");
+  EXPECT_EQ(format_value(Value(double(0.1f))), "0.1");  // a REAL32 read back
+  EXPECT_EQ(format_value(Value(0.1)), "0.1");
+  EXPECT_EQ(format_value(Value(1.0 / 3)), "0.3333333333333333");
+  EXPECT_EQ(format_seconds(12345678), "12.345678");
+  EXPECT_EQ(format_seconds(5), "0.000005");
+  EXPECT_EQ(format_seconds(-1500000), "-1.500000");
+}
+
+// ---------------------------------------------------------------- JSON
+
+TEST(CtlJson, QuotesAndEscapes) {
+  EXPECT_EQ(json_quote("plain"), "\"plain\"");
+  EXPECT_EQ(json_quote("a\"b\\c"), "\"a\\\"b\\\\c\"");
+  EXPECT_EQ(json_quote("l1\nl2\t\r"), "\"l1\\nl2\\t\\r\"");
+  EXPECT_EQ(json_quote(std::string("\x01\x1f", 2)), "\"\\u0001\\u001f\"");
+  EXPECT_EQ(json_quote("µs"), "\"µs\"");
+}
+
+TEST(CtlJson, WriterPlacesCommas) {
+  std::ostringstream out;
+  JsonWriter json(out);
+  json.begin_object();
+  json.member("a", std::uint8_t(1));
+  json.member("b", "x");
+  json.key("c");
+  json.begin_array();
+  json.value(true);
+  json.value(-2.5);
+  json.value(std::nan(""));
+  json.begin_object();
+  json.end_object();
+  json.end_array();
+  json.member("d", std::int64_t(-3));
+  json.end_object();
+  EXPECT_EQ(out.str(), R"({"a":1,"b":"x","c":[true,-2.5,null,{}],"d":-3})");
+}
+
+TEST(CtlJson, ReadValue) {
+  std::ostringstream out;
+  Printer(out, true).value({0x6130, 1}, Value(std::uint32_t(1000)));
+  Printer(out, true).value({0x1008, 0}, Value(std::string("DPS \"x\"")));
+  Printer(out, true).value({0x2000, 0}, Value(Bytes{1, 0xAB}));
+  EXPECT_EQ(out.str(),
+            "{\"index\":24880,\"sub\":1,\"type\":\"u\",\"value\":1000}\n"
+            "{\"index\":4104,\"sub\":0,\"type\":\"s\",\"value\":\"DPS \\\"x\\\"\"}\n"
+            "{\"index\":8192,\"sub\":0,\"type\":\"ay\",\"value\":\"01ab\"}\n");
+}
+
+// ---------------------------------------------------------------- output
+
+TEST(CtlOutput, NodeTable) {
+  std::ostringstream out;
+  Printer(out, false).nodes({{"/p", "vcan0/generic/0", "generic", "vcan0", 0x10, "generic-404", "generic",
+                              "operational"}});
+  EXPECT_EQ(out.str(),
+            "KEY              NAME     INTERFACE  ID    PROFILE      PERSONALITY  NMT\n"
+            "vcan0/generic/0  generic  vcan0      0x10  generic-404  generic      operational\n");
+}
+
+TEST(CtlOutput, Status) {
+  NodeStatus s;
+  s.key = "vcan0/dps/0", s.name = "dps", s.node_id = 0x22, s.nmt_state = "stopped", s.powered = true;
+  s.pressure = {5.0, 5.01, "bar", 0};
+  s.faults = {{1, "drift", true}, {2, "noise", false}};
+  s.emcy_count = 2;
+  s.last_emcy = {1500000, 0x5000, 0x81, {0, 1, 2, 3, 4}};
+  std::ostringstream out;
+  Printer(out, false).status(s);
+  std::string text = out.str();
+  EXPECT_TRUE(text.starts_with("vcan0/dps/0\n")) << text;
+  EXPECT_NE(text.find("  node-ID      0x22 (34)\n"), std::string::npos) << text;
+  EXPECT_NE(text.find("  NMT state    stopped\n"), std::string::npos) << text;
+  EXPECT_NE(text.find("  power        on, off the bus\n"), std::string::npos) << text;
+  EXPECT_NE(text.find("  pressure     5.01 bar reported, 5 bar true, status 0x00\n"), std::string::npos) << text;
+  EXPECT_NE(text.find("  temperature  none\n"), std::string::npos) << text;
+  EXPECT_NE(text.find("  faults       1 drift (active), 2 noise\n"), std::string::npos) << text;
+  EXPECT_NE(text.find("  EMCY         2 sent, last at 1.500000 s: code 0x5000, register 0x81, vendor 00 01 02 03 04"),
+            std::string::npos)
+      << text;
+
+  std::ostringstream json;
+  Printer(json, true).status(s);
+  EXPECT_NE(json.str().find(R"("pressure":{"true":5,"reported":5.01,"unit":"bar","status":0})"), std::string::npos)
+      << json.str();
+  EXPECT_NE(json.str().find(R"("temperature":{"true":null,"reported":null,"unit":"","status":0})"), std::string::npos)
+      << json.str();
+  EXPECT_NE(json.str().find(R"("last_emcy":{"time":1.5,"code":20480,"register":129,"vendor":"0001020304"})"),
+            std::string::npos)
+      << json.str();
+}
+
+TEST(CtlOutput, EventLines) {
+  Event e{12345678, "vcan0/dps/0", "ObjectWritten",
+          {{"index", Value(std::uint16_t(0x6131)), IntegerStyle::kHex}, {"sub", Value(std::uint8_t(1))},
+           {"value", Value(std::string("a b"))}, {"via", Value(std::string("sdo"))}}};
+  EXPECT_EQ(format_event(e), "   12.345678 vcan0/dps/0 ObjectWritten index=0x6131 sub=1 value=\"a b\" via=sdo");
+  std::ostringstream json;
+  Printer(json, true).event(e);
+  EXPECT_EQ(json.str(),
+            R"({"time":12.345678,"source":"vcan0/dps/0","event":"ObjectWritten",)"
+            R"("index":24881,"sub":1,"value":"a b","via":"sdo"})"
+            "\n");
+  EXPECT_EQ(format_event({std::nullopt, "fleet", "NodeAdded", {}}), "           - fleet NodeAdded");
+}
+
+TEST(CtlOutput, FaultsAndStats) {
+  std::ostringstream out;
+  Printer(out, false).faults({{1, "drift", "pressure", true, 10000000, -1, 0, 0},
+                              {2, "noise", "", false, 500000, 250000, 2000000, 3}});
+  EXPECT_EQ(out.str(),
+            "ID  KIND   CHANNEL   ACTIVE  START      DURATION         PERIOD  COUNT\n"
+            "1   drift  pressure  yes     10.000000  until cancelled  -       0\n"
+            "2   noise  -         no      0.500000   0.25 s           2 s     3\n");
+  std::ostringstream stats;
+  Printer(stats, false).stats({{"vcan0", false, 250, 1, 2, 3, 4, 0.123, 0.0}});
+  EXPECT_EQ(stats.str(),
+            "INTERFACE  UP  KBIT/S  IN  OUT  DROPPED  LOCAL  OFFERED  MEASURED\n"
+            "vcan0      no  250     1   2    3        4      12.3%    0.0%\n");
+}
+
+TEST(CtlOutput, SmallReplies) {
+  std::ostringstream text, json;
+  Printer(text, false).fault_id(3);
+  Printer(text, false).time(1500000);
+  Printer(text, false).added({{kNodePathPrefix, "vcan0/extra/0"}});
+  Printer(text, false).value({0x1017, 0}, Value(std::uint16_t(1000)));
+  EXPECT_EQ(text.str(), "3\n1.500000 s\nvcan0/extra/0\n1000 (0x3e8)\n");
+  Printer(json, true).fault_id(3);
+  Printer(json, true).time(1500000);
+  Printer(json, true).added({{"/p", "vcan0/extra/0"}});
+  EXPECT_EQ(json.str(),
+            "{\"id\":3}\n{\"simulated_time_us\":1500000,\"seconds\":1.5}\n"
+            "[{\"path\":\"/p\",\"key\":\"vcan0/extra/0\"}]\n");
+}
+
+// ---------------------------------------------------------------- endpoints
+
+TEST(CtlEndpoint, OptionsWin) {
+  Environment env{"/env/control", "/run/user/1000", 1000};
+  auto everything = [](const std::string&) { return true; };
+  GlobalOptions o;
+  o.bus = BusKind::kSocket;
+  o.socket = "/x/control";
+  EXPECT_EQ(choose_endpoint(o, env, everything), (Endpoint{BusKind::kSocket, "/x/control"}));
+  o.bus = BusKind::kSystem;
+  EXPECT_EQ(choose_endpoint(o, env, everything), (Endpoint{BusKind::kSystem, ""}));
+  o.bus = BusKind::kUser;
+  EXPECT_EQ(choose_endpoint(o, env, everything), (Endpoint{BusKind::kUser, ""}));
+}
+
+TEST(CtlEndpoint, DefaultSocketThenBus) {
+  GlobalOptions o;
+  auto nothing = [](const std::string&) { return false; };
+  EXPECT_EQ(choose_endpoint(o, {"/env/control", "", 1000}, nothing), (Endpoint{BusKind::kSocket, "/env/control"}));
+
+  Environment user{"", "/run/user/1000", 1000};
+  EXPECT_EQ(default_socket_paths(user), (std::vector<std::string>{"/run/user/1000/cansimd/control",
+                                                                   "/run/cansimd/control",
+                                                                   "/tmp/cansimd-1000/control"}));
+  EXPECT_EQ(default_socket_paths({"", "", 0}),
+            (std::vector<std::string>{"/run/cansimd/control", "/tmp/cansimd-0/control"}));
+  auto only = [](std::string path) { return [path](const std::string& p) { return p == path; }; };
+  EXPECT_EQ(choose_endpoint(o, user, only("/run/cansimd/control")),
+            (Endpoint{BusKind::kSocket, "/run/cansimd/control"}));
+  EXPECT_EQ(choose_endpoint(o, user, only("/tmp/cansimd-1000/control")),
+            (Endpoint{BusKind::kSocket, "/tmp/cansimd-1000/control"}));
+  EXPECT_EQ(choose_endpoint(o, user, nothing), (Endpoint{BusKind::kUser, ""}));
+  EXPECT_EQ(choose_endpoint(o, {"", "", 0}, nothing), (Endpoint{BusKind::kSystem, ""}));
+}
+
+TEST(CtlEndpoint, SocketAddressIsEscaped) {
+  EXPECT_EQ(socket_address("/run/cansimd/control"), "unix:path=/run/cansimd/control");
+  EXPECT_EQ(socket_address("/tmp/a b,c=d;%"), "unix:path=/tmp/a%20b%2cc%3dd%3b%25");
+}
+
+TEST(CtlEndpoint, NodeKeyOfPath) {
+  EXPECT_EQ(node_key_of_path("/io/cansim/Cansimd1/node/vcan0/generic_2d404/0"), "vcan0/generic-404/0");
+  EXPECT_EQ(node_key_of_path("/io/cansim/Cansimd1"), "");
+  EXPECT_EQ(node_key_of_path("/elsewhere/a/b/c"), "");
+}
+
+// ---------------------------------------------------------------- decoding
+
+// Messages built on an unconnected end of a socketpair, sealed and rewound as
+// if they had been received.
+class MessageFactory {
+ public:
+  MessageFactory() {
+    EXPECT_EQ(socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, fds_), 0);
+    EXPECT_GE(sd_bus_new(&bus_), 0);
+    EXPECT_GE(sd_bus_set_fd(bus_, fds_[0], fds_[0]), 0);
+    EXPECT_GE(sd_bus_start(bus_), 0);
+  }
+  ~MessageFactory() {
+    sd_bus_close_unref(bus_);
+    close(fds_[1]);
+  }
+
+  MessagePtr signal(const char* path, const char* interface, const char* member) {
+    sd_bus_message* m = nullptr;
+    EXPECT_GE(sd_bus_message_new_signal(bus_, &m, path, interface, member), 0);
+    return MessagePtr(m);
+  }
+
+  static sd_bus_message* received(const MessagePtr& m) {
+    EXPECT_GE(sd_bus_message_seal(m.get(), 1, 0), 0);
+    EXPECT_GE(sd_bus_message_rewind(m.get(), 1), 0);
+    return m.get();
+  }
+
+ private:
+  int fds_[2] = {-1, -1};
+  sd_bus* bus_ = nullptr;
+};
+
+constexpr const char* kNodePath = "/io/cansim/Cansimd1/node/vcan0/dps/_30";
+
+TEST(CtlDecode, TimedNodeSignal) {
+  MessageFactory f;
+  MessagePtr m = f.signal(kNodePath, kNodeInterface, "ObjectWritten");
+  ASSERT_GE(sd_bus_message_append(m.get(), "xqyvs", std::int64_t(2500000), std::uint16_t(0x6131), std::uint8_t(1), "u",
+                                  std::uint32_t(7), "sdo"),
+            0);
+  Event e = read_event(MessageFactory::received(m));
+  EXPECT_EQ(e.time_us, 2500000);
+  EXPECT_EQ(e.source, "vcan0/dps/0");
+  EXPECT_EQ(format_event(e), "    2.500000 vcan0/dps/0 ObjectWritten index=0x6131 sub=1 value=7 via=sdo");
+}
+
+TEST(CtlDecode, FleetSignalHasNoTime) {
+  MessageFactory f;
+  MessagePtr m = f.signal(kFleetPath, kFleetInterface, "NodeRemoved");
+  ASSERT_GE(sd_bus_message_append(m.get(), "os", kNodePath, "vcan0/dps/0"), 0);
+  Event e = read_event(MessageFactory::received(m));
+  EXPECT_FALSE(e.time_us);
+  EXPECT_EQ(e.source, "fleet");
+  ASSERT_EQ(e.fields.size(), 2u);
+  EXPECT_EQ(e.fields[1].name, "key");
+  EXPECT_EQ(e.fields[1].value, Value(std::string("vcan0/dps/0")));
+}
+
+TEST(CtlDecode, PropertiesChanged) {
+  MessageFactory f;
+  MessagePtr m = f.signal(kNodePath, kPropertiesInterface, "PropertiesChanged");
+  ASSERT_GE(sd_bus_message_append(m.get(), "sa{sv}as", kNodeInterface, 2, "Powered", "b", 0, "Faults", "a(usb)", 2,
+                                  std::uint32_t(1), "drift", 1, std::uint32_t(2), "noise", 0, 1, "NodeId"),
+            0);
+  Event e = read_event(MessageFactory::received(m));
+  EXPECT_EQ(e.name, "PropertiesChanged");
+  e.time_us = 0;
+  EXPECT_EQ(format_event(e),
+            "    0.000000 vcan0/dps/0 PropertiesChanged Powered=false Faults=\"1 drift (active), 2 noise\" "
+            "NodeId=(changed)");
+}
+
+TEST(CtlDecode, NodeStatusSkipsUnknownProperties) {
+  MessageFactory f;
+  MessagePtr m = f.signal(kNodePath, kNodeInterface, "Test");
+  ASSERT_GE(sd_bus_message_append(m.get(), "a{sv}", 7, "Key", "s", "vcan0/dps/0", "Future", "(ii)", 1, 2, "NodeId",
+                                  "y", std::uint8_t(0x22), "Pressure", "(ddsy)", 1.0, 1.5, "bar", std::uint8_t(0),
+                                  "Index", "s", "wrong type", "Overrides", "a(sds)", 1, "pressure", 3.0, "bar",
+                                  "LastEmcy", "(xqyay)", std::int64_t(-1), std::uint16_t(0), std::uint8_t(0), 0),
+            0);
+  NodeStatus s = read_node_status(MessageFactory::received(m));
+  EXPECT_EQ(s.key, "vcan0/dps/0");
+  EXPECT_EQ(s.node_id, 0x22);
+  EXPECT_EQ(s.pressure.reported, 1.5);
+  EXPECT_EQ(s.pressure.unit, "bar");
+  EXPECT_EQ(s.index, 0u);
+  ASSERT_EQ(s.overrides.size(), 1u);
+  EXPECT_EQ(s.overrides[0].value, 3.0);
+  EXPECT_EQ(s.last_emcy.time_us, -1);
+}
+
+TEST(CtlDecode, ReadValues) {
+  MessageFactory f;
+  MessagePtr m = f.signal(kNodePath, kNodeInterface, "Test");
+  const std::uint8_t bytes[] = {1, 2, 3};
+  ASSERT_GE(sd_bus_message_open_container(m.get(), 'v', "ay"), 0);
+  ASSERT_GE(sd_bus_message_append_array(m.get(), 'y', bytes, sizeof bytes), 0);
+  ASSERT_GE(sd_bus_message_close_container(m.get()), 0);
+  ASSERT_GE(sd_bus_message_append(m.get(), "vvn", "b", 1, "x", std::int64_t(-7), std::int16_t(-3)), 0);
+  sd_bus_message* r = MessageFactory::received(m);
+  EXPECT_EQ(read_value(r), Value(Bytes{1, 2, 3}));
+  EXPECT_EQ(read_value(r), Value(true));
+  EXPECT_EQ(read_int64(r), -7);
+  EXPECT_EQ(read_value(r), Value(std::int16_t(-3)));
+  EXPECT_THROW(read_value(r), Failure);  // nothing left
+}
+
+}  // namespace
+}  // namespace cansim::ctl
