@@ -139,6 +139,91 @@ TEST_F(Trace, Table08ActivateBitTiming) {
   EXPECT_EQ(node().lss().state(), LssSlave::State::kWaiting);
 }
 
+// §4.3, the text after Table 6: "The new bit rate is valid after a reset of
+// the device. ... Performing a NMT reset node command will lead to error frames
+// on the CANbus, because the master still has the previous bit rate." Table 5's
+// LSS sequence with table 0 index 3 (250 kbit/s) on a device at 125 kbit/s,
+// then NMT reset node. Returns the time of the reset node.
+TimeUs store_250_then_reset_node(Trace& t) {
+  EXPECT_TRUE(lss(t, {0x04, 0x01, 0, 0, 0, 0, 0, 0}).empty());
+  EXPECT_EQ(lss(t, {0x13, 0x00, 0x03, 0, 0, 0, 0, 0}), one(kLssTx, {0x13, 0, 0, 0, 0, 0, 0, 0}));
+  EXPECT_EQ(lss(t, {0x17, 0, 0, 0, 0, 0, 0, 0}), one(kLssTx, {0x17, 0, 0, 0, 0, 0, 0, 0}));
+  EXPECT_TRUE(lss(t, {0x04, 0x00, 0, 0, 0, 0, 0, 0}).empty());
+  EXPECT_EQ(t.node().bit_rate_index(), 4);  // stored, still at 125 kbit/s until the reset
+  const TimeUs reset = t.bus.now();
+  t.nmt(0x81, 0x7F);
+  return reset;
+}
+
+// The master stays at 125 kbit/s: after "81 7F" the DPS runs at 250 kbit/s, so
+// nothing of it reaches the old bus (no boot-up, no SDO answer, start ignored);
+// the master at 250 kbit/s reaches it. §4.3 recommends a power-off instead:
+// the stored rate is also the rate of the next power-on.
+TEST_F(Trace, Section43ResetNodeActivatesStoredBitRateOldBusSilent) {
+  boot();
+  store_250_then_reset_node(*this);
+  bus.run_for(ms(1000));
+  EXPECT_TRUE(bus.take().empty());  // no 77F [1] 00 at 125 kbit/s
+  EXPECT_TRUE(sdo({0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0}).empty());
+  nmt(0x01, 0x00);  // not heard at the old rate: no PDO follows
+  bus.run_for(ms(500));
+  EXPECT_TRUE(bus.take().empty());
+  EXPECT_EQ(node().bit_rate_index(), 3);
+  EXPECT_EQ(node().state(), NmtState::kPreOperational);
+
+  node().set_bus_bit_rate(3);  // the master moves to 250 kbit/s
+  EXPECT_EQ(frames(sdo({0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0})), one(0x5FF, {0x60, 0x00, 0x10, 0x00, 0x94, 0x01, 0x02, 0x00}));
+
+  // Power cycle with the master back at 125 kbit/s: still silent there.
+  sim->replace(kId);
+  bus.take();
+  node().power_on(now());
+  bus.run_for(ms(1000));
+  EXPECT_TRUE(bus.take().empty());
+  EXPECT_EQ(node().bit_rate_index(), 3);
+  // Power cycle with the master at 250 kbit/s: boot-up there, SDO answered.
+  sim->replace(kId);
+  node().set_bus_bit_rate(3);
+  const TimeUs on = now();
+  node().power_on(on);
+  bus.run_for(ms(1));
+  const auto out = bus.take();
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].frame, F(0x77F, {0x00}));
+  EXPECT_EQ(out[0].time, on);
+  EXPECT_EQ(frames(sdo({0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0})), one(0x5FF, {0x60, 0x00, 0x10, 0x00, 0x94, 0x01, 0x02, 0x00}));
+}
+
+// The same sequence seen from a bus at the new rate: the master sends "81 7F"
+// at 125 kbit/s and is at 250 kbit/s when the device restarts. The boot-up
+// 77F [1] 00 comes at once, at 250 kbit/s; SDO is answered there.
+struct BusFollowsReset : NodeObserver {
+  std::uint8_t rate;
+  explicit BusFollowsReset(std::uint8_t r) : rate(r) {}
+  void on_nmt_state(Node& n, NmtState, NmtState now, TimeUs) override {
+    if (now == NmtState::kInitialising) n.set_bus_bit_rate(rate);
+  }
+};
+
+TEST_F(Trace, Section43ResetNodeBootsAtStoredBitRateOnNewBus) {
+  boot();
+  BusFollowsReset master_at_250(3);
+  node().set_observer(&master_at_250);
+  const TimeUs reset = store_250_then_reset_node(*this);
+  node().set_observer(nullptr);
+  bus.run_for(ms(1));
+  const auto out = bus.take();
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].frame, F(0x77F, {0x00}));
+  EXPECT_EQ(out[0].time, reset);
+  EXPECT_EQ(node().bit_rate_index(), 3);
+  EXPECT_EQ(node().state(), NmtState::kPreOperational);
+  EXPECT_EQ(frames(sdo({0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0})), one(0x5FF, {0x60, 0x00, 0x10, 0x00, 0x94, 0x01, 0x02, 0x00}));
+  nmt(0x01, 0x00);  // start all at 250 kbit/s: TPDO1 after one event-timer period
+  bus.run_for(ms(101));
+  EXPECT_EQ(only(bus.take(), 0x1FF).size(), 1u);
+}
+
 // Tables 9-14: NMT commands (DLC 2) and the boot-up (DLC 1).
 TEST_F(Trace, Tables09To14NmtCommandsAndBootUp) {
   bus.power_on_all();

@@ -219,6 +219,28 @@ TEST_F(Trace, LssStoreConfiguration) {
   EXPECT_EQ(to_string(lss({0x17})), expected(t, {{0, F8(0x7E4, {0x17, 0x00})}}));
 }
 
+// §3.3: 0x4F00 "Changes take effect after reset node or power on"; §4: "Only
+// a stored bit rate ... will appear in the object dictionary (0x4F00)". So an
+// LSS-stored 250 kbit/s is the rate after NMT reset node: a master still at
+// 125 kbit/s hears nothing more (no boot-up, no SDO answer); at 250 it does.
+TEST_F(Trace, LssStoredBitRateIsActiveAfterResetNode) {
+  boot();
+  EXPECT_TRUE(nmt(0x02, 0x00).empty());  // §4: LSS only in NMT stopped
+  EXPECT_TRUE(lss({0x04, 0x01}).empty());
+  TimeUs t = now();
+  EXPECT_EQ(to_string(lss({0x13, 0x00, 0x03})), expected(t, {{0, F8(0x7E4, {0x13, 0x00})}}));
+  t = now();
+  EXPECT_EQ(to_string(lss({0x17})), expected(t, {{0, F8(0x7E4, {0x17, 0x00})}}));
+  EXPECT_TRUE(lss({0x04, 0x00}).empty());  // stored node-ID unchanged: no boot-up
+  EXPECT_EQ(node().bit_rate_index(), 4);
+  EXPECT_TRUE(nmt(0x81, 0x01, ms(1000)).empty());  // the boot-up goes out at 250 kbit/s
+  EXPECT_TRUE(sdo({0x40, 0x00, 0x4F, 0x00}).empty());
+  EXPECT_EQ(node().bit_rate_index(), 3);
+  node().set_bus_bit_rate(3);  // the master moves to 250 kbit/s
+  EXPECT_EQ(upload(0x4F00, 0), 3u);
+  EXPECT_EQ(node().state(), NmtState::kPreOperational);
+}
+
 TEST_F(Trace, LssInquireAddressAndNodeId) {
   boot();
   nmt(0x02);
