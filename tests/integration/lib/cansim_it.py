@@ -767,3 +767,270 @@ def gaps(msgs: Sequence[can.Message]) -> List[float]:
 def mean_gap(msgs: Sequence[can.Message]) -> float:
     g = gaps(msgs)
     return sum(g) / len(g)
+
+
+# --------------------------------------------------------------------------
+# the runtime control API (D-Bus, docs/control-api.md), with python3-dbus
+
+CONTROL_BUS_NAME = "io.cansim.Cansimd1"
+CONTROL_PATH = "/io/cansim/Cansimd1"
+FLEET_INTERFACE = "io.cansim.Fleet1"
+NODE_INTERFACE = "io.cansim.Node1"
+ERROR_NOT_SUPPORTED = "io.cansim.Error.NotSupported"
+
+
+def control_path_segment(s: str) -> str:
+    """One object path segment escaped as sd_bus_path_encode() does: every
+    character but [A-Za-z0-9], and a leading digit, becomes _xx (hex)."""
+    if not s:
+        return "_"
+    out = []
+    for i, c in enumerate(s):
+        if (c.isascii() and c.isalpha()) or (c.isdigit() and c.isascii() and i > 0):
+            out.append(c)
+        else:
+            out.extend(f"_{b:02x}" for b in c.encode())
+    return "".join(out)
+
+
+def control_node_path(interface: str, name: str, index: int) -> str:
+    """The object path of the node with fleet key interface/name/index."""
+    return "/".join([CONTROL_PATH, "node", control_path_segment(interface),
+                     control_path_segment(name), control_path_segment(str(index))])
+
+
+def dbus_plain(v):
+    """A python3-dbus value as plain Python (Struct -> tuple, Array -> list,
+    Byte -> int, Boolean -> bool, ...), for readable asserts and messages."""
+    import dbus
+    if isinstance(v, dbus.Boolean):
+        return bool(v)
+    if isinstance(v, (dbus.Byte, dbus.Int16, dbus.UInt16, dbus.Int32, dbus.UInt32,
+                      dbus.Int64, dbus.UInt64)):
+        return int(v)
+    if isinstance(v, dbus.Double):
+        return float(v)
+    if isinstance(v, (dbus.String, dbus.ObjectPath, dbus.Signature)):
+        return str(v)
+    if isinstance(v, dbus.Struct):
+        return tuple(dbus_plain(x) for x in v)
+    if isinstance(v, dbus.Dictionary):
+        return {dbus_plain(k): dbus_plain(x) for k, x in v.items()}
+    if isinstance(v, (dbus.Array, list)):
+        return [dbus_plain(x) for x in v]
+    if isinstance(v, tuple):
+        return tuple(dbus_plain(x) for x in v)
+    return v
+
+
+def dbus_error_of(fn: Callable[[], object]) -> Optional[str]:
+    """Run fn; return the D-Bus error name it raised, or None if it succeeded."""
+    import dbus
+    try:
+        fn()
+    except dbus.DBusException as e:
+        return e.get_dbus_name()
+    return None
+
+
+def expect_dbus_error(fn: Callable[[], object], name: str, what: str) -> str:
+    """Run fn, which must fail with the D-Bus error `name`; returns its message."""
+    import dbus
+    try:
+        result = fn()
+    except dbus.DBusException as e:
+        if e.get_dbus_name() != name:
+            raise AssertionError(f"{what}: expected {name}, got {e.get_dbus_name()}: "
+                                 f"{e.get_dbus_message()}") from None
+        return e.get_dbus_message() or ""
+    raise AssertionError(f"{what}: expected {name}, but the call succeeded ({dbus_plain(result)!r})")
+
+
+def wait_for_path(path: str, timeout: float) -> None:
+    """Wait until `path` exists (e.g. the daemon's control socket); timeout
+    is scaled, a miss fails the test."""
+    deadline = time.monotonic() + scaled(timeout)
+    while not os.path.exists(path):
+        if time.monotonic() > deadline:
+            raise AssertionError(f"{path} did not appear within {scaled(timeout):.1f}s")
+        time.sleep(0.05)
+
+
+class ControlSignal:
+    """A D-Bus signal received by a ControlClient: .member, .path,
+    .interface, .args (plain Python values), .mono (time.monotonic() when it
+    was dispatched), .time (time.time(), comparable with python-can stamps)."""
+
+    def __init__(self, msg):
+        self.member = str(msg.get_member())
+        self.path = str(msg.get_path())
+        self.interface = str(msg.get_interface())
+        self.args = [dbus_plain(a) for a in msg.get_args_list()]
+        self.mono = time.monotonic()
+        self.time = time.time()
+
+    def __repr__(self) -> str:
+        return f"{self.member}{tuple(self.args)!r} on {self.path}"
+
+
+class ControlNode:
+    """io.cansim.Node1 of one node object (see ControlClient.node)."""
+
+    def __init__(self, client: "ControlClient", path: str):
+        self.client = client
+        self.path = path
+
+    def call(self, method: str, signature: str = "", *args):
+        return self.client.call(self.path, NODE_INTERFACE, method, signature, *args)
+
+    def get(self, prop: str):
+        return self.client.get(self.path, NODE_INTERFACE, prop)
+
+    def read(self, index: int, sub: int = 0):
+        """Read (q index, y sub) -> v, as a plain value."""
+        return self.call("Read", "qy", index, sub)
+
+    def write(self, index: int, sub: int, value) -> None:
+        """Write (q index, y sub, v value). Give value a dbus type
+        (dbus.UInt16(200), dbus.Double(1.5), "text", dbus.ByteArray(b"..."))
+        to choose the variant's type; a plain int goes as 'i'."""
+        self.call("Write", "qyv", index, sub, value)
+
+    def __repr__(self) -> str:
+        return f"ControlNode({self.path})"
+
+
+class ControlClient:
+    """A python3-dbus client of cansimd's control API, synchronous.
+
+        c = it.ControlClient.private(socket_path)     # the --control-socket
+        c = it.ControlClient.bus(address)             # a bus (name io.cansim.Cansimd1)
+        c.subscribe()                                 # the signals (Fleet1.Subscribe)
+        nodes = c.fleet("ListNodes")                  # plain Python values
+        n = c.node("vcan0/0x10")                      # GetNode -> ControlNode
+        n.call("Nmt", "s", "start")
+        n.write(0x1017, 0, dbus.UInt16(200))
+        s = c.expect_signal("BootUp", 5, path=n.path, what="boot-up")
+
+    Method calls block (timeout scaled); signals are collected while
+    pump()/wait_signal() run the GLib main context (they queue in between).
+    Errors raise dbus.DBusException; see dbus_error_of / expect_dbus_error.
+    """
+
+    def __init__(self, address: str, is_bus: bool = False, timeout: float = 10.0):
+        import dbus
+        import dbus.bus
+        import dbus.connection
+        from dbus.mainloop.glib import DBusGMainLoop
+        self.address = address
+        self.is_bus = is_bus
+        self.timeout = scaled(timeout)
+        loop = DBusGMainLoop(set_as_default=False)
+        if is_bus:
+            self.conn = dbus.bus.BusConnection(address, mainloop=loop)
+        else:
+            self.conn = dbus.connection.Connection(address, mainloop=loop)
+        self.signals: List[ControlSignal] = []
+        self.conn.add_message_filter(self._filter)
+        if is_bus:  # a bus delivers only signals someone asked for
+            self.conn.add_match_string_non_blocking(f"type='signal',sender='{CONTROL_BUS_NAME}'")
+
+    @classmethod
+    def private(cls, socket_path: str, timeout: float = 10.0) -> "ControlClient":
+        return cls(f"unix:path={socket_path}", False, timeout)
+
+    @classmethod
+    def bus(cls, address: str, timeout: float = 10.0) -> "ControlClient":
+        return cls(address, True, timeout)
+
+    def _filter(self, conn, msg):
+        import dbus.lowlevel
+        if isinstance(msg, dbus.lowlevel.SignalMessage) and msg.get_interface() in (
+                FLEET_INTERFACE, NODE_INTERFACE, "org.freedesktop.DBus.Properties"):
+            self.signals.append(ControlSignal(msg))
+        return dbus.lowlevel.HANDLER_RESULT_NOT_YET_HANDLED
+
+    # -- calls
+    def call(self, path: str, interface: str, method: str, signature: str = "", *args):
+        r = self.conn.call_blocking(CONTROL_BUS_NAME, path, interface, method, signature, args,
+                                    timeout=self.timeout)
+        return dbus_plain(r)
+
+    def fleet(self, method: str, signature: str = "", *args):
+        return self.call(CONTROL_PATH, FLEET_INTERFACE, method, signature, *args)
+
+    def get(self, path: str, interface: str, prop: str):
+        return self.call(path, "org.freedesktop.DBus.Properties", "Get", "ss", interface, prop)
+
+    def fleet_property(self, prop: str):
+        return self.get(CONTROL_PATH, FLEET_INTERFACE, prop)
+
+    def node(self, spec: str) -> ControlNode:
+        """The node named spec (key, name, IFACE/ID: see docs/control-api.md)."""
+        return ControlNode(self, self.fleet("GetNode", "s", spec))
+
+    def subscribe(self) -> None:
+        self.fleet("Subscribe")
+
+    # -- signals
+    def pump(self, seconds: float = 0.0) -> None:
+        """Dispatch what arrived; with seconds > 0 keep doing so that long."""
+        from gi.repository import GLib
+        ctx = GLib.MainContext.default()
+        deadline = time.monotonic() + seconds
+        while True:
+            while ctx.iteration(False):
+                pass
+            if time.monotonic() >= deadline:
+                return
+            time.sleep(0.005)
+
+    def mark(self) -> int:
+        """The index the next signal will get: pass it as start= to wait only
+        for signals after this point."""
+        self.pump()
+        return len(self.signals)
+
+    def wait_signal(self, member: str, timeout: float, path: Optional[str] = None,
+                    pred: Optional[Callable[[ControlSignal], bool]] = None,
+                    start: int = 0) -> Optional[ControlSignal]:
+        """The first signal `member` (on `path`, matching pred) at index >=
+        start within timeout seconds (unscaled), else None."""
+        from gi.repository import GLib
+        ctx = GLib.MainContext.default()
+        deadline = time.monotonic() + timeout
+        i = start
+        while True:
+            while ctx.iteration(False):
+                pass
+            for i in range(i, len(self.signals)):
+                s = self.signals[i]
+                if s.member == member and (path is None or s.path == path) and (pred is None or pred(s)):
+                    return s
+            i = len(self.signals)
+            if time.monotonic() >= deadline:
+                return None
+            time.sleep(0.005)
+
+    def expect_signal(self, member: str, timeout: float, path: Optional[str] = None,
+                      pred: Optional[Callable[[ControlSignal], bool]] = None,
+                      start: int = 0, what: str = "") -> ControlSignal:
+        """Like wait_signal, but timeout is scaled and a miss fails the test."""
+        s = self.wait_signal(member, scaled(timeout), path, pred, start)
+        if s is None:
+            seen = [x for x in self.signals[start:]][-10:]
+            raise AssertionError(f"timed out after {scaled(timeout):.1f}s waiting for signal "
+                                 f"{member} ({what or path or 'any object'}); last signals: {seen}")
+        return s
+
+    def close(self) -> None:
+        try:
+            self.conn.close()
+        except Exception:  # noqa: BLE001 - closing a dead connection
+            pass
+
+    def __enter__(self) -> "ControlClient":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
