@@ -91,12 +91,58 @@ std::unique_ptr<Application> make_node_application(const config::NodeConfig& nod
   return std::make_unique<SerialOverlay>(std::move(app), *node.serial);
 }
 
-std::string check_fleet(config::FleetConfig& fleet) {
+std::uint32_t effective_bit_rate(const config::InterfaceConfig& ic) { return resolve_bit_rate(ic); }
+
+namespace {
+// Counts `n` in its entry's mismatch (fleet entries are contiguous, in order).
+void add_mismatch(std::vector<BitRateMismatch>& out, const config::NodeConfig& n, std::uint32_t bus_kbit) {
+  auto it = std::find_if(out.begin(), out.end(), [&](const BitRateMismatch& m) {
+    return m.interface == n.interface && m.name == n.name && m.node_kbit == n.bit_rate_kbit;
+  });
+  if (it == out.end()) {
+    out.push_back({n.interface, n.name, 0, n.node_id, n.node_id, n.bit_rate_kbit, bus_kbit});
+    it = out.end() - 1;
+  }
+  ++it->count;
+  it->first_id = std::min(it->first_id, n.node_id);
+  it->last_id = std::max(it->last_id, n.node_id);
+}
+}  // namespace
+
+std::vector<BitRateMismatch> bit_rate_mismatches(const config::FleetConfig& fleet,
+                                                 const std::function<std::uint32_t(const config::InterfaceConfig&)>& bus_kbit) {
+  std::vector<BitRateMismatch> out;
+  std::map<std::string, std::uint32_t> rates;
+  for (const auto& ic : fleet.interfaces) rates[ic.name] = bus_kbit(ic);
+  for (const auto& n : fleet.nodes) {
+    auto rate = rates.find(n.interface);
+    if (rate != rates.end() && rate_index(n.bit_rate_kbit) != rate_index(rate->second))
+      add_mismatch(out, n, rate->second);
+  }
+  return out;
+}
+
+std::string describe(const BitRateMismatch& m) {
+  char ids[48];
+  if (m.first_id == 255) std::snprintf(ids, sizeof ids, "LSS-unconfigured");
+  else if (m.first_id == m.last_id) std::snprintf(ids, sizeof ids, "node-ID 0x%02X", m.first_id);
+  else std::snprintf(ids, sizeof ids, "node-IDs 0x%02X..0x%02X", m.first_id, m.last_id);
+  const bool one = m.count == 1;
+  return m.interface + "/" + m.name + ": " + std::to_string(m.count) + (one ? " node (" : " nodes (") + ids + ") run" +
+         (one ? "s" : "") + " at " + std::to_string(m.node_kbit) + " kbit/s but " + m.interface + " at " +
+         std::to_string(m.bus_kbit) + " kbit/s: " + (one ? "it stays" : "they stay") +
+         " silent until the rates match. Fix: set `bit_rate: " + std::to_string(m.bus_kbit) +
+         "` on the node entry (or `bit_rate: " + std::to_string(m.node_kbit) + "` on interface " + m.interface + ")";
+}
+
+std::string check_fleet(config::FleetConfig& fleet, std::vector<std::string>* warnings) {
   prepare_fleet(fleet);
   for (config::NodeConfig n : fleet.nodes) {
     n.record_file.clear();  // --check must not truncate recordings
     make_node_application(n, fleet.seed);
   }
+  if (warnings)
+    for (const BitRateMismatch& m : bit_rate_mismatches(fleet, effective_bit_rate)) warnings->push_back(describe(m));
   return fleet.file + ": ok, " + std::to_string(fleet.nodes.size()) + " node(s) on " +
          std::to_string(fleet.interfaces.size()) + " interface(s)";
 }
@@ -352,6 +398,7 @@ void Daemon::apply(config::FleetConfig cfg, TimeUs now) {
     }
   }
   std::vector<io::NodeRef> fresh;
+  std::vector<BitRateMismatch> mismatched;  // (re)started nodes at another rate than their bus: one warning per entry
   for (auto& p : to_add) {
     const config::NodeConfig& n = *p.cfg;
     Interface* iface = nullptr;
@@ -368,9 +415,7 @@ void Daemon::apply(config::FleetConfig cfg, TimeUs now) {
     e.seed = seed;
     e.bus_rate = rate_index(iface->bit_rate_kbit);
     e.ref = core_.add_node(iface->bus, setup, std::move(p.app), std::move(storage));
-    if (setup.bit_rate_index != e.bus_rate)
-      spdlog::warn("{}: node runs at {} kbit/s but {} at {} kbit/s: it stays silent until its bit rate matches",
-                   n.key, n.bit_rate_kbit, n.interface, iface->bit_rate_kbit);
+    if (setup.bit_rate_index != e.bus_rate) add_mismatch(mismatched, n, iface->bit_rate_kbit);
     e.handle.key = n.key;
     e.handle.name = n.name;
     e.handle.index = n.index;
@@ -402,6 +447,7 @@ void Daemon::apply(config::FleetConfig cfg, TimeUs now) {
   }
   spdlog::info("fleet: {} node(s) on {} interface(s); {} started, {} restarted, {} removed", nodes_.size(),
                cfg.interfaces.size(), fresh.size() - changed, changed, removed);
+  for (const BitRateMismatch& m : mismatched) spdlog::warn("{}", describe(m));
   check_bus_load();
 }
 

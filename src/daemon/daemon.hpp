@@ -35,9 +35,32 @@ void prepare_fleet(config::FleetConfig& fleet);
 // number (0x1018:04) survives every reset. May return nullptr.
 std::unique_ptr<Application> make_node_application(const config::NodeConfig& node, std::uint64_t seed);
 
+// Nodes of one fleet entry (same interface and name) whose own bit rate is not
+// their bus's: they neither hear nor speak until it matches.
+struct BitRateMismatch {
+  std::string interface;
+  std::string name;                // the entry's name (its nodes' keys: <interface>/<name>/<index>)
+  std::size_t count = 0;           // nodes of the entry at the wrong rate
+  std::uint8_t first_id = 0, last_id = 0;
+  std::uint32_t node_kbit = 0;     // the nodes' rate
+  std::uint32_t bus_kbit = 0;      // the interface's
+};
+// One entry per fleet entry with mismatching nodes, in fleet order.
+// `bus_kbit(interface)` is the interface's effective rate.
+std::vector<BitRateMismatch> bit_rate_mismatches(const config::FleetConfig& fleet,
+                                                 const std::function<std::uint32_t(const config::InterfaceConfig&)>& bus_kbit);
+// "vcan0/generic: 3 nodes (node-IDs 0x10..0x12) run at 250 kbit/s but vcan0 at
+// 1000 kbit/s: they stay silent. Fix: set `bit_rate: 1000` on the node entry
+// (or `bit_rate: 250` on interface vcan0)".
+std::string describe(const BitRateMismatch& m);
+// The interface's effective rate: configured, else the kernel's (real CAN), else 250.
+std::uint32_t effective_bit_rate(const config::InterfaceConfig& ic);
+
 // --check: loads, prepares and builds every node without touching the bus.
-// Returns a one-line summary; throws config::ConfigError.
-std::string check_fleet(config::FleetConfig& fleet);
+// Returns a one-line summary; throws config::ConfigError. `warnings` (when
+// given) receives what is valid but probably not meant: nodes at another bit
+// rate than their bus (describe()).
+std::string check_fleet(config::FleetConfig& fleet, std::vector<std::string>* warnings = nullptr);
 
 // Sets 0x1018:04 after every reset, then lets the personality run.
 class SerialOverlay : public Application {

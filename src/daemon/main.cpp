@@ -49,7 +49,13 @@ int main(int argc, char** argv) {
   try {
     if (o.check) {
       config::FleetConfig fleet = load(o);
-      std::printf("%s\n", daemon::check_fleet(fleet).c_str());
+      std::vector<std::string> warnings;
+      const std::string summary = daemon::check_fleet(fleet, &warnings);
+      // Valid but probably not meant (a node at another rate than its bus is
+      // how LSS bit-rate switching is tested): warned about, exit 0.
+      for (const std::string& w : warnings) std::fprintf(stderr, "cansimd: warning: %s\n", w.c_str());
+      std::printf("%s%s\n", summary.c_str(),
+                  warnings.empty() ? "" : (", " + std::to_string(warnings.size()) + " warning(s)").c_str());
       return 0;
     }
     daemon::DaemonSettings settings;

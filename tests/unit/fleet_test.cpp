@@ -1,7 +1,10 @@
 #include <gtest/gtest.h>
+#include <spdlog/sinks/ostream_sink.h>
+#include <spdlog/spdlog.h>
 
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 
 #include "config/fleet.hpp"
 #include "daemon/daemon.hpp"
@@ -167,6 +170,60 @@ TEST_F(FleetTest, CheckBuildsEveryNodeAndTheDemoConfigIsValid) {
   FleetConfig d = load_fleet(demo, daemon::profile_search(demo));
   EXPECT_GE(d.nodes.size(), 4u);
   EXPECT_NO_THROW(daemon::check_fleet(d));
+}
+
+TEST_F(FleetTest, CheckWarnsOncePerEntryAboutNodesAtAnotherBitRateThanTheirBus) {
+  FleetConfig f = parse("interfaces:\n  vcan0: {bit_rate: 1000}\n  vcan1: {bit_rate: 250}\nnodes:\n"
+                        "  - {profile: generic-404, interface: vcan0, node_id: 0x10, count: 3, name: gen}\n"
+                        "  - {profile: generic-404, interface: vcan0, node_id: 0x20, bit_rate: 1000, name: fine}\n"
+                        "  - {profile: generic-404, interface: vcan1, node_id: 0x30, bit_rate: 125, name: slow}\n"
+                        "  - {profile: generic-404, interface: vcan1, node_id: 255, count: 2, bit_rate: 500, name: lss}\n");
+  std::vector<std::string> warnings;
+  EXPECT_EQ(daemon::check_fleet(f, &warnings), dir + "/fleet.yaml: ok, 7 node(s) on 2 interface(s)");
+  ASSERT_EQ(warnings.size(), 3u);
+  EXPECT_EQ(warnings[0],
+            "vcan0/gen: 3 nodes (node-IDs 0x10..0x12) run at 250 kbit/s but vcan0 at 1000 kbit/s: they stay silent "
+            "until the rates match. Fix: set `bit_rate: 1000` on the node entry (or `bit_rate: 250` on interface vcan0)");
+  EXPECT_EQ(warnings[1],
+            "vcan1/slow: 1 node (node-ID 0x30) runs at 125 kbit/s but vcan1 at 250 kbit/s: it stays silent until the "
+            "rates match. Fix: set `bit_rate: 250` on the node entry (or `bit_rate: 125` on interface vcan1)");
+  EXPECT_EQ(warnings[2].substr(0, 65), "vcan1/lss: 2 nodes (LSS-unconfigured) run at 500 kbit/s but vcan1");
+  // An interface without a rate is the kernel's, else 250 kbit/s (vcan: 250).
+  FleetConfig ok = parse("interfaces:\n  vcan0: {}\nnodes:\n  - {profile: generic-404, interface: vcan0}\n");
+  warnings.clear();
+  daemon::check_fleet(ok, &warnings);
+  EXPECT_TRUE(warnings.empty());
+  EXPECT_NO_THROW(daemon::check_fleet(ok));  // no warnings wanted
+}
+
+TEST_F(FleetTest, TheDaemonLogsAMismatchOncePerEntryWithTheCountAndTheFix) {
+  std::ostringstream log;
+  auto previous = spdlog::default_logger();
+  spdlog::set_default_logger(
+      std::make_shared<spdlog::logger>("test", std::make_shared<spdlog::sinks::ostream_sink_st>(log)));
+  {
+    daemon::DaemonSettings settings;
+    settings.state_dir = dir + "/state";
+    settings.bus = control::BusChoice::kNone;
+    settings.control_socket = "none";
+    daemon::Daemon d(settings);
+    // A bus that does not exist: the nodes run off the bus, the warning is the same.
+    d.add_nodes("interfaces: {cansimfz0: {bit_rate: 1000}}\nnodes:\n"
+                "  - {profile: " + dir + "/profiles/generic-404.yaml, interface: cansimfz0, node_id: 1, count: 100, name: g}\n"
+                "  - {profile: " + dir + "/profiles/generic-404.yaml, interface: cansimfz0, node_id: 101, bit_rate: 1000}\n");
+    EXPECT_EQ(d.nodes().size(), 101u);
+  }
+  spdlog::set_default_logger(previous);
+  const std::string text = log.str();
+  std::size_t warnings = 0;
+  for (auto at = text.find("kbit/s but cansimfz0 at"); at != std::string::npos; at = text.find("kbit/s but cansimfz0 at", at + 1))
+    ++warnings;
+  EXPECT_EQ(warnings, 1u) << text;
+  EXPECT_NE(text.find("cansimfz0/g: 100 nodes (node-IDs 0x01..0x64) run at 250 kbit/s but cansimfz0 at 1000 kbit/s: they "
+                      "stay silent until the rates match. Fix: set `bit_rate: 1000` on the node entry (or `bit_rate: 250` "
+                      "on interface cansimfz0)"),
+            std::string::npos)
+      << text;
 }
 
 TEST_F(FleetTest, RecordFilesPerNode) {
