@@ -305,7 +305,7 @@ FleetConfig parse_fleet_fragment(const std::string& text, const std::string& fil
     else for (const auto& e : given) list.push_back(e);
     root["nodes"] = list;
   } else {
-    throw ConfigError(file + ":1:1: expected a node entry, a list of node entries or a fleet document");
+    fail(Where{file, ""}, given, "expected a node entry, a list of node entries or a fleet document");
   }
   YAML::Node ifaces = root["interfaces"] ? root["interfaces"] : YAML::Node(YAML::NodeType::Map);
   if (ifaces.IsMap() && root["nodes"].IsSequence()) {

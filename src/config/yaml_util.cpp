@@ -14,6 +14,7 @@ void fail(const Where& w, const YAML::Node& n, const std::string& expected) {
   std::ostringstream os;
   os << w.file;
   if (n.IsDefined() && n.Mark().line >= 0) os << ":" << n.Mark().line + 1 << ":" << n.Mark().column + 1;
+  else if (w.path.empty()) os << ":1:1";  // an empty document has no mark: the error is at its start
   os << ": " << (w.path.empty() ? "(top level)" : w.path) << ": " << expected;
   if (n.IsDefined() && n.IsScalar()) os << ", got '" << n.Scalar() << "'";
   throw ConfigError(os.str());
