@@ -17,7 +17,8 @@ config::ProfileSearch source_profiles() {
 }
 }  // namespace
 
-ControlFleet::ControlFleet(const std::string& fleet_yaml) {
+ControlFleet::ControlFleet(const std::string& fleet_yaml, TransportFactory transports)
+    : transports_(std::move(transports)) {
   running_ = config::parse_fleet(fleet_yaml, "<test>", source_profiles());
   core_.set_observer(&service_);
   add(running_);
@@ -32,7 +33,13 @@ ControlFleet::Bus& ControlFleet::bus(const std::string& name) {
   auto it = buses_.find(name);
   if (it != buses_.end()) return it->second;
   Bus& b = buses_[name];
-  b.wire = std::make_unique<io::MemoryTransport>(&core_.now());
+  if (transports_) {
+    b.wire = transports_(name);
+  } else {
+    auto memory = std::make_unique<io::MemoryTransport>(&core_.now());
+    b.memory = memory.get();
+    b.wire = std::move(memory);
+  }
   b.id = core_.add_bus(name, *b.wire, 3);
   return b;
 }
@@ -109,7 +116,7 @@ std::vector<control::BusStatistics> ControlFleet::bus_statistics() const {
     s.name = name;
     s.up = true;
     s.bit_rate_kbit = 250;
-    s.frames_out = b.wire->log.size();
+    s.frames_out = b.memory ? b.memory->log.size() : 0;
     out.push_back(s);
   }
   return out;
@@ -120,7 +127,16 @@ void ControlFleet::run_until(TimeUs t) {
   core_.run_until(t);
 }
 
-std::vector<io::MemoryTransport::Sent> ControlFleet::take(const std::string& name) { return bus(name).wire->take(); }
+void ControlFleet::run_due(TimeUs now) {
+  now_ = now;
+  core_.run_due(now);
+}
+
+std::vector<io::MemoryTransport::Sent> ControlFleet::take(const std::string& name) {
+  Bus& b = bus(name);
+  if (!b.memory) throw std::logic_error("ControlFleet::take: " + name + " has a caller's transport");
+  return b.memory->take();
+}
 
 void ControlFleet::receive(const std::string& name, const CanFrame& f) { core_.receive(bus(name).id, f, now_); }
 

@@ -7,6 +7,7 @@
 
 #include <systemd/sd-bus.h>
 
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -23,8 +24,12 @@ namespace cansim::test {
 
 class ControlFleet : public control::ControlHost {
  public:
+  // The transport of a bus, by name (the benchmark counts frames instead of
+  // recording them). Default: a MemoryTransport on the fleet's clock.
+  using TransportFactory = std::function<std::unique_ptr<io::Transport>(const std::string& bus)>;
+
   // `fleet_yaml`: a fleet document; profiles by name from the source tree.
-  explicit ControlFleet(const std::string& fleet_yaml);
+  explicit ControlFleet(const std::string& fleet_yaml, TransportFactory transports = {});
   ~ControlFleet() override;
 
   // ControlHost
@@ -41,7 +46,10 @@ class ControlFleet : public control::ControlHost {
   control::ControlService& service() { return service_; }
   // Runs the fleet up to t (the fake clock).
   void run_until(TimeUs t);
-  // Frames sent on a bus since the last take (with the time the core said).
+  // As the daemon's loop: every due node at `now` (the benchmark's real clock).
+  void run_due(TimeUs now);
+  // Frames sent on a bus since the last take (with the time the core said);
+  // only with the default transports.
   std::vector<io::MemoryTransport::Sent> take(const std::string& bus);
   // A frame from "the master" on a bus, at the current time.
   void receive(const std::string& bus, const CanFrame& f);
@@ -50,7 +58,8 @@ class ControlFleet : public control::ControlHost {
  private:
   struct Bus {
     io::BusId id = 0;
-    std::unique_ptr<io::MemoryTransport> wire;
+    std::unique_ptr<io::Transport> wire;
+    io::MemoryTransport* memory = nullptr;  // wire, when it is the default
   };
   struct Entry {
     control::NodeHandle handle;
@@ -59,6 +68,7 @@ class ControlFleet : public control::ControlHost {
   Bus& bus(const std::string& name);
   void add(const config::FleetConfig& cfg);
 
+  TransportFactory transports_;
   TimeUs now_ = 0;
   io::LoopCore core_;
   control::ControlService service_{*this};
