@@ -178,6 +178,10 @@ void parse_node_entry(const Where& w, const YAML::Node& entry, ProfileCache& cac
     cache.add_variant(profile);
   }
   const std::string fingerprint_base = cache.text(path) + "\n---\n" + YAML::Dump(entry);
+  std::string origin = w.file;
+  if (entry.Mark().line >= 0)
+    origin += ":" + std::to_string(entry.Mark().line + 1) + ":" + std::to_string(entry.Mark().column + 1);
+  origin += ": " + w.path;
   for (int i = 0; i < count; ++i) {
     NodeConfig n;
     n.name = name;
@@ -190,6 +194,7 @@ void parse_node_entry(const Where& w, const YAML::Node& entry, ProfileCache& cac
     if (!record.empty()) n.record_file = record_file_name(record, n.node_id, count > 1);
     n.profile = profile;
     n.fingerprint = fingerprint_base + "\nindex " + std::to_string(i);
+    n.origin = origin;
     out.nodes.push_back(std::move(n));
   }
 }
@@ -309,10 +314,15 @@ FleetConfig parse_fleet_fragment(const std::string& text, const std::string& fil
   }
   YAML::Node ifaces = root["interfaces"] ? root["interfaces"] : YAML::Node(YAML::NodeType::Map);
   if (ifaces.IsMap() && root["nodes"].IsSequence()) {
+    std::size_t i = 0;
     for (const auto& entry : root["nodes"]) {
+      const Where wi = Where{file, "nodes"}.item(i++);
       if (!entry.IsMap() || !entry["interface"] || !entry["interface"].IsScalar()) continue;
       const std::string name = entry["interface"].Scalar();
       if (ifaces[name]) continue;
+      // Checked here, where the name has a line: the interface added below has none.
+      if (name.size() >= 16 || !valid_name(name))
+        fail(wi.child("interface"), entry["interface"], "expected a network interface name (at most 15 characters)");
       YAML::Node setting(YAML::NodeType::Map);
       if (const InterfaceConfig* ic = running.interface(name); ic && ic->bit_rate_kbit) setting["bit_rate"] = ic->bit_rate_kbit;
       ifaces[name] = setting;
@@ -330,11 +340,14 @@ void merge_fleet(FleetConfig& into, const FleetConfig& extra) {
     if (n.node_id != 255) ids[{n.interface, n.node_id}] = n.key;
   }
   for (const NodeConfig& n : extra.nodes) {
-    if (keys.count(n.key)) throw ConfigError(extra.file + ": node " + n.key + " already exists; expected a new name");
+    // "<file>:<line>:<column>: nodes[i]" of the entry (just the file for nodes not from a fleet entry).
+    const std::string at = n.origin.empty() ? extra.file + ": " + n.key : n.origin;
+    if (keys.count(n.key))
+      throw ConfigError(at + ".name: node " + n.key + " already exists; expected a new name");
     if (n.node_id == 255) continue;
     auto it = ids.find({n.interface, n.node_id});
     if (it != ids.end())
-      throw ConfigError(extra.file + ": node " + n.key + ": node-ID " + std::to_string(n.node_id) + " (" +
+      throw ConfigError(at + ".node_id: node " + n.key + ": node-ID " + std::to_string(n.node_id) + " (" +
                         hex2(n.node_id) + ") is already used on " + n.interface + " by " + it->second +
                         "; expected a free node-ID");
     ids[{n.interface, n.node_id}] = n.key;

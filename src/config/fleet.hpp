@@ -32,6 +32,7 @@ struct NodeConfig {
   // entry overrides options or vendor parameters.
   std::shared_ptr<Profile> profile;
   std::string fingerprint;  // changes when anything that defines the node changes
+  std::string origin;       // "<file>:<line>:<column>: nodes[i]": its entry, for error messages
 };
 
 struct FleetConfig {

@@ -58,5 +58,31 @@ TEST(LoaderRegressions, AFragmentThatIsNoEntryNamesLineColumnAndTopLevel) {
             "<AddNodes #1>:2:3: (top level): expected a node entry, a list of node entries or a fleet document, got 'hello'");
 }
 
+std::string merge_error(const std::string& text) {
+  const std::string demo = std::string(CANSIM_SOURCE_DIR) + "/config/cansimd.yaml";
+  FleetConfig running = load_fleet(demo, daemon::profile_search(demo));
+  try {
+    FleetConfig extra = parse_fleet_fragment(text, "<AddNodes #1>", daemon::profile_search(demo), running);
+    merge_fleet(running, extra);
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+TEST(LoaderRegressions, AFragmentsUndeclaredInterfaceIsCheckedWhereItIsNamed) {
+  EXPECT_EQ(merge_error("- {profile: generic-404, node_id: 0x30,\n   interface: 'vcan0 x'}\n"),
+            "<AddNodes #1>:2:15: nodes[0].interface: expected a network interface name (at most 15 characters), got "
+            "'vcan0 x'");
+}
+
+TEST(LoaderRegressions, CollisionsWithTheRunningFleetNameTheEntrysLineAndKey) {
+  EXPECT_EQ(merge_error("{profile: generic-404, interface: vcan0}"),
+            "<AddNodes #1>:1:1: nodes[0].node_id: node vcan0/generic-404-16/0: node-ID 16 (0x10) is already used on "
+            "vcan0 by vcan0/generic/0; expected a free node-ID");
+  EXPECT_EQ(merge_error("- {profile: dps, interface: vcan1, node_id: 0x55}\n- {profile: dps, interface: vcan0, name: dps}"),
+            "<AddNodes #1>:2:3: nodes[1].name: node vcan0/dps/0 already exists; expected a new name");
+}
+
 }  // namespace
 }  // namespace cansim::config
