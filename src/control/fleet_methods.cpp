@@ -17,21 +17,18 @@ ControlService& service_of(void* userdata) { return *static_cast<ControlService*
 
 int list_nodes(sd_bus_message* m, void* userdata, sd_bus_error*) {
   ControlService& s = service_of(userdata);
-  sd_bus_message* reply = nullptr;
-  int r = sd_bus_message_new_method_return(m, &reply);
-  if (r >= 0) r = sd_bus_message_open_container(reply, 'a', "(osssysss)");
-  for (const NodeHandle* h : s.host().nodes()) {
-    ControlService::NodeContext* n = s.context(h->key);
-    if (!n || r < 0) continue;
-    const Node& node = n->node();
-    r = sd_bus_message_append(reply, "(osssysss)", n->path.c_str(), h->key.c_str(), h->name.c_str(),
-                              h->interface.c_str(), node.node_id(), h->profile.c_str(), h->personality.c_str(),
-                              nmt_state_name(node.state()));
-  }
-  if (r >= 0) r = sd_bus_message_close_container(reply);
-  if (r >= 0) r = sd_bus_send(nullptr, reply, nullptr);
-  sd_bus_message_unref(reply);
-  return r;
+  return reply_with(m, [&](sd_bus_message* reply) {
+    int r = sd_bus_message_open_container(reply, 'a', "(osssysss)");
+    for (const NodeHandle* h : s.host().nodes()) {
+      ControlService::NodeContext* n = s.context(h->key);
+      if (!n || r < 0) continue;
+      const Node& node = n->node();
+      r = sd_bus_message_append(reply, "(osssysss)", n->path.c_str(), h->key.c_str(), h->name.c_str(),
+                                h->interface.c_str(), node.node_id(), h->profile.c_str(), h->personality.c_str(),
+                                nmt_state_name(node.state()));
+    }
+    return r < 0 ? r : sd_bus_message_close_container(reply);
+  });
 }
 
 int get_node(sd_bus_message* m, void* userdata, sd_bus_error* e) {
@@ -57,15 +54,12 @@ int add_nodes(sd_bus_message* m, void* userdata, sd_bus_error* e) {
   } catch (const std::exception& ex) {
     return fail(e, kErrorConfig, ex.what());
   }
-  sd_bus_message* reply = nullptr;
-  r = sd_bus_message_new_method_return(m, &reply);
-  if (r >= 0) r = sd_bus_message_open_container(reply, 'a', "o");
-  for (const std::string& k : keys)
-    if (ControlService::NodeContext* n = s.context(k); n && r >= 0) r = sd_bus_message_append(reply, "o", n->path.c_str());
-  if (r >= 0) r = sd_bus_message_close_container(reply);
-  if (r >= 0) r = sd_bus_send(nullptr, reply, nullptr);
-  sd_bus_message_unref(reply);
-  return r;
+  return reply_with(m, [&](sd_bus_message* reply) {
+    int r = sd_bus_message_open_container(reply, 'a', "o");
+    for (const std::string& k : keys)
+      if (ControlService::NodeContext* n = s.context(k); n && r >= 0) r = sd_bus_message_append(reply, "o", n->path.c_str());
+    return r < 0 ? r : sd_bus_message_close_container(reply);
+  });
 }
 
 int remove_node(sd_bus_message* m, void* userdata, sd_bus_error* e) {
@@ -91,17 +85,14 @@ int reload(sd_bus_message* m, void* userdata, sd_bus_error* e) {
 
 int bus_statistics(sd_bus_message* m, void* userdata, sd_bus_error*) {
   ControlService& s = service_of(userdata);
-  sd_bus_message* reply = nullptr;
-  int r = sd_bus_message_new_method_return(m, &reply);
-  if (r >= 0) r = sd_bus_message_open_container(reply, 'a', "(sbuttttdd)");
-  for (const BusStatistics& b : s.host().bus_statistics())
-    if (r >= 0)
-      r = sd_bus_message_append(reply, "(sbuttttdd)", b.name.c_str(), int(b.up), b.bit_rate_kbit, b.frames_in,
-                                b.frames_out, b.drops, b.offline, b.offered_load, b.measured_load);
-  if (r >= 0) r = sd_bus_message_close_container(reply);
-  if (r >= 0) r = sd_bus_send(nullptr, reply, nullptr);
-  sd_bus_message_unref(reply);
-  return r;
+  return reply_with(m, [&](sd_bus_message* reply) {
+    int r = sd_bus_message_open_container(reply, 'a', "(sbuttttdd)");
+    for (const BusStatistics& b : s.host().bus_statistics())
+      if (r >= 0)
+        r = sd_bus_message_append(reply, "(sbuttttdd)", b.name.c_str(), int(b.up), b.bit_rate_kbit, b.frames_in,
+                                  b.frames_out, b.drops, b.offline, b.offered_load, b.measured_load);
+    return r < 0 ? r : sd_bus_message_close_container(reply);
+  });
 }
 
 int subscribe(sd_bus_message* m, void* userdata, sd_bus_error*) {

@@ -16,13 +16,6 @@ namespace {
 using NodeContext = ControlService::NodeContext;
 NodeContext& ctx(void* userdata) { return *static_cast<NodeContext*>(userdata); }
 
-// Brings the node to the present: what was due before the call happens first.
-TimeUs act_now(NodeContext& n) {
-  io::LoopCore& core = n.service->host().core();
-  core.run_due(n.service->host().now());
-  return core.now();
-}
-
 std::string abort_text(SdoAbort a) {
   char buf[16];
   std::snprintf(buf, sizeof buf, "0x%08X", unsigned(a));
@@ -78,7 +71,7 @@ int power_cycle(sd_bus_message* m, void* userdata, sd_bus_error* e) {
   if (r < 0) return r;
   if (!std::isfinite(off) || off < 0 || off > 1e9)
     return fail(e, kErrorOutOfRange, "expected an off time >= 0 s");
-  TimeUs t = act_now(n);
+  TimeUs t = n.act_now();
   n.node().power_cycle(t, TimeUs(std::llround(off * 1e6)));
   n.service->touched(n);
   return sd_bus_reply_method_return(m, "");
@@ -94,7 +87,7 @@ int nmt(sd_bus_message* m, void* userdata, sd_bus_error* e) {
       {"reset", kNmtResetNode}, {"reset-comm", kNmtResetCommunication}};
   for (const auto& c : kCommands) {
     if (std::string_view(command) != c.name) continue;
-    TimeUs t = act_now(n);
+    TimeUs t = n.act_now();
     const bool done = n.node().nmt_local(c.cs, t);
     n.service->touched(n);
     if (!done)
@@ -114,7 +107,7 @@ int store_or_restore(sd_bus_message* m, NodeContext& n, bool store, sd_bus_error
   if (sub == 0 || sub > 127) return fail(e, kErrorOutOfRange, "expected a sub-index 1..127 (1: all parameters)");
   const std::uint16_t index = store ? 0x1010 : 0x1011;
   if (!find_entry(n, index, sub, e, &r)) return r;
-  TimeUs t = act_now(n);
+  TimeUs t = n.act_now();
   SdoAbort a = store ? n.node().store_local(sub, t) : n.node().restore_local(sub, t);
   n.service->touched(n);
   if (a != SdoAbort::kNone) return refused(e, store ? "store" : "restore", a);
@@ -124,38 +117,35 @@ int store_or_restore(sd_bus_message* m, NodeContext& n, bool store, sd_bus_error
 int store(sd_bus_message* m, void* userdata, sd_bus_error* e) { return store_or_restore(m, ctx(userdata), true, e); }
 int restore(sd_bus_message* m, void* userdata, sd_bus_error* e) { return store_or_restore(m, ctx(userdata), false, e); }
 
-int read_object(sd_bus_message* m, void* userdata, sd_bus_error* e) {
-  NodeContext& n = ctx(userdata);
+// Reads the (q index, y sub) arguments and finds the entry.
+const OdEntry* entry_argument(sd_bus_message* m, NodeContext& n, sd_bus_error* e, int* r) {
   std::uint16_t index = 0;
   std::uint8_t sub = 0;
-  int r = sd_bus_message_read(m, "qy", &index, &sub);
-  if (r < 0) return r;
-  const OdEntry* entry = find_entry(n, index, sub, e, &r);
+  if ((*r = sd_bus_message_read(m, "qy", &index, &sub)) < 0) return nullptr;
+  return find_entry(n, index, sub, e, r);
+}
+
+int read_object(sd_bus_message* m, void* userdata, sd_bus_error* e) {
+  NodeContext& n = ctx(userdata);
+  int r = 0;
+  const OdEntry* entry = entry_argument(m, n, e, &r);
   if (!entry) return r;
-  TimeUs t = act_now(n);
+  TimeUs t = n.act_now();
   std::span<const std::uint8_t> bytes;
   SdoAbort a = n.node().read_local(*entry, t, bytes);
   if (a != SdoAbort::kNone) return refused(e, "read", a);
-  sd_bus_message* reply = nullptr;
-  r = sd_bus_message_new_method_return(m, &reply);
-  if (r >= 0) r = append_value(reply, *entry, bytes);
-  if (r >= 0) r = sd_bus_send(nullptr, reply, nullptr);
-  sd_bus_message_unref(reply);
-  return r;
+  return reply_with(m, [&](sd_bus_message* reply) { return append_value(reply, *entry, bytes); });
 }
 
 int write_object(sd_bus_message* m, void* userdata, sd_bus_error* e) {
   NodeContext& n = ctx(userdata);
-  std::uint16_t index = 0;
-  std::uint8_t sub = 0;
-  int r = sd_bus_message_read(m, "qy", &index, &sub);
-  if (r < 0) return r;
-  const OdEntry* entry = find_entry(n, index, sub, e, &r);
+  int r = 0;
+  const OdEntry* entry = entry_argument(m, n, e, &r);
   if (!entry) return r;
   std::vector<std::uint8_t> bytes;
   std::string error_name, message;
   if (!read_value(m, *entry, bytes, error_name, message)) return fail(e, error_name.c_str(), message);
-  TimeUs t = act_now(n);
+  TimeUs t = n.act_now();
   SdoAbort a = n.node().write_local(*entry, bytes, t);
   n.service->touched(n);
   if (a == SdoAbort::kValueTooHigh || a == SdoAbort::kValueTooLow || a == SdoAbort::kInvalidValue)

@@ -18,12 +18,6 @@ using NodeContext = ControlService::NodeContext;
 using physics::Channel;
 NodeContext& ctx(void* userdata) { return *static_cast<NodeContext*>(userdata); }
 
-TimeUs act_now(NodeContext& n) {
-  io::LoopCore& core = n.service->host().core();
-  core.run_due(n.service->host().now());
-  return core.now();
-}
-
 // The node's chain, or an error when it has none / not this channel.
 personalities::Cia404Application* chain(NodeContext& n, const char* channel, Channel* ch, sd_bus_error* e, int* r) {
   const std::string_view name = channel;
@@ -71,7 +65,7 @@ bool to_si(Channel ch, double value, const char* unit, double& si, sd_bus_error*
 // Runs `change` on the chain now; refused when the node's source has no process model.
 template <typename Change>
 int change_process(sd_bus_message* m, NodeContext& n, Change&& change, sd_bus_error* e) {
-  const TimeUs t = act_now(n);
+  const TimeUs t = n.act_now();
   bool done = false;
   try {
     done = change(t);
@@ -158,7 +152,7 @@ int node_override(sd_bus_message* m, void* userdata, sd_bus_error* e) {
   ValueArgs a;
   int r = 0;
   if (!read_value_args(m, n, a, e, &r)) return r;
-  n.sensor->set_override(n.node(), a.ch, a.si, act_now(n));
+  n.sensor->set_override(n.node(), a.ch, a.si, n.act_now());
   n.service->touched(n);
   return sd_bus_reply_method_return(m, "");
 }
@@ -169,7 +163,7 @@ int node_clear_override(sd_bus_message* m, void* userdata, sd_bus_error* e) {
   int r = sd_bus_message_read(m, "s", &channel);
   Channel ch;
   if (r < 0 || !chain(n, channel, &ch, e, &r)) return r;
-  n.sensor->set_override(n.node(), ch, std::nullopt, act_now(n));
+  n.sensor->set_override(n.node(), ch, std::nullopt, n.act_now());
   n.service->touched(n);
   return sd_bus_reply_method_return(m, "");
 }
@@ -201,7 +195,7 @@ int node_arm_fault(sd_bus_message* m, void* userdata, sd_bus_error* e) {
     return fail(e, bad_kind ? kErrorUnknownFault : kErrorInvalidArgument, ex.what());
   }
   if (!n.sensor) return fail(e, kErrorNotSupported, n.handle->key + " has no fault schedule");
-  const TimeUs t = act_now(n);
+  const TimeUs t = n.act_now();
   physics::FaultHandle id = n.sensor->arm_fault(n.node(), spec, t);
   if (id == physics::kInvalidFaultHandle) return fail(e, kErrorNotSupported, n.handle->key + " has no fault schedule");
   n.service->touched(n);
@@ -214,7 +208,7 @@ int node_cancel_fault(sd_bus_message* m, void* userdata, sd_bus_error* e) {
   std::uint32_t id = 0;
   int r = sd_bus_message_read(m, "u", &id);
   if (r < 0) return r;
-  const TimeUs t = act_now(n);
+  const TimeUs t = n.act_now();
   // Only a fault still armed (not cancelled, not finished) can be cancelled.
   bool armed = false;
   if (n.sensor)
@@ -228,20 +222,18 @@ int node_cancel_fault(sd_bus_message* m, void* userdata, sd_bus_error* e) {
 
 int node_list_faults(sd_bus_message* m, void* userdata, sd_bus_error*) {
   NodeContext& n = ctx(userdata);
-  sd_bus_message* reply = nullptr;
-  int r = sd_bus_message_new_method_return(m, &reply);
-  if (r >= 0) r = sd_bus_message_open_container(reply, 'a', "(ussbxxxu)");
-  if (n.sensor)
-    for (const physics::FaultInfo& f : n.sensor->faults(act_now(n)))
-      if (r >= 0)
-        r = sd_bus_message_append(reply, "(ussbxxxu)", f.handle, std::string(physics::to_string(f.kind)).c_str(),
-                                  std::string(physics::to_string(f.channel)).c_str(), int(f.active),
-                                  std::int64_t(f.first_start), std::int64_t(f.duration_us), std::int64_t(f.period_us),
-                                  f.count);
-  if (r >= 0) r = sd_bus_message_close_container(reply);
-  if (r >= 0) r = sd_bus_send(nullptr, reply, nullptr);
-  sd_bus_message_unref(reply);
-  return r;
+  const TimeUs t = n.act_now();
+  return reply_with(m, [&](sd_bus_message* reply) {
+    int r = sd_bus_message_open_container(reply, 'a', "(ussbxxxu)");
+    if (n.sensor)
+      for (const physics::FaultInfo& f : n.sensor->faults(t))
+        if (r >= 0)
+          r = sd_bus_message_append(reply, "(ussbxxxu)", f.handle, std::string(physics::to_string(f.kind)).c_str(),
+                                    std::string(physics::to_string(f.channel)).c_str(), int(f.active),
+                                    std::int64_t(f.first_start), std::int64_t(f.duration_us),
+                                    std::int64_t(f.period_us), f.count);
+    return r < 0 ? r : sd_bus_message_close_container(reply);
+  });
 }
 
 int node_start_recording(sd_bus_message* m, void* userdata, sd_bus_error* e) {

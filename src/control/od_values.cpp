@@ -4,7 +4,7 @@
 #include <cstring>
 #include <limits>
 
-#include "control/errors.hpp"
+#include "control/names.hpp"
 
 namespace cansim::control {
 

@@ -16,16 +16,11 @@
 #include <vector>
 
 #include "control/control_host.hpp"
+#include "control/names.hpp"
 #include "core/observer.hpp"
 #include "io/loop_core.hpp"
 
 namespace cansim::control {
-
-inline constexpr const char* kBusName = "io.cansim.Cansimd1";
-inline constexpr const char* kRootPath = "/io/cansim/Cansimd1";
-inline constexpr const char* kNodePrefix = "/io/cansim/Cansimd1/node";
-inline constexpr const char* kFleetInterface = "io.cansim.Fleet1";
-inline constexpr const char* kNodeInterface = "io.cansim.Node1";
 
 // The object path of a node: /io/cansim/Cansimd1/node/<interface>/<name>/<index>.
 std::string node_path(const NodeHandle& h);

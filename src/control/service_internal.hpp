@@ -7,7 +7,7 @@
 #include <cstdint>
 #include <string>
 
-#include "control/errors.hpp"
+#include "control/names.hpp"
 #include "control/service.hpp"
 #include "core/node.hpp"
 #include "personalities/cia404.hpp"
@@ -20,6 +20,12 @@ struct ControlService::NodeContext {
   std::string path;
   personalities::Cia404Application* sensor = nullptr;  // null: no measurement chain
   Node& node() const { return service->host().core().node(handle->ref); }
+  // A method acts now: what was due before the call happens first.
+  TimeUs act_now() const {
+    io::LoopCore& core = service->host().core();
+    core.run_due(service->host().now());
+    return core.now();
+  }
 };
 
 struct ControlService::Connection {
@@ -61,6 +67,17 @@ int node_get_faults(sd_bus* bus, const char* path, const char* iface, const char
                     void* userdata, sd_bus_error* e);
 int node_get_recording(sd_bus* bus, const char* path, const char* iface, const char* property, sd_bus_message* reply,
                        void* userdata, sd_bus_error* e);
+
+// Answers `m` with what `fill` appends (returns sd-bus's result, negative on error).
+template <typename Fill>
+int reply_with(sd_bus_message* m, Fill&& fill) {
+  sd_bus_message* reply = nullptr;
+  int r = sd_bus_message_new_method_return(m, &reply);
+  if (r >= 0) r = fill(reply);
+  if (r >= 0) r = sd_bus_send(nullptr, reply, nullptr);
+  sd_bus_message_unref(reply);
+  return r;
+}
 
 template <typename Build>
 void ControlService::emit(const std::string& path, const char* interface, const char* member, Build&& build) {

@@ -1,3 +1,4 @@
+#include <cctype>
 #include "ctl/args.hpp"
 
 #include <cmath>
@@ -301,9 +302,10 @@ struct OptionWord {
 };
 
 // "-5" and "-.5" are negative numbers (a temperature), not options.
+// "-5", "-.5" are numbers and "- constant: 4 bar" is a YAML list: not options.
 bool is_option(const std::string& arg) {
   if (arg.size() < 2 || arg[0] != '-') return false;
-  return !(arg[1] == '.' || (arg[1] >= '0' && arg[1] <= '9'));
+  return !(arg[1] == '.' || (arg[1] >= '0' && arg[1] <= '9') || std::isspace(static_cast<unsigned char>(arg[1])));
 }
 
 OptionWord split_option(const std::string& arg) {

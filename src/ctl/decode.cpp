@@ -304,7 +304,7 @@ std::vector<BusStats> read_bus_stats(sd_bus_message* m) {
     int up = 0;
     BusStats b;
     expect_value(sd_bus_message_read(m, "(sbuttttdd)", &name, &up, &b.bit_rate_kbit, &b.frames_in, &b.frames_out,
-                                     &b.frames_dropped, &b.local_deliveries, &b.offered_load, &b.measured_load));
+                                     &b.frames_dropped, &b.frames_offline, &b.offered_load, &b.measured_load));
     b.name = name, b.up = up;
     return b;
   });

@@ -319,7 +319,7 @@ void Printer::stats(const std::vector<BusStats>& rows) {
       json.member("frames_in", b.frames_in);
       json.member("frames_out", b.frames_out);
       json.member("frames_dropped", b.frames_dropped);
-      json.member("local_deliveries", b.local_deliveries);
+      json.member("frames_offline", b.frames_offline);
       json.member("offered_load", b.offered_load);
       json.member("measured_load", b.measured_load);
       json.end_object();
@@ -328,10 +328,10 @@ void Printer::stats(const std::vector<BusStats>& rows) {
     out_ << '\n';
     return;
   }
-  Table table({"INTERFACE", "UP", "KBIT/S", "IN", "OUT", "DROPPED", "LOCAL", "OFFERED", "MEASURED"});
+  Table table({"INTERFACE", "UP", "KBIT/S", "IN", "OUT", "DROPPED", "OFFLINE", "OFFERED", "MEASURED"});
   for (const BusStats& b : rows) {
     table.add({b.name, yes_no(b.up), std::to_string(b.bit_rate_kbit), std::to_string(b.frames_in),
-               std::to_string(b.frames_out), std::to_string(b.frames_dropped), std::to_string(b.local_deliveries),
+               std::to_string(b.frames_out), std::to_string(b.frames_dropped), std::to_string(b.frames_offline),
                percent(b.offered_load), percent(b.measured_load)});
   }
   table.print(out_);

@@ -38,7 +38,7 @@ struct BusStats {
   std::string name;
   bool up = false;
   std::uint32_t bit_rate_kbit = 0;
-  std::uint64_t frames_in = 0, frames_out = 0, frames_dropped = 0, local_deliveries = 0;
+  std::uint64_t frames_in = 0, frames_out = 0, frames_dropped = 0, frames_offline = 0;
   double offered_load = 0, measured_load = 0;
 };
 

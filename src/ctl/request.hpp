@@ -8,15 +8,16 @@
 #include <variant>
 #include <vector>
 
+#include "control/names.hpp"
 #include "ctl/values.hpp"
 
 namespace cansim::ctl {
 
-inline constexpr const char* kBusName = "io.cansim.Cansimd1";
-inline constexpr const char* kFleetPath = "/io/cansim/Cansimd1";
-inline constexpr const char* kNodePathPrefix = "/io/cansim/Cansimd1/node";
-inline constexpr const char* kFleetInterface = "io.cansim.Fleet1";
-inline constexpr const char* kNodeInterface = "io.cansim.Node1";
+using control::kBusName;
+using control::kFleetInterface;
+using control::kNodeInterface;
+inline constexpr const char* kFleetPath = control::kRootPath;
+inline constexpr const char* kNodePathPrefix = control::kNodePrefix;
 inline constexpr const char* kPropertiesInterface = "org.freedesktop.DBus.Properties";
 
 using StringMap = std::map<std::string, std::string>;  // "a{ss}"

@@ -607,6 +607,9 @@ int Daemon::run() {
     core_.run_due(now);
     // Control calls act here, between two passes: atomically with respect to frames.
     const TimeUs control_at = endpoints_->process();
+    // A node a call touched may be due at once: run it in this pass rather
+    // than arming the timer in the past for another wake-up.
+    if (endpoints_->connections()) core_.run_due(clock_now());
     flush(now);
     housekeeping(now);
     sweep_interfaces(now);

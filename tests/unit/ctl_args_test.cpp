@@ -72,6 +72,8 @@ TEST(CtlArgs, SetStepsOrRamps) {
   EXPECT_EQ(parse({"hold", "dps", "pressure"}).call, node_call("Hold", {s("pressure")}));
   EXPECT_EQ(parse({"model", "dps", "pressure", "{sine: {amplitude: 1 bar}}"}).call,
             node_call("SetModel", {s("pressure"), s("{sine: {amplitude: 1 bar}}")}));
+  EXPECT_EQ(parse({"model", "dps", "pressure", "- constant: 4 bar\n- sine: {amplitude: 1 bar}"}).call,
+            node_call("SetModel", {s("pressure"), s("- constant: 4 bar\n- sine: {amplitude: 1 bar}")}));
   EXPECT_EQ(parse({"restore-model", "dps", "temperature"}).call, node_call("RestoreModel", {s("temperature")}));
 }
 
@@ -451,8 +453,8 @@ TEST(CtlOutput, FaultsAndStats) {
   std::ostringstream stats;
   Printer(stats, false).stats({{"vcan0", false, 250, 1, 2, 3, 4, 0.123, 0.0}});
   EXPECT_EQ(stats.str(),
-            "INTERFACE  UP  KBIT/S  IN  OUT  DROPPED  LOCAL  OFFERED  MEASURED\n"
-            "vcan0      no  250     1   2    3        4      12.3%    0.0%\n");
+            "INTERFACE  UP  KBIT/S  IN  OUT  DROPPED  OFFLINE  OFFERED  MEASURED\n"
+            "vcan0      no  250     1   2    3        4        12.3%    0.0%\n");
 }
 
 TEST(CtlOutput, SmallReplies) {
