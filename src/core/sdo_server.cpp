@@ -555,7 +555,10 @@ void SdoServer::send_block_upload_end(TimeUs now) {
   // n = bytes of the last segment that carry no data (CiA 301 §7.2.4.3.15).
   std::uint32_t unused = size_ == 0 ? 7 : (7 - size_ % 7) % 7;
   std::uint8_t d[8] = {std::uint8_t(0xC1 | (unused << 2))};
-  if (crc_) put_u16(d + 1, crc16_ccitt({buf_.data(), size_}));
+  // CiA 301 §7.2.4.3.15: the CRC is only meaningful when both sides asked
+  // for it, but masters that check it whenever the server offered CRC (npm
+  // canopen, issue 12) exist: the real CRC is always sent, never 0x0000.
+  put_u16(d + 1, crc16_ccitt({buf_.data(), size_}));
   send_raw(d);
   state_ = State::kBlockUploadEnd;
   touch(now);

@@ -281,12 +281,15 @@ TEST_F(SdoBlockUpload, ClientChangesBlksizeBetweenSubBlocks) {
   EXPECT_EQ(ack(1, 127), segs(1, 77, 4, true));
 }
 
-TEST_F(SdoBlockUpload, WithoutCrcEndCarriesZero) {
+// A master that did not ask for CRC still gets the real one: masters that
+// check it whenever the server offered CRC (npm canopen) then agree too.
+TEST_F(SdoBlockUpload, WithoutCrcEndStillCarriesTheRealCrc) {
   data = pattern(10);
   set_value(0x2001, 0, data);
   EXPECT_EQ(initiate(127, 0, false), one({0xC6, 0x01, 0x20, 0x00, 10, 0, 0, 0}));
   EXPECT_EQ(req({0xA3, 0, 0, 0, 0, 0, 0, 0}), segs(1, 0, 2, true));
-  EXPECT_EQ(ack(2, 127), one({0xC1 | (4 << 2), 0, 0, 0, 0, 0, 0, 0}));
+  const std::uint16_t crc = crc16_ccitt(data);
+  EXPECT_EQ(ack(2, 127), one({0xC1 | (4 << 2), lo(crc), hi(crc), 0, 0, 0, 0, 0}));
   EXPECT_TRUE(req({0xA1, 0, 0, 0, 0, 0, 0, 0}).empty());
 }
 
