@@ -178,10 +178,17 @@ void parse_node_entry(const Where& w, const YAML::Node& entry, ProfileCache& cac
     cache.add_variant(profile);
   }
   const std::string fingerprint_base = cache.text(path) + "\n---\n" + YAML::Dump(entry);
+  // Appended piece by piece: GCC 12 -O3 reports a false -Wrestrict for a
+  // chain of std::string operator+ here (as in name += '-' above).
   std::string origin = w.file;
-  if (entry.Mark().line >= 0)
-    origin += ":" + std::to_string(entry.Mark().line + 1) + ":" + std::to_string(entry.Mark().column + 1);
-  origin += ": " + w.path;
+  if (entry.Mark().line >= 0) {
+    origin += ':';
+    origin += std::to_string(entry.Mark().line + 1);
+    origin += ':';
+    origin += std::to_string(entry.Mark().column + 1);
+  }
+  origin += ": ";
+  origin += w.path;
   for (int i = 0; i < count; ++i) {
     NodeConfig n;
     n.name = name;
