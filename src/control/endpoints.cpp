@@ -44,7 +44,8 @@ struct ControlEndpoints::Connection : io::FdHandler {
   bool peer = false;
   int fd = -1;
   std::uint32_t mask = 0;
-  void on_events(std::uint32_t) override {}  // serviced by process() after every pass
+  bool ready = true;  // epoll reported the fd (or it is new): process() reads it
+  void on_events(std::uint32_t) override { ready = true; }
 };
 
 struct ControlEndpoints::Listener : io::FdHandler {
@@ -192,22 +193,34 @@ void ControlEndpoints::rearm(Connection& c) {
   }
 }
 
+// Every connection is looked at after every pass, but read only when epoll
+// reported its fd or sd-bus says it has work (timeout due, e.g. 0 for a
+// message it already buffered): an idle connection costs no syscall.
 TimeUs ControlEndpoints::process() {
   TimeUs next = kNever;
+  const TimeUs now = io::monotonic_now();
   for (std::size_t i = 0; i < connections_.size();) {
     Connection& c = *connections_[i];
-    int r = 0;
-    int n = 0;
-    while (n < kMessagesPerPass && (r = sd_bus_process(c.bus, nullptr)) > 0) ++n;
-    if (r < 0 || !sd_bus_is_open(c.bus)) {
-      if (!c.peer) spdlog::warn("control: lost the D-Bus connection: {}", std::strerror(r < 0 ? -r : ECONNRESET));
-      drop(c);  // erases connections_[i]
-      continue;
+    std::uint64_t timeout = UINT64_MAX;
+    if (sd_bus_get_timeout(c.bus, &timeout) < 0) timeout = 0;
+    if (c.ready || TimeUs(timeout) <= now) {
+      c.ready = false;
+      int r = 0;
+      int n = 0;
+      while (n < kMessagesPerPass && (r = sd_bus_process(c.bus, nullptr)) > 0) ++n;
+      if (r < 0 || !sd_bus_is_open(c.bus)) {
+        if (!c.peer) spdlog::warn("control: lost the D-Bus connection: {}", std::strerror(r < 0 ? -r : ECONNRESET));
+        drop(c);  // erases connections_[i]
+        continue;
+      }
+      if (n == kMessagesPerPass) {  // more queued: come back after the nodes ran
+        c.ready = true;
+        next = 0;
+      }
+      if (sd_bus_get_timeout(c.bus, &timeout) < 0) timeout = 0;
     }
-    if (n == kMessagesPerPass) next = 0;  // more queued: come back after the nodes ran
-    rearm(c);
-    std::uint64_t timeout = 0;
-    if (sd_bus_get_timeout(c.bus, &timeout) >= 0 && timeout != UINT64_MAX) next = std::min(next, TimeUs(timeout));
+    rearm(c);  // signals sent between passes may have left output queued
+    if (timeout != UINT64_MAX) next = std::min(next, TimeUs(timeout));
     ++i;
   }
   return next;
