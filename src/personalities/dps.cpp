@@ -91,6 +91,7 @@ void DpsApplication::check_span(Node& node, TimeUs now) {
 
 void prepare(config::Profile& profile, PreparedProfile& prepared) {
   check_vendor_keys(profile, {"span_overflow_emcy", "autozero_shifts_span", "span_check_period"});
+  require_channels(profile, prepared, 1, "its span and sensor supervision (§5.4)");
   prepared.device = std::make_shared<const Settings>(parse_settings(profile));
 }
 

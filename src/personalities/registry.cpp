@@ -1,3 +1,4 @@
+#include <cstdio>
 #include "personalities/registry.hpp"
 
 #include <algorithm>
@@ -58,6 +59,38 @@ void check_vendor_keys(const config::Profile& profile, std::initializer_list<con
     for (const char* x : own) list += std::string(", ") + x;
     config::fail(w.child(k), kv.first, "unknown key (expected one of: " + list + ")");
   }
+}
+
+namespace {
+// Where a missing-object error points: the `objects:` list, else the document.
+config::Where objects_where(const config::Profile& profile, YAML::Node& node) {
+  node = profile.root && profile.root.IsMap() && profile.root["objects"] ? profile.root["objects"] : profile.root;
+  return config::Where{profile.file, "objects"};
+}
+}  // namespace
+
+void require_objects(const config::Profile& profile, std::initializer_list<RequiredObject> objects) {
+  for (const RequiredObject& o : objects)
+    for (unsigned sub = o.first_sub; sub <= o.last_sub; ++sub) {
+      const OdEntry* e = profile.layout->find(o.index, std::uint8_t(sub));
+      if (e && !is_variable_size(e->type)) continue;
+      YAML::Node at;
+      config::Where w = objects_where(profile, at);
+      char id[16];
+      std::snprintf(id, sizeof id, "0x%04X:%02X", o.index, sub);
+      config::fail(w, at, std::string("a numeric object ") + id + " (personality " + profile.personality +
+                              " needs it for " + o.purpose + ")" + (e ? ", not a string or domain" : ""));
+    }
+}
+
+void require_channels(const config::Profile& profile, const PreparedProfile& prepared, std::size_t count,
+                      const char* purpose) {
+  if (prepared.cia404 && prepared.cia404->channels.size() >= count) return;
+  YAML::Node at;
+  config::Where w = objects_where(profile, at);
+  config::fail(w, at, "at least " + std::to_string(count) + " CiA 404 channel(s) (0x6130:01.." +
+                          " with their vendor.cia404 channels; personality " + profile.personality + " needs them for " +
+                          purpose + ")");
 }
 
 void prepare_profile(config::Profile& profile) {

@@ -48,6 +48,18 @@ std::unique_ptr<Application> make_application(const config::Profile& profile, co
 // Vendor keys every personality accepts (cia404, serial_number_base).
 // Rejects keys that are neither these nor `own`.
 void check_vendor_keys(const config::Profile& profile, std::initializer_list<const char*> own);
+// The numeric objects a personality's behaviour reads or writes. Throws
+// config::ConfigError naming the profile's `objects:` line and what the
+// personality needs the first missing one for.
+struct RequiredObject {
+  std::uint16_t index;
+  std::uint8_t first_sub, last_sub;
+  const char* purpose;
+};
+void require_objects(const config::Profile& profile, std::initializer_list<RequiredObject> objects);
+// Fails unless the CiA 404 chain has at least `count` channels.
+void require_channels(const config::Profile& profile, const PreparedProfile& prepared, std::size_t count,
+                      const char* purpose);
 // A device personality's own parsed data (PreparedProfile::device).
 template <class Settings>
 const Settings& device_settings(const PreparedProfile& prepared) {

@@ -389,6 +389,18 @@ Settings parse_settings(const config::Profile& profile, const PreparedProfile& p
 void prepare(config::Profile& profile, PreparedProfile& prepared) {
   check_vendor_keys(profile, {"ad_fault_info", "reset_node_clears_error_register", "analog_error_reaction",
                               "stay_set_period"});
+  // §5: the measurement chain and its scaling objects, both channels.
+  require_objects(profile, {{0x6121, 1, 2, "the input scaling (§5)"},
+                            {0x6123, 1, 2, "the input scaling (§5)"},
+                            {0x6126, 1, 2, "the scaling factor of its measurement chain (§5)"},
+                            {0x6127, 1, 2, "the scaling offset of its measurement chain (§5)"},
+                            {0x3124, 1, 2, "the offset of its measurement chain (§5)"},
+                            {0x3125, 1, 2, "the offset of its measurement chain (§5)"},
+                            {0x3201, 1, 2, "the output clamp of its measurement chain (§5)"},
+                            {0x3202, 1, 2, "the output clamp of its measurement chain (§5)"},
+                            {0x9121, 1, 2, "the integer input scaling (§5)"},
+                            {0x9123, 1, 2, "the integer input scaling (§5)"}});
+  require_channels(profile, prepared, 2, "its pressure and temperature chains (§5)");
   prepared.device = std::make_shared<const Settings>(parse_settings(profile, prepared));
 }
 

@@ -36,6 +36,18 @@ std::string fleet_error(const std::string& text) {
   return "no error";
 }
 
+// Both passed --check and then took the whole daemon down with SIGSEGV at
+// power-on: the personality dereferenced objects the profile did not have.
+TEST(LoaderRegressions, AnSmcProfileWithoutItsChainObjectsIsRejected) {
+  EXPECT_EQ(profile_error("personality: adz-smc\nobjects:\n  - {index: 0x1000, type: UNSIGNED32, access: ro}\n"),
+            "p.yaml:3:3: objects: a numeric object 0x6121:01 (personality adz-smc needs it for the input scaling (§5))");
+}
+
+TEST(LoaderRegressions, ADpsProfileWithoutAChannelIsRejected) {
+  const std::string e = profile_error("personality: honeywell-dps\nobjects: []\n");
+  EXPECT_EQ(e.rfind("p.yaml:2:10: objects: at least 1 CiA 404 channel(s)", 0), 0u) << e;
+}
+
 TEST(LoaderRegressions, AnEmptyDocumentIsRejectedAtLineOne) {
   EXPECT_EQ(profile_error(""), "p.yaml:1:1: (top level): expected a profile mapping");
   EXPECT_EQ(profile_error("# only a comment\n"), "p.yaml:1:1: (top level): expected a profile mapping");
