@@ -605,7 +605,9 @@ int Daemon::run() {
   for (;;) {
     now = clock_now();
     core_.run_due(now);
-    // Control calls act here, between two passes: atomically with respect to frames.
+    // Control calls act here, between two passes: atomically with respect to
+    // frames. What the nodes sent before is on the wire before any answer.
+    if (endpoints_->connections()) flush(now);
     const TimeUs control_at = endpoints_->process();
     // A node a call touched may be due at once: run it in this pass rather
     // than arming the timer in the past for another wake-up.

@@ -66,10 +66,14 @@ def tpdo1_bar(m) -> float:
 
 
 def next_tpdo1(bus, node: int = G0):
-    """The next TPDO1 of node sent after this call (older ones dropped: the
-    daemon sent them before it handled the call we just got the answer to)."""
+    """The next TPDO1 of node sent after the call we just got the answer to.
+    cansimd puts what its nodes sent before a call on the wire before it
+    answers, so a frame stamped (by the kernel) before now is older than the
+    call, even if python-can had not read it yet."""
+    answered = time.time()
     it.drain(bus)
-    return it.expect(bus, it.is_tpdo(node, 1), 2, f"TPDO1 of node 0x{node:02X}")
+    is_tpdo1 = it.is_tpdo(node, 1)
+    return it.expect(bus, lambda m: is_tpdo1(m) and m.timestamp >= answered, 2, f"TPDO1 of node 0x{node:02X}")
 
 
 # --------------------------------------------------------------------------
@@ -515,15 +519,7 @@ def measurement(c: it.ControlClient, bus, sock: str) -> None:
 def test(ctx: it.Context) -> None:
     it.require_iface("vcan0")
     sock = os.path.join(ctx.tmp, "control")
-    fleet_file = os.path.join(ctx.tmp, "fleet.yaml")
-    with open(fleet_file, "w") as f:
-        f.write(f"interfaces:\n"
-                f"  vcan0: {{bit_rate: 250}}\n"
-                f"nodes:\n"
-                f"  - {{profile: {ctx.source('profiles', 'generic-404.yaml')}, interface: vcan0, "
-                f"node_id: 0x10, count: 2, name: generic}}\n"
-                f"  - {{profile: {ctx.source('profiles', 'dps.yaml')}, interface: vcan0, name: dps, "
-                f"bit_rate: 250}}\n")
+    fleet_file = it.write_control_fleet(ctx)
     with it.open_bus("vcan0") as bus:
         it.drain(bus)
         d = ctx.start_daemon("--config", fleet_file, "--control-socket", sock, "--bus", "none",

@@ -597,15 +597,7 @@ def test(ctx: it.Context) -> None:
         it.skip(f"cansimctl not built next to cansimd ({binary})")
     sock = os.path.join(ctx.tmp, "control")
     ctl = Ctl(binary, sock)
-    fleet_file = os.path.join(ctx.tmp, "fleet.yaml")
-    with open(fleet_file, "w") as f:
-        f.write(f"interfaces:\n"
-                f"  vcan0: {{bit_rate: 250}}\n"
-                f"nodes:\n"
-                f"  - {{profile: {ctx.source('profiles', 'generic-404.yaml')}, interface: vcan0, "
-                f"node_id: 0x10, count: 2, name: generic}}\n"
-                f"  - {{profile: {ctx.source('profiles', 'dps.yaml')}, interface: vcan0, name: dps, "
-                f"bit_rate: 250}}\n")
+    fleet_file = it.write_control_fleet(ctx)
     with it.open_bus("vcan0") as bus:
         it.drain(bus)
         t_start = time.monotonic()

@@ -779,6 +779,21 @@ NODE_INTERFACE = "io.cansim.Node1"
 ERROR_NOT_SUPPORTED = "io.cansim.Error.NotSupported"
 
 
+def write_control_fleet(ctx: "Context") -> str:
+    """The control tests' fleet (two generic-404 "generic" at 0x10/0x11 and a
+    DPS "dps" at 0x7F on vcan0, 250 kbit/s) as a fleet file; returns its path."""
+    path = os.path.join(ctx.tmp, "fleet.yaml")
+    with open(path, "w") as f:
+        f.write(f"interfaces:\n"
+                f"  vcan0: {{bit_rate: 250}}\n"
+                f"nodes:\n"
+                f"  - {{profile: {ctx.source('profiles', 'generic-404.yaml')}, interface: vcan0, "
+                f"node_id: 0x10, count: 2, name: generic}}\n"
+                f"  - {{profile: {ctx.source('profiles', 'dps.yaml')}, interface: vcan0, name: dps, "
+                f"bit_rate: 250}}\n")
+    return path
+
+
 def control_path_segment(s: str) -> str:
     """One object path segment escaped as sd_bus_path_encode() does: every
     character but [A-Za-z0-9], and a leading digit, becomes _xx (hex)."""
