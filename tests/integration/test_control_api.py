@@ -76,6 +76,12 @@ def next_tpdo1(bus, node: int = G0):
     return it.expect(bus, lambda m: is_tpdo1(m) and m.timestamp >= answered, 2, f"TPDO1 of node 0x{node:02X}")
 
 
+def tpdo1_reaching(bus, target: float, tol: float = 0.02, node: int = G0) -> float:
+    """The first TPDO1 after the call carrying `target` (it.pdo_after_call)."""
+    return it.pdo_after_call(bus, node, 1, tpdo1_bar, lambda v: abs(v - target) <= tol,
+                             f"TPDO1 of node 0x{node:02X} reaching {target} bar")
+
+
 # --------------------------------------------------------------------------
 # 1. fleet
 
@@ -371,14 +377,14 @@ class Measurement:
 def check_step(c: it.ControlClient, bus, m: Measurement) -> None:
     g0 = c.node("vcan0/0x10")
     m.call(g0, "Step", "sds", "pressure", 7.5, "bar")
-    v = tpdo1_bar(next_tpdo1(bus))
+    v = tpdo1_reaching(bus, 7.5)
     assert abs(v - 7.5) <= 0.02, f"TPDO1 after Step(7.5 bar): {v:.4f} bar"
     true, reported, unit, status = m.get(g0, "Pressure")
     assert (unit, status) == ("bar", 0) and abs(true - 7.5) < 1e-9 and abs(reported - 7.5) <= 0.02, \
         f"Pressure {(true, reported, unit, status)}"
     it.log(f"Step 7.5 bar: next TPDO1 {v:.4f} bar; Pressure {(true, reported, unit, status)}")
     m.call(g0, "Step", "sds", "pressure", 500.0, "kPa")
-    v = tpdo1_bar(next_tpdo1(bus))
+    v = tpdo1_reaching(bus, 5.0)
     assert abs(v - 5.0) <= 0.02, f"TPDO1 after Step(500 kPa): {v:.4f} bar"
     it.log(f"Step 500 kPa: next TPDO1 {v:.4f} bar")
     for what, fn, name in [

@@ -291,12 +291,10 @@ def measurement(ctl: Ctl, bus, ctx: it.Context) -> None:
 
     # set: a step of the true value
     assert ctl.ok("set", "generic/0", "pressure", "3", "bar") == ""
-    m = next_tpdo1(bus)
-    v = tpdo1_bar(m)
-    assert abs(v - 3.0) <= 0.02, f"TPDO1 after set 3 bar: {it.fmt(m)} = {v:.4f} bar"
+    v = it.pdo_after_call(bus, G0, 1, tpdo1_bar, lambda x: abs(x - 3.0) <= 0.02, "TPDO1 after set 3 bar")
     p = ctl.json("status", "generic/0")["pressure"]
     assert p["unit"] == "bar" and abs(p["true"] - 3.0) < 1e-9, p
-    it.log(f"set generic/0 pressure 3 bar: next TPDO1 {it.fmt(m)} = {v:.4f} bar; status true {p['true']}")
+    it.log(f"set generic/0 pressure 3 bar: next TPDO1 {v:.4f} bar; status true {p['true']}")
 
     # set --ramp: 3 -> 8 bar over 10 s, watched for 1.5 s; then hold
     it.drain(bus)
@@ -319,20 +317,16 @@ def measurement(ctl: Ctl, bus, ctx: it.Context) -> None:
     it.log(f"hold: true value stays {held:.4f} bar, {len(after)} TPDO1s {min(after):.4f}..{max(after):.4f}")
 
     # model: a constant 4 bar; restore-model: the profile's (5 bar + OU noise)
-    # ("--" before the YAML: a term list starts with "-", which cansimctl
-    # would otherwise take for an option)
-    assert ctl.ok("model", "generic/0", "pressure", "--", "- constant: 4 bar") == ""
-    m = next_tpdo1(bus)
-    v = tpdo1_bar(m)
-    assert abs(v - 4.0) <= 0.02, f"TPDO1 after model '- constant: 4 bar': {it.fmt(m)} = {v:.4f}"
+    # A term list starts with "- ": cansimctl takes it as a value, not an option.
+    assert ctl.ok("model", "generic/0", "pressure", "- constant: 4 bar") == ""
+    v = it.pdo_after_call(bus, G0, 1, tpdo1_bar, lambda x: abs(x - 4.0) <= 0.02, "TPDO1 after model '- constant: 4 bar'")
     it.log(f"model generic/0 pressure -- '- constant: 4 bar': next TPDO1 {v:.4f} bar")
     assert ctl.ok("model", "generic/0", "pressure", "constant: 4.5 bar") == ""
-    v = tpdo1_bar(next_tpdo1(bus))
-    assert abs(v - 4.5) <= 0.02, f"TPDO1 after model 'constant: 4.5 bar': {v:.4f}"
+    v = it.pdo_after_call(bus, G0, 1, tpdo1_bar, lambda x: abs(x - 4.5) <= 0.02, "TPDO1 after model 'constant: 4.5 bar'")
     it.log(f"model generic/0 pressure 'constant: 4.5 bar' (one term): next TPDO1 {v:.4f} bar")
     assert ctl.ok("restore-model", "generic/0", "pressure") == ""
-    v = tpdo1_bar(next_tpdo1(bus))
-    assert abs(v - 5.0) <= 0.5 and abs(v - 4.5) > 0.02, f"TPDO1 after restore-model (profile: 5 bar + OU): {v:.4f}"
+    v = it.pdo_after_call(bus, G0, 1, tpdo1_bar, lambda x: abs(x - 5.0) <= 0.5 and abs(x - 4.5) > 0.02,
+                          "TPDO1 after restore-model (profile: 5 bar + OU)")
     it.log(f"restore-model: next TPDO1 {v:.4f} bar (profile: 5 bar, OU sigma 0.1 bar)")
 
     # override: the exact float on the wire, whatever the sensor says
