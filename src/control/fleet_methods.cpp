@@ -31,16 +31,21 @@ int list_nodes(sd_bus_message* m, void* userdata, sd_bus_error*) {
   });
 }
 
-int get_node(sd_bus_message* m, void* userdata, sd_bus_error* e) {
-  ControlService& s = service_of(userdata);
+// Reads the (s node) argument and resolves it; null with the error set (*r).
+ControlService::NodeContext* node_argument(sd_bus_message* m, ControlService& s, sd_bus_error* e, int* r) {
   const char* spec = nullptr;
-  int r = sd_bus_message_read(m, "s", &spec);
-  if (r < 0) return r;
+  if ((*r = sd_bus_message_read(m, "s", &spec)) < 0) return nullptr;
   std::string why;
   const NodeHandle* h = resolve_node(s.host(), spec, &why);
   ControlService::NodeContext* n = h ? s.context(h->key) : nullptr;
-  if (!n) return fail(e, kErrorUnknownNode, why.empty() ? "no node '" + std::string(spec) + "'" : why);
-  return sd_bus_reply_method_return(m, "o", n->path.c_str());
+  if (!n) *r = fail(e, kErrorUnknownNode, why.empty() ? "no node '" + std::string(spec) + "'" : why);
+  return n;
+}
+
+int get_node(sd_bus_message* m, void* userdata, sd_bus_error* e) {
+  int r = 0;
+  ControlService::NodeContext* n = node_argument(m, service_of(userdata), e, &r);
+  return n ? sd_bus_reply_method_return(m, "o", n->path.c_str()) : r;
 }
 
 int add_nodes(sd_bus_message* m, void* userdata, sd_bus_error* e) {
@@ -64,13 +69,10 @@ int add_nodes(sd_bus_message* m, void* userdata, sd_bus_error* e) {
 
 int remove_node(sd_bus_message* m, void* userdata, sd_bus_error* e) {
   ControlService& s = service_of(userdata);
-  const char* spec = nullptr;
-  int r = sd_bus_message_read(m, "s", &spec);
-  if (r < 0) return r;
-  std::string why;
-  const NodeHandle* h = resolve_node(s.host(), spec, &why);
-  if (!h) return fail(e, kErrorUnknownNode, why);
-  s.host().remove_node(std::string(h->key));
+  int r = 0;
+  ControlService::NodeContext* n = node_argument(m, s, e, &r);
+  if (!n) return r;
+  s.host().remove_node(std::string(n->handle->key));  // a copy: removal destroys the context
   return sd_bus_reply_method_return(m, "");
 }
 
