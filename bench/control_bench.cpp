@@ -399,6 +399,8 @@ void run_loop(test::ControlFleet& fleet, io::EventLoop& loop, control::ControlEn
     // what the pass produced leaves after them.
     const TimeUs control_at = endpoints.process();
     const TimeUs cpu2 = measuring ? thread_cpu_us() : 0;
+    // A node a call made due runs in this pass (as in Daemon::run).
+    if (endpoints.connections()) fleet.run_due(io::monotonic_now() - epoch);
     const TimeUs sent = io::monotonic_now();
     flush(s, sent, mono);
     if (measuring) {
@@ -415,6 +417,7 @@ void run_loop(test::ControlFleet& fleet, io::EventLoop& loop, control::ControlEn
       s.phases[s.block % 2].rearms += next != loop.timer_at();
       s.phases[s.block % 2].control_due += control_at <= sent;
     }
+    endpoints.before_sleep(next);
     loop.arm_timer(next);
     bool timer = false;
     int signal = 0;

@@ -20,6 +20,11 @@ namespace cansim::control {
 namespace {
 constexpr int kMessagesPerPass = 32;     // per connection and loop pass
 constexpr std::size_t kMaxClients = 64;  // peer connections at once
+// Calls wake the loop at most once per this period; between such wake-ups a
+// call waits for the loop's next pass, at most this long. A busy fleet thus
+// serves a stream of calls with the passes it makes anyway; a single call
+// is answered at once.
+constexpr TimeUs kCallWaitUs = 5'000;
 
 std::runtime_error sys_error(const std::string& what, int err) {
   return std::runtime_error(what + ": " + std::strerror(err));
@@ -60,7 +65,7 @@ ControlEndpoints::ControlEndpoints(io::EventLoop& loop, ControlService& service)
 ControlEndpoints::~ControlEndpoints() {
   while (!connections_.empty()) drop(*connections_.back());
   if (listener_) {
-    loop_.remove(listener_->fd);
+    loop_.remove_deferred(listener_->fd);
     ::close(listener_->fd);
     ::unlink(socket_path_.c_str());
   }
@@ -96,7 +101,7 @@ void ControlEndpoints::listen(const std::string& path) {
   }
   listener_ = std::make_unique<Listener>(*this);
   listener_->fd = fd;
-  loop_.add(fd, EPOLLIN, listener_.get());
+  loop_.add_deferred(fd, EPOLLIN, listener_.get());
   socket_path_ = path;
 }
 
@@ -168,12 +173,12 @@ void ControlEndpoints::add_connection(sd_bus* bus, bool peer) {
     sd_bus_close_unref(bus);
     return;
   }
-  loop_.add(c->fd, 0, c.get());
+  loop_.add_deferred(c->fd, 0, c.get());
   connections_.push_back(std::move(c));
 }
 
 void ControlEndpoints::drop(Connection& c) {
-  loop_.remove(c.fd);
+  loop_.remove_deferred(c.fd);
   service_.detach(c.bus);
   if (c.peer) sd_bus_close_unref(c.bus);
   else sd_bus_flush_close_unref(c.bus);
@@ -188,7 +193,7 @@ void ControlEndpoints::rearm(Connection& c) {
     if (events & POLLOUT) mask |= EPOLLOUT;
   }
   if (mask != c.mask) {
-    loop_.modify(c.fd, mask, &c);
+    loop_.modify_deferred(c.fd, mask, &c);
     c.mask = mask;
   }
 }
@@ -197,6 +202,7 @@ void ControlEndpoints::rearm(Connection& c) {
 // reported its fd or sd-bus says it has work (timeout due, e.g. 0 for a
 // message it already buffered): an idle connection costs no syscall.
 TimeUs ControlEndpoints::process() {
+  loop_.poll_deferred();  // marks the connections with input, accepts new clients
   TimeUs next = kNever;
   const TimeUs now = io::monotonic_now();
   for (std::size_t i = 0; i < connections_.size();) {
@@ -205,6 +211,7 @@ TimeUs ControlEndpoints::process() {
     if (sd_bus_get_timeout(c.bus, &timeout) < 0) timeout = 0;
     if (c.ready || TimeUs(timeout) <= now) {
       c.ready = false;
+      last_served_ = now;
       int r = 0;
       int n = 0;
       while (n < kMessagesPerPass && (r = sd_bus_process(c.bus, nullptr)) > 0) ++n;
@@ -224,6 +231,12 @@ TimeUs ControlEndpoints::process() {
     ++i;
   }
   return next;
+}
+
+void ControlEndpoints::before_sleep(TimeUs next_pass) {
+  const TimeUs now = io::monotonic_now();
+  loop_.allow_deferred_wakeup(next_pass == kNever || next_pass - now > kCallWaitUs ||
+                              now - last_served_ >= kCallWaitUs);
 }
 
 }  // namespace cansim::control

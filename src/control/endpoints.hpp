@@ -1,7 +1,8 @@
 // Where the control API listens, on the daemon's one epoll loop (no thread):
 // the private peer-to-peer D-Bus socket (as systemd's /run/systemd/private)
-// and the system or user bus. After every loop pass the owner calls
-// process(): every connection is serviced (a connection served only when
+// and the system or user bus, in the loop's deferred set. After every loop
+// pass the owner calls process(), and before_sleep() before it waits: every
+// connection is serviced (a connection served only when
 // its fd was readable can stall during authentication), its epoll interest
 // re-armed from sd_bus_get_events, and the earliest sd-bus timeout returned.
 #pragma once
@@ -43,6 +44,12 @@ class ControlEndpoints {
   // a flooding client cannot starve the nodes). Returns the earliest time
   // (CLOCK_MONOTONIC µs) at which process() must run again, or kNever.
   TimeUs process();
+  // Before the loop sleeps until `next_pass` (CLOCK_MONOTONIC µs, kNever:
+  // no deadline). A call wakes the loop unless the loop served calls within
+  // the last 5 ms and its next pass is at most 5 ms away: then that pass
+  // serves it. A call thus waits at most 5 ms, and a stream of calls costs
+  // at most 200 extra wake-ups a second.
+  void before_sleep(TimeUs next_pass);
   std::size_t connections() const { return connections_.size(); }
   const std::string& socket_path() const { return socket_path_; }
 
@@ -60,6 +67,7 @@ class ControlEndpoints {
   std::vector<std::unique_ptr<Connection>> connections_;
   std::string socket_path_;
   std::uint64_t next_id_ = 1;
+  TimeUs last_served_ = 0;  // last pass that read a connection
 };
 
 }  // namespace cansim::control

@@ -617,6 +617,7 @@ int Daemon::run() {
     sweep_interfaces(now);
     TimeUs next = std::min(core_.next_deadline(), housekeeping_deadline());
     if (control_at != kNever) next = std::min(next, control_at - epoch_);
+    endpoints_->before_sleep(next == kNever ? kNever : next + epoch_);
     loop_.arm_timer(next == kNever ? kNever : next + epoch_);
     bool timer = false;
     loop_.wait(-1, timer, signal);

@@ -20,6 +20,14 @@ namespace {
 // Marker pointers for the loop's own descriptors.
 FdHandler* const kTimerTag = reinterpret_cast<FdHandler*>(std::uintptr_t(1));
 FdHandler* const kSignalTag = reinterpret_cast<FdHandler*>(std::uintptr_t(2));
+FdHandler* const kDeferredTag = reinterpret_cast<FdHandler*>(std::uintptr_t(3));
+
+void epoll_control(int epoll, int op, int fd, std::uint32_t events, void* ptr) {
+  epoll_event ev{};
+  ev.events = events;
+  ev.data.ptr = ptr;
+  if (epoll_ctl(epoll, op, fd, &ev) < 0) sys_fail(op == EPOLL_CTL_ADD ? "epoll_ctl(ADD)" : "epoll_ctl(MOD)");
+}
 }  // namespace
 
 TimeUs monotonic_now() {
@@ -34,29 +42,58 @@ EventLoop::EventLoop() {
   timer_ = timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC);
   if (timer_ < 0) sys_fail("timerfd_create");
   add(timer_, EPOLLIN, kTimerTag);
+  deferred_ = epoll_create1(EPOLL_CLOEXEC);
+  if (deferred_ < 0) sys_fail("epoll_create1");
+  add(deferred_, 0, kDeferredTag);
 }
 
 EventLoop::~EventLoop() {
   if (signal_ >= 0) ::close(signal_);
   if (timer_ >= 0) ::close(timer_);
+  if (deferred_ >= 0) ::close(deferred_);
   if (epoll_ >= 0) ::close(epoll_);
 }
 
 void EventLoop::add(int fd, std::uint32_t events, FdHandler* handler) {
-  epoll_event ev{};
-  ev.events = events;
-  ev.data.ptr = handler;
-  if (epoll_ctl(epoll_, EPOLL_CTL_ADD, fd, &ev) < 0) sys_fail("epoll_ctl(ADD)");
+  epoll_control(epoll_, EPOLL_CTL_ADD, fd, events, handler);
 }
 
 void EventLoop::modify(int fd, std::uint32_t events, FdHandler* handler) {
-  epoll_event ev{};
-  ev.events = events;
-  ev.data.ptr = handler;
-  if (epoll_ctl(epoll_, EPOLL_CTL_MOD, fd, &ev) < 0) sys_fail("epoll_ctl(MOD)");
+  epoll_control(epoll_, EPOLL_CTL_MOD, fd, events, handler);
 }
 
 void EventLoop::remove(int fd) { epoll_ctl(epoll_, EPOLL_CTL_DEL, fd, nullptr); }
+
+void EventLoop::add_deferred(int fd, std::uint32_t events, FdHandler* handler) {
+  epoll_control(deferred_, EPOLL_CTL_ADD, fd, events, handler);
+  deferred_maybe_ready_ = true;
+}
+
+void EventLoop::modify_deferred(int fd, std::uint32_t events, FdHandler* handler) {
+  epoll_control(deferred_, EPOLL_CTL_MOD, fd, events, handler);
+  deferred_maybe_ready_ = true;
+}
+
+void EventLoop::remove_deferred(int fd) { epoll_ctl(deferred_, EPOLL_CTL_DEL, fd, nullptr); }
+
+void EventLoop::allow_deferred_wakeup(bool allow) {
+  if (allow == deferred_wakes_) return;
+  epoll_control(epoll_, EPOLL_CTL_MOD, deferred_, allow ? std::uint32_t(EPOLLIN) : 0u, kDeferredTag);
+  deferred_wakes_ = allow;
+}
+
+int EventLoop::poll_deferred() {
+  if (!deferred_maybe_ready_) return 0;
+  deferred_maybe_ready_ = false;
+  epoll_event events[64];
+  int n = epoll_wait(deferred_, events, 64, 0);
+  if (n < 0) {
+    if (errno == EINTR) return 0;
+    sys_fail("epoll_wait");
+  }
+  for (int i = 0; i < n; ++i) static_cast<FdHandler*>(events[i].data.ptr)->on_events(events[i].events);
+  return n;
+}
 
 void EventLoop::arm_timer(TimeUs at) {
   if (at == timer_at_) return;
@@ -84,6 +121,7 @@ void EventLoop::watch_signals(std::initializer_list<int> signals) {
 int EventLoop::wait(int timeout_ms, bool& timer_fired, int& signal) {
   timer_fired = false;
   signal = 0;
+  if (!deferred_wakes_) deferred_maybe_ready_ = true;  // nothing tells while we sleep
   epoll_event events[64];
   int n = epoll_wait(epoll_, events, 64, timeout_ms);
   if (n < 0) {
@@ -96,6 +134,8 @@ int EventLoop::wait(int timeout_ms, bool& timer_fired, int& signal) {
       std::uint64_t expirations;
       if (::read(timer_, &expirations, sizeof expirations) > 0) timer_fired = true;
       timer_at_ = kNever;  // one-shot: fired (or about to), re-armed by the owner
+    } else if (h == kDeferredTag) {
+      deferred_maybe_ready_ = true;
     } else if (h == kSignalTag) {
       signalfd_siginfo info;
       // A termination request outranks a reload arriving in the same batch.

@@ -33,6 +33,21 @@ class EventLoop {
   void modify(int fd, std::uint32_t events, FdHandler* handler);
   void remove(int fd);
 
+  // Deferred descriptors (the control connections): a second epoll set that
+  // the owner services at its own passes (poll_deferred()). They wake the
+  // loop only while allow_deferred_wakeup(true): the owner allows it when
+  // its next pass is further away than it lets a deferred event wait, so a
+  // busy loop serves them with the passes it makes anyway, not with extra
+  // wake-ups (each costs a context switch and a timer re-arm).
+  void add_deferred(int fd, std::uint32_t events, FdHandler* handler);
+  void modify_deferred(int fd, std::uint32_t events, FdHandler* handler);
+  void remove_deferred(int fd);
+  void allow_deferred_wakeup(bool allow);
+  // Calls on_events() of the deferred descriptors that are ready. Costs no
+  // system call when none can be: the loop slept with them allowed to wake
+  // it and they did not.
+  int poll_deferred();
+
   // Arms the one timer at an absolute monotonic time (kNever disarms).
   // Re-arming at the same time is a no-op.
   void arm_timer(TimeUs at);
@@ -47,6 +62,9 @@ class EventLoop {
 
  private:
   int epoll_ = -1;
+  int deferred_ = -1;  // the deferred descriptors' epoll set, itself in epoll_
+  bool deferred_wakes_ = false;
+  bool deferred_maybe_ready_ = true;
   int timer_ = -1;
   int signal_ = -1;
   TimeUs timer_at_ = kNever;
