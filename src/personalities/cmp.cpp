@@ -111,6 +111,7 @@ Settings parse_settings(const config::Profile& profile) {
   v.integer("start_indication_node_id", s.start_indication_node_id, 0, 127);
   ByteSet timer_types;
   s.timer_repeats_beyond_limits = ByteSet::parse(profile.options->tpdo_event_timer_types, timer_types) && !timer_types.has(254);
+  v.reject_unknown_keys();
   return s;
 }
 
@@ -328,7 +329,6 @@ class CmpApplication : public Cia404Application {
 }  // namespace
 
 void prepare(config::Profile& profile, PreparedProfile& prepared) {
-  check_vendor_keys(profile, {"mapping_modes", "start_indication_delay", "start_indication_node_id"});
   prepared.device = std::make_shared<const Settings>(parse_settings(profile));
 }
 

@@ -20,6 +20,7 @@ Settings parse_settings(const config::Profile& profile) {
   const VendorParams v(profile);
   v.flags({{"span_overflow_emcy", &s.span_overflow_emcy}, {"autozero_shifts_span", &s.autozero_shifts_span}});
   v.time_us("span_check_period", s.span_check_period_us, VendorParams::kPositive, VendorParams::kForever, "a time > 0");
+  v.reject_unknown_keys();
   return s;
 }
 
@@ -90,7 +91,6 @@ void DpsApplication::check_span(Node& node, TimeUs now) {
 }
 
 void prepare(config::Profile& profile, PreparedProfile& prepared) {
-  check_vendor_keys(profile, {"span_overflow_emcy", "autozero_shifts_span", "span_check_period"});
   require_channels(profile, prepared, 1, "its span and sensor supervision (§5.4)");
   prepared.device = std::make_shared<const Settings>(parse_settings(profile));
 }

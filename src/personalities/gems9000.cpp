@@ -269,14 +269,13 @@ Settings parse_settings(const config::Profile& profile) {
            {"boot_alias_2813", &s.boot_alias_2813}});
   v.choice("emcy_register_mode", s.manual_error_register, "manual", "cia301");
   v.time_us("supervision_period", s.supervision_period_us, 1e-3, 10.0, "1 ms .. 10 s");
+  v.reject_unknown_keys();
   return s;
 }
 
 }  // namespace
 
 void prepare(config::Profile& profile, PreparedProfile& prepared) {
-  check_vendor_keys(profile, {"pin", "experienced_area_direct_nvm", "autostart_on_nmt_reset", "boot_alias_2813",
-                              "emcy_register_mode", "supervision_period"});
   prepared.device = std::make_shared<const Settings>(parse_settings(profile));
 }
 

@@ -1,8 +1,10 @@
 #include "personalities/generic.hpp"
 
+#include "personalities/vendor_params.hpp"
+
 namespace cansim::personalities::generic {
 
-void prepare(config::Profile& profile, PreparedProfile&) { check_vendor_keys(profile, {}); }
+void prepare(config::Profile& profile, PreparedProfile&) { VendorParams(profile).reject_unknown_keys(); }
 
 std::unique_ptr<Application> make(const config::Profile&, const PreparedProfile& prepared, const NodeContext& ctx) {
   return std::make_unique<Cia404Application>(prepared.cia404, make_sensor_source(prepared, ctx), prepared.identity,

@@ -136,14 +136,13 @@ Settings parse_settings(const config::Profile& profile) {
            {"overload_emcy", &s.overload_emcy},
            {"boot_emcys", &s.boot_emcys}});
   v.time_us("monitor_period", s.monitor_period_us, 1e-3, 10.0, "1 ms .. 10 s");
+  v.reject_unknown_keys();
   return s;
 }
 
 }  // namespace
 
 void prepare(config::Profile& profile, PreparedProfile& prepared) {
-  check_vendor_keys(profile, {"serial_part1", "serial_part3", "overload_counters", "sensor_fault_emcy",
-                              "overload_emcy", "boot_emcys", "monitor_period"});
   prepared.device = std::make_shared<const Settings>(parse_settings(profile));
 }
 

@@ -46,21 +46,6 @@ std::string known_names() {
 
 }  // namespace
 
-void check_vendor_keys(const config::Profile& profile, std::initializer_list<const char*> own) {
-  const YAML::Node& v = profile.personality_params;
-  config::Where w{profile.file, "vendor"};
-  if (!v || v.IsNull()) return;
-  if (!v.IsMap()) config::fail(w, v, "expected a mapping");
-  for (const auto& kv : v) {
-    const std::string k = kv.first.Scalar();
-    if (k == "cia404" || k == "serial_number_base") continue;
-    if (std::any_of(own.begin(), own.end(), [&](const char* x) { return k == x; })) continue;
-    std::string list = "cia404, serial_number_base";
-    for (const char* x : own) list += std::string(", ") + x;
-    config::fail(w.child(k), kv.first, "unknown key (expected one of: " + list + ")");
-  }
-}
-
 namespace {
 // Where a missing-object error points: the `objects:` list, else the document.
 config::Where objects_where(const config::Profile& profile, YAML::Node& node) {

@@ -45,9 +45,6 @@ void prepare_profile(config::Profile& profile);
 std::unique_ptr<Application> make_application(const config::Profile& profile, const NodeContext& ctx);
 
 // ---- helpers for personalities
-// Vendor keys every personality accepts (cia404, serial_number_base).
-// Rejects keys that are neither these nor `own`.
-void check_vendor_keys(const config::Profile& profile, std::initializer_list<const char*> own);
 // The numeric objects a personality's behaviour reads or writes. Throws
 // config::ConfigError naming the profile's `objects:` line and what the
 // personality needs the first missing one for.

@@ -381,14 +381,13 @@ Settings parse_settings(const config::Profile& profile, const PreparedProfile& p
   v.flags({{"reset_node_clears_error_register", &s.reset_node_clears_error_register},
            {"analog_error_reaction", &s.analog_error_reaction}});
   v.time_us("stay_set_period", s.stay_set_period_us, 1e-3, 1.0, "1 ms .. 1 s");
+  v.reject_unknown_keys();
   return s;
 }
 
 }  // namespace
 
 void prepare(config::Profile& profile, PreparedProfile& prepared) {
-  check_vendor_keys(profile, {"ad_fault_info", "reset_node_clears_error_register", "analog_error_reaction",
-                              "stay_set_period"});
   // §5: the measurement chain and its scaling objects, both channels.
   require_objects(profile, {{0x6121, 1, 2, "the input scaling (§5)"},
                             {0x6123, 1, 2, "the input scaling (§5)"},

@@ -39,4 +39,20 @@ bool VendorParams::time_us(const char* key, TimeUs& out, double lo_s, double hi_
   return true;
 }
 
+void VendorParams::reject_unknown_keys() const {
+  if (!section_ || section_.IsNull()) return;
+  if (!is_map_) config::fail(where_, section_, "expected a mapping");
+  const auto known = [&](const std::string& k) {
+    return k == "cia404" || k == "serial_number_base" ||
+           std::any_of(known_.begin(), known_.end(), [&](const char* x) { return k == x; });
+  };
+  for (const auto& kv : section_) {
+    const std::string k = kv.first.Scalar();
+    if (known(k)) continue;
+    std::string list = "cia404, serial_number_base";
+    for (const char* x : known_) list += std::string(", ") + x;
+    config::fail(where_.child(k), kv.first, "unknown key (expected one of: " + list + ")");
+  }
+}
+
 }  // namespace cansim::personalities
