@@ -116,8 +116,19 @@ void NmtSlave::set_state(NmtState s, TimeUs now) {
 }
 
 void NmtSlave::communication_error(TimeUs now) {
-  std::int64_t reaction = node_.options().comm_error_reaction_without_1029;
-  if (const OdEntry* e = node_.od().find(0x1029, 1)) reaction = std::int64_t(node_.values().get_u(*e));
+  react(node_.od().find(0x1029, 1) ? error_behaviour(1) : node_.options().comm_error_reaction_without_1029, now);
+}
+
+void NmtSlave::error_reaction(std::uint8_t error_class, TimeUs now) {
+  if (error_class == 1) return communication_error(now);
+  if (node_.od().find(0x1029, error_class)) react(error_behaviour(error_class), now);
+}
+
+std::int64_t NmtSlave::error_behaviour(std::uint8_t error_class) const {
+  return std::int64_t(node_.values().get_u(*node_.od().find(0x1029, error_class)));
+}
+
+void NmtSlave::react(std::int64_t reaction, TimeUs now) {
   switch (reaction) {
     case 0:  // pre-operational, only if currently operational
       if (state_ == NmtState::kOperational) set_state(NmtState::kPreOperational, now);

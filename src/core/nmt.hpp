@@ -67,6 +67,10 @@ class NmtSlave {
   // Communication error reaction per 0x1029:01 (heartbeat consumer timeout,
   // life-guarding event; CiA 301 §7.5.2.32).
   void communication_error(TimeUs now);
+  // The reaction 0x1029:<error_class> prescribes for a device error (sub 1:
+  // communication, as above; 2 and up: device profile or manufacturer
+  // errors, CiA 301 §7.5.2.32). No 0x1029 sub: no reaction.
+  void error_reaction(std::uint8_t error_class, TimeUs now);
   // A vendor reboot (e.g. a node-ID object, "simulates a complete reboot"):
   // like reset communication, but no value is reloaded from defaults or storage.
   void reboot_keeping_values(TimeUs now);
@@ -94,6 +98,9 @@ class NmtSlave {
   SdoAbort write(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
 
  private:
+  // 0x1029:<error_class>: 0 pre-operational (from operational), 1 no change, 2 stopped.
+  std::int64_t error_behaviour(std::uint8_t error_class) const;
+  void react(std::int64_t reaction, TimeUs now);
   void restart(ResetKind kind, TimeUs now, bool reload = true);
   void boot_up(TimeUs now);
   void send_start_all(TimeUs now);

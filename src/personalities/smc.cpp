@@ -352,17 +352,7 @@ void SmcApplication::sensor_error(Node& node, TimeUs now) {
   latched_error_ = true;
   const std::uint8_t mfr[5] = {std::uint8_t(settings_.ad_fault_info), std::uint8_t(settings_.ad_fault_info >> 8)};
   node.emcy().raise(kEmcySensor, kInvalidBit, mfr, now);
-  if (!settings_.analog_error_reaction) return;
-  switch (node.values().u(0x1029, 3)) {
-    case 0:
-      if (node.state() == NmtState::kOperational) node.nmt().command(kNmtEnterPreOperational, now);
-      break;
-    case 2:
-      node.nmt().command(kNmtStop, now);
-      break;
-    default:
-      break;
-  }
+  if (settings_.analog_error_reaction) node.nmt().error_reaction(3, now);
 }
 
 // ---------------------------------------------------------------- registry
