@@ -278,7 +278,7 @@ def watchdog(bus0, bus1, pids: dict) -> dict:
     while len(new) < len(UNITS):
         assert time.monotonic() < deadline, {u: (prop(u, "ActiveState"), prop(u, "NRestarts")) for u in UNITS}
         for u in UNITS:
-            if u not in new and prop(u, "NRestarts") == "1" and prop(u, "ActiveState") == "active":
+            if u not in new and int(prop(u, "NRestarts")) >= 1 and prop(u, "ActiveState") == "active":
                 new[u] = int(prop(u, "MainPID"))
         time.sleep(0.5)
     for u in UNITS:
