@@ -180,8 +180,10 @@ def start(bus0, bus1) -> dict:
     for u in UNITS:
         assert prop(u, "ActiveState") == "active"
         pids[u] = int(prop(u, "MainPID"))
-        user = run("ps", "-o", "user=", "-p", str(pids[u])).stdout.strip()
-        assert user == "cansim", f"{u} runs as {user}"
+        with open(f"/proc/{pids[u]}/status") as f:
+            uid = next(line.split()[1] for line in f if line.startswith("Uid:"))
+        user = run("getent", "passwd", uid).stdout.split(":")[0]
+        assert user == "cansim", f"{u} runs as {user} (uid {uid})"
         e = exposure(u)
         assert e <= EXPOSURE_MAX, f"{u} (loaded, with the test's drop-in): exposure {e}"
     step(f"both running as user cansim (main PIDs {pids[MAIN]}, {pids[BENCH]}); loaded units' exposure <= 2.0")
