@@ -12,6 +12,7 @@
 #include "core/node.hpp"
 #include "daemon/bus_load.hpp"
 #include "daemon/file_storage.hpp"
+#include "daemon/logging.hpp"
 #include "personalities/registry.hpp"
 
 #ifndef CANSIM_PROFILE_DIR
@@ -185,6 +186,7 @@ Daemon::Interface& Daemon::ensure_interface(const config::InterfaceConfig& ic) {
     iface->can.set_deferred(true);
     iface->retry_at = 0;  // open at the next housekeeping pass
   }
+  const auto subject = LogSubject::interface(ic.name);
   bool from_kernel = false;
   std::uint32_t kbit = resolve_bit_rate(ic, &from_kernel);
   if (ic.bit_rate_kbit == 0 && kbit != iface->bit_rate_kbit)
@@ -233,6 +235,7 @@ void Daemon::sweep_interfaces(TimeUs now) {
   for (auto& ip : interfaces_) {
     Interface& i = *ip;
     if (i.in_epoll && !i.can.is_open()) {
+      const auto subject = LogSubject::interface(i.can.name());
       i.in_epoll = false;  // closing the fd took it out of the epoll set
       i.retry_at = now + kRetryPeriod;
       i.last_down_log = now;
@@ -251,6 +254,7 @@ void Daemon::sweep_interfaces(TimeUs now) {
 }
 
 void Daemon::try_open(Interface& i, TimeUs now) {
+  const auto subject = LogSubject::interface(i.can.name());
   if (i.can.open()) {
     loop_.add(i.can.fd(), EPOLLIN, &i);
     i.in_epoll = true;
@@ -319,6 +323,7 @@ void Daemon::report_status(TimeUs now) {
     if (dt > 0 && i->bit_rate_kbit) i->measured_load = double(frames - i->last_frames) * 111.0 / dt / (i->bit_rate_kbit * 1000.0);
     i->last_frames = frames;
     std::uint64_t drops = i->can.take_new_drops();
+    const auto subject = LogSubject::interface(i->can.name());
     if (drops && i->can.is_open())
       spdlog::warn("{}: {} frame(s) dropped in the last {:.0f} s (kernel queue full)", i->can.name(), drops, dt);
   }
@@ -333,6 +338,7 @@ void Daemon::report_status(TimeUs now) {
 void Daemon::check_bus_load() {
   for (const auto& ip : interfaces_) {
     if (!ip->configured) continue;
+    const auto subject = LogSubject::interface(ip->can.name());
     Traffic t;
     for (const auto& [key, e] : nodes_)
       if (core_.bus_of(e.ref) == ip->bus) t += estimate_traffic(core_.node(e.ref));
@@ -388,6 +394,7 @@ void Daemon::apply(config::FleetConfig cfg, TimeUs now) {
   for (auto it = nodes_.begin(); it != nodes_.end();) {
     bool replaced = std::any_of(to_add.begin(), to_add.end(), [&](const Pending& p) { return p.cfg->key == it->first; });
     if (!wanted.count(it->first) || replaced) {
+      const auto subject = LogSubject::node(it->first);
       spdlog::info("{}: node 0x{:02X} {}", it->first, it->second.cfg.node_id, replaced ? "changed, restarting" : "removed");
       (replaced ? changed : removed) += 1;
       if (control_) control_->node_removed(it->first);
@@ -427,10 +434,15 @@ void Daemon::apply(config::FleetConfig cfg, TimeUs now) {
     if (auto* overlay = dynamic_cast<SerialOverlay*>(e.handle.app)) e.handle.app = overlay->inner();
     fresh.push_back(e.ref);
     NodeEntry& stored = nodes_[n.key] = std::move(e);
+    {
+      const auto subject = LogSubject::node(n.key);
+      spdlog::debug("{}: node 0x{:02X} ({}, {})", n.key, n.node_id, n.profile->name, n.profile->personality);
+    }
     if (control_) control_->node_added(stored.handle);
   }
   for (auto& i : interfaces_)
     if (!i->configured && i->can.is_open()) {
+      const auto subject = LogSubject::interface(i->can.name());
       spdlog::info("{}: no longer configured, closed", i->can.name());
       i->can.close();
       i->in_epoll = false;
@@ -447,7 +459,10 @@ void Daemon::apply(config::FleetConfig cfg, TimeUs now) {
   }
   spdlog::info("fleet: {} node(s) on {} interface(s); {} started, {} restarted, {} removed", nodes_.size(),
                cfg.interfaces.size(), fresh.size() - changed, changed, removed);
-  for (const BitRateMismatch& m : mismatched) spdlog::warn("{}", describe(m));
+  for (const BitRateMismatch& m : mismatched) {
+    const auto subject = LogSubject::interface(m.interface);
+    spdlog::warn("{}", describe(m));
+  }
   check_bus_load();
 }
 

@@ -9,6 +9,7 @@
 #include <filesystem>
 
 #include "core/can_frame.hpp"
+#include "daemon/logging.hpp"
 
 namespace cansim::daemon {
 
@@ -58,7 +59,7 @@ std::string FileStorage::file_name(const std::string& key) {
 }
 
 FileStorage::FileStorage(std::string dir, const std::string& key)
-    : dir_(std::move(dir)), path_(dir_ + "/" + file_name(key)) {}
+    : key_(key), dir_(std::move(dir)), path_(dir_ + "/" + file_name(key)) {}
 
 bool FileStorage::read_file() {
   cached_ = true;
@@ -89,7 +90,10 @@ bool FileStorage::read_file() {
 }
 
 bool FileStorage::load(std::vector<std::uint8_t>& blob) {
-  if (!cached_ && !read_file()) spdlog::warn("{}", error_);
+  if (!cached_ && !read_file()) {
+    const auto subject = LogSubject::node(key_);
+    spdlog::warn("{}", error_);
+  }
   blob = cache_;
   return !cache_.empty();
 }
@@ -113,6 +117,7 @@ bool FileStorage::save(std::span<const std::uint8_t> blob) {
     ok = false;
     err = errno;
   }
+  const auto subject = LogSubject::node(key_);
   if (!ok) {
     error_ = path_ + ": cannot store parameters: " + std::strerror(err);
     spdlog::error("{}", error_);
@@ -127,6 +132,7 @@ bool FileStorage::save(std::span<const std::uint8_t> blob) {
   }
   cache_.assign(blob.begin(), blob.end());
   cached_ = true;
+  spdlog::info("{}: parameters stored in {}", key_, path_);
   return true;
 }
 

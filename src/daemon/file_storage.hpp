@@ -32,6 +32,7 @@ class FileStorage : public NodeStorage {
  private:
   bool read_file();
 
+  std::string key_;
   std::string dir_;
   std::string path_;
   std::string error_;

@@ -2,8 +2,10 @@
 """`systemd-analyze verify` on systemd/cansimd.service and cansimd@.service.
 
 The units run /usr/bin/cansimd, which need not be installed here: they are
-verified as copies whose ExecStart= points at the built cansimd. Any message
-about the units (unknown keys, bad values, missing commands) fails the check.
+verified as copies whose ExecStart= points at the built cansimd, with MANPATH
+at the repository's man/ so their Documentation=man: pages must exist there.
+Any message about the units (unknown keys, bad values, missing commands or
+man pages) fails the check.
 Skipped (exit 77) when systemd-analyze is missing, e.g. in minimal containers.
 Registered as ctest 'systemd_units' (label unit: no CAN needed) by
 tests/integration/CMakeLists.txt.
@@ -44,8 +46,11 @@ def main() -> int:
             with open(dst, "w") as f:
                 f.write(text.replace("/usr/bin/cansimd", binary))
             paths.append(dst)
-        r = subprocess.run([tool, "verify", *paths], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                           text=True, timeout=120)
+        # Without man(1) the pages cannot be looked up at all.
+        man = ["--man=no"] if shutil.which("man") is None else []
+        env = dict(os.environ, MANPATH=os.path.join(a.source_dir, "man"))
+        r = subprocess.run([tool, "verify", *man, *paths], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                           text=True, timeout=120, env=env)
     out = r.stdout.strip()
     version = subprocess.run([tool, "--version"], stdout=subprocess.PIPE, text=True).stdout.split("\n")[0]
     print(f"{version}: systemd-analyze verify {' '.join(UNITS)}: exit {r.returncode}")
