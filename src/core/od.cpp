@@ -1,6 +1,7 @@
 #include "core/od.hpp"
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cmath>
 #include <cstring>
@@ -43,10 +44,18 @@ constexpr TypeInfo kTypes[] = {
     {DataType::kDomain, "DOMAIN", 0, false, false},
 };
 
+// kTypes by type index: type_size() and friends sit on every OD access and
+// every reset of every entry, so they index instead of searching.
+constexpr std::size_t kTypeIndices = 0x20;  // CiA 301 Table 44 indices in use are below this
+constexpr std::array<const TypeInfo*, kTypeIndices> kByIndex = [] {
+  std::array<const TypeInfo*, kTypeIndices> by_index{};
+  for (const auto& i : kTypes) by_index[std::size_t(i.type)] = &i;
+  return by_index;
+}();
+
 const TypeInfo* info(DataType t) {
-  for (const auto& i : kTypes)
-    if (i.type == t) return &i;
-  return nullptr;
+  const auto i = std::size_t(t);
+  return i < kTypeIndices ? kByIndex[i] : nullptr;
 }
 
 constexpr const char* kAccessNames[] = {"ro", "wo", "rw", "rwr", "rww", "const"};
