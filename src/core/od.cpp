@@ -188,7 +188,28 @@ void OdLayout::finalize() {
     objects_.back().count++;
   }
   value_bytes_ = offset;
+  build_defaults();
   final_ = true;
+}
+
+void OdLayout::build_defaults() {
+  default_values_.assign(value_bytes_, 0);
+  default_sizes_.assign(entries_.size(), 0);
+  node_id_slots_.clear();
+  for (const OdEntry& e : entries_) {
+    const std::size_t n = std::min<std::size_t>(e.default_bytes.size(), e.capacity);
+    if (n) std::memcpy(default_values_.data() + e.offset, e.default_bytes.data(), n);
+    const bool fixed_size = type_size(e.type) != 0;
+    default_sizes_[e.slot] = std::uint32_t(fixed_size ? e.capacity : n);
+    if (fixed_size && e.default_plus_node_id && !is_real(e.type)) node_id_slots_.push_back(e.slot);
+  }
+}
+
+std::pair<std::size_t, std::size_t> OdLayout::slots(std::uint16_t first, std::uint16_t last) const {
+  auto below = [](std::uint16_t bound) { return [bound](const OdEntry& e) { return e.index < bound; }; };
+  const auto begin = std::partition_point(entries_.begin(), entries_.end(), below(first));
+  const auto end = last == 0xFFFF ? entries_.end() : std::partition_point(begin, entries_.end(), below(last + 1));
+  return {std::size_t(begin - entries_.begin()), std::size_t(end - entries_.begin())};
 }
 
 const OdEntry* OdLayout::find(std::uint16_t index, std::uint8_t sub) const {
@@ -245,19 +266,20 @@ OdValues::OdValues(std::shared_ptr<const OdLayout> layout) : layout_(std::move(l
   sizes_.assign(layout_->entries().size(), 0);
 }
 
+// The layout's default image over the entries' byte range (padding between
+// values is zero in both), then the node-ID added to the $NODEID defaults.
 void OdValues::reset(std::uint8_t node_id, std::uint16_t first, std::uint16_t last) {
-  for (const OdEntry& e : layout_->entries()) {
-    if (e.index < first || e.index > last) continue;
+  const auto [begin, end] = layout_->slots(first, last);
+  if (begin == end) return;
+  const std::size_t from = layout_->entry(std::uint16_t(begin)).offset;
+  const std::size_t to = end < sizes_.size() ? layout_->entry(std::uint16_t(end)).offset : data_.size();
+  std::memcpy(data_.data() + from, layout_->default_values().data() + from, to - from);
+  std::memcpy(sizes_.data() + begin, layout_->default_sizes().data() + begin, (end - begin) * sizeof(sizes_[0]));
+  for (std::uint16_t slot : layout_->node_id_slots()) {
+    if (slot < begin || slot >= end) continue;
+    const OdEntry& e = layout_->entry(slot);
     std::uint8_t* p = data_.data() + e.offset;
-    std::memset(p, 0, e.capacity);
-    std::size_t n = std::min<std::size_t>(e.default_bytes.size(), e.capacity);
-    if (n) std::memcpy(p, e.default_bytes.data(), n);  // an empty default has no data()
-    if (type_size(e.type)) {
-      n = e.capacity;
-      if (e.default_plus_node_id && !is_real(e.type))
-        encode_u(e.type, decode_u(e.type, p) + node_id, p);
-    }
-    sizes_[e.slot] = std::uint32_t(n);
+    encode_u(e.type, decode_u(e.type, p) + node_id, p);
   }
 }
 

@@ -41,6 +41,32 @@ TEST(Od, DefaultsWithNodeIdAndTypes) {
   EXPECT_EQ(v.get_string(*p.layout->find(0x2000, 0)), "abc");
 }
 
+// A reset communication reloads 0x1000-0x1FFF only (CiA 301 §7.3.2.2.1);
+// values and string lengths outside the range stay as written.
+TEST(Od, ResetOfAnIndexRangeLeavesTheRestAlone) {
+  auto p = config::parse_profile(kProfile);
+  const OdLayout& od = *p.layout;
+  OdValues v(p.layout);
+  v.reset(5);
+  v.set_u(*od.find(0x1014, 0), 0x99);
+  v.set_u(*od.find(0x1016, 1), 0x00050064);
+  v.set_string(*od.find(0x2000, 0), "written!");
+  v.set_i(*od.find(0x2001, 0), 42);
+  v.set_f(*od.find(0x2002, 0), 2.5);
+  v.reset(7, 0x1000, 0x1FFF);
+  EXPECT_EQ(v.u(0x1014, 0), 0x87u);
+  EXPECT_EQ(v.u(0x1016, 1), 0u);
+  EXPECT_EQ(v.u(0x1016, 0), 2u);
+  EXPECT_EQ(v.get_string(*od.find(0x2000, 0)), "written!");
+  EXPECT_EQ(v.get_i(*od.find(0x2001, 0)), 42);
+  v.reset(7, 0x2000, 0x2001);
+  EXPECT_EQ(v.get_string(*od.find(0x2000, 0)), "abc");
+  EXPECT_EQ(v.get_i(*od.find(0x2001, 0)), -5);
+  EXPECT_FLOAT_EQ(v.get_f(*od.find(0x2002, 0)), 2.5f);
+  v.reset(7, 0x3000, 0x3FFF);  // no entry in the range
+  EXPECT_FLOAT_EQ(v.get_f(*od.find(0x2002, 0)), 2.5f);
+}
+
 TEST(Od, WriteChecksLengthLimitsAndAccess) {
   auto p = config::parse_profile(kProfile);
   const OdEntry& i16 = *p.layout->find(0x2001, 0);
