@@ -217,6 +217,16 @@ const OdEntry* OdLayout::find(std::uint16_t index, std::uint8_t sub) const {
   return it == by_key_.end() ? nullptr : &entries_[it->second];
 }
 
+// An object's entries are sorted by sub-index; most objects have every
+// sub-index from 0, so entry `sub` is usually the one.
+const OdEntry* OdLayout::find(const OdObject& object, std::uint8_t sub) const {
+  const auto begin = entries_.begin() + object.first;
+  const auto end = begin + object.count;
+  if (sub < object.count && begin[sub].sub == sub) return &begin[sub];
+  const auto it = std::partition_point(begin, end, [sub](const OdEntry& e) { return e.sub < sub; });
+  return it != end && it->sub == sub ? &*it : nullptr;
+}
+
 const OdObject* OdLayout::object(std::uint16_t index) const {
   auto it = by_index_.find(index);
   return it == by_index_.end() ? nullptr : &objects_[it->second];

@@ -119,6 +119,8 @@ class OdLayout {
   void finalize();
 
   const OdEntry* find(std::uint16_t index, std::uint8_t sub) const;
+  // A sub-index of a known object, without a hash lookup.
+  const OdEntry* find(const OdObject& object, std::uint8_t sub) const;
   const OdObject* object(std::uint16_t index) const;
   // Like find(), but says why not: 0x06020000 (no object) or 0x06090011 (no sub).
   const OdEntry* lookup(std::uint16_t index, std::uint8_t sub, SdoAbort& why) const;

@@ -30,6 +30,26 @@ TEST(Od, LookupDistinguishesMissingObjectAndSub) {
   ASSERT_NE(p.layout->lookup(0x1016, 2, why), nullptr);
 }
 
+TEST(Od, FindWithinAnObjectWithGapsInItsSubIndices) {
+  auto p = config::parse_profile(R"(
+name: t
+objects:
+  - {index: 0x1400, sub: 0, kind: record, type: UNSIGNED8, access: ro, default: 5}
+  - {index: 0x1400, sub: 1, kind: record, type: UNSIGNED32, access: rw, default: 0x201}
+  - {index: 0x1400, sub: 2, kind: record, type: UNSIGNED8, access: rw, default: 255}
+  - {index: 0x1400, sub: 5, kind: record, type: UNSIGNED16, access: rw, default: 0}
+  - {index: 0x1401, sub: 1, kind: record, type: UNSIGNED32, access: rw, default: 0x301}
+)");
+  const OdLayout& od = *p.layout;
+  const OdObject& rpdo1 = *od.object(0x1400);
+  for (std::uint8_t sub : {0, 1, 2, 5}) EXPECT_EQ(od.find(rpdo1, sub), od.find(0x1400, sub)) << int(sub);
+  EXPECT_EQ(od.find(rpdo1, 3), nullptr);
+  EXPECT_EQ(od.find(rpdo1, 6), nullptr);
+  const OdObject& rpdo2 = *od.object(0x1401);  // no sub 0: entry 0 is sub 1
+  EXPECT_EQ(od.find(rpdo2, 0), nullptr);
+  EXPECT_EQ(od.find(rpdo2, 1), od.find(0x1401, 1));
+}
+
 TEST(Od, DefaultsWithNodeIdAndTypes) {
   auto p = config::parse_profile(kProfile);
   OdValues v(p.layout);
