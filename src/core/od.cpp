@@ -174,12 +174,14 @@ void OdLayout::finalize() {
   objects_.clear();
   by_key_.clear();
   by_index_.clear();
+  max_capacity_ = 0;
   std::uint32_t offset = 0;
   for (std::size_t i = 0; i < entries_.size(); ++i) {
     OdEntry& e = entries_[i];
     e.slot = std::uint16_t(i);
     e.offset = offset;
     offset += (e.capacity + 7u) & ~7u;  // keep 8-byte alignment of every value
+    max_capacity_ = std::max(max_capacity_, e.capacity);
     by_key_[key(e.index, e.sub)] = std::uint16_t(i);
     if (objects_.empty() || objects_.back().index != e.index) {
       by_index_[e.index] = std::uint16_t(objects_.size());

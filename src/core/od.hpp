@@ -128,6 +128,7 @@ class OdLayout {
   std::span<const OdEntry> entries() const { return entries_; }
   std::span<const OdObject> objects() const { return objects_; }
   std::uint32_t value_bytes() const { return value_bytes_; }
+  std::uint32_t max_capacity() const { return max_capacity_; }  // of the largest entry
   const OdEntry& entry(std::uint16_t slot) const { return entries_[slot]; }
   // The slots [first, second) of the entries whose index lies in [first, last]
   // (entries are sorted, so they are adjacent in slots and in value bytes).
@@ -151,6 +152,7 @@ class OdLayout {
   std::unordered_map<std::uint32_t, std::uint16_t> by_key_;
   std::unordered_map<std::uint16_t, std::uint16_t> by_index_;
   std::uint32_t value_bytes_ = 0;
+  std::uint32_t max_capacity_ = 0;
   std::vector<std::uint8_t> default_values_;
   std::vector<std::uint32_t> default_sizes_;
   std::vector<std::uint16_t> node_id_slots_;
