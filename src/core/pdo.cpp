@@ -124,7 +124,7 @@ bool sync_window_open(const S& sync, TimeUs now) {
 // ---------------------------------------------------------------------------
 // Construction, reset, NMT
 
-PdoEngine::PdoEngine(Node& node) : node_(node) {
+PdoEngine::PdoEngine(Node& node) : NodeService(node) {
   for (const OdObject& o : node_.od().objects()) {
     if (o.index >= kTpdoComm && o.index < kTpdoComm + kPdoRange) {
       Tpdo t;

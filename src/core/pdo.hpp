@@ -18,6 +18,7 @@
 
 #include "core/can_frame.hpp"
 #include "core/node_options.hpp"
+#include "core/node_service.hpp"
 #include "core/od.hpp"
 
 namespace cansim {
@@ -78,7 +79,7 @@ struct Rpdo {
   CanFrame buffer;
 };
 
-class PdoEngine {
+class PdoEngine : private NodeService {
  public:
   explicit PdoEngine(Node& node);
   // Re-reads its configuration from the OD (after a reset / power-on).
@@ -157,7 +158,6 @@ class PdoEngine {
 
   void update_deadline();
 
-  Node& node_;
   std::vector<Tpdo> tpdos_;  // sized once at construction
   std::vector<Rpdo> rpdos_;
   // Indices of the valid event-driven TPDOs and of the RPDOs with deadline
