@@ -27,7 +27,7 @@
 // state) and storage are built and powered on once; each input starts from
 // snapshots of all three taken right after that power-on
 // (tests/support/node_fuzz_harness.hpp): plain copies, about 5 us with the
-// sanitizers, where building a node and powering it on cost about 350 us,
+// sanitizers, where building a node and powering it on cost about 300 us,
 // more than the records of a typical input. Restoring all three means no
 // state leaks from one input into the next, so a crash input reproduces when
 // run alone (node_fuzz_test runs inputs A, B, A and compares every frame of
