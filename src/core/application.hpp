@@ -4,6 +4,7 @@
 // Node API (values(), emcy(), pdo().raise_event(), ...).
 #pragma once
 
+#include <memory>
 #include <span>
 
 #include "core/can_frame.hpp"
@@ -45,6 +46,13 @@ class Application {
   // that instant. Returns when it next needs to run, or kNever. May switch
   // the node off (Node::power_cycle).
   virtual TimeUs environment(Node&, TimeUs) { return kNever; }
+
+  // Snapshots, alongside Node::snapshot(): a copy of this application's state
+  // (never run, only restored from), or null when the application cannot
+  // take one (the default).
+  virtual std::unique_ptr<Application> snapshot() const { return nullptr; }
+  // Brings back the state of a snapshot() of this application.
+  virtual void restore(const Application&) {}
 };
 
 // Where a node keeps what 0x1010 and LSS "store configuration" saved. The

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "core/can_frame.hpp"
+#include "core/node_service.hpp"
 #include "core/od.hpp"
 
 namespace cansim {
@@ -24,12 +25,12 @@ namespace cansim {
 class Node;
 enum class NmtState : std::uint8_t;
 
-class Emcy {
+class Emcy : private NodeService {
  public:
   static constexpr std::size_t kMaxActive = 16;
   static constexpr std::size_t kQueueSize = 8;
 
-  explicit Emcy(Node& node) : node_(node) {}
+  explicit Emcy(Node& node) : NodeService(node) {}
 
   // An error became active. reg_bits are ORed into 0x1001 while it is active
   // (on top of the bits derived from the code class); mfr = 5 manufacturer
@@ -101,7 +102,6 @@ class Emcy {
   void update_deadline(TimeUs now);
   SdoAbort write_cob_id(const OdEntry& e, std::uint32_t v);
 
-  Node& node_;
   TimeUs next_ = kNever;
   TimeUs last_sent_ = kNever;
   TimeUs inhibit_us_ = 0;

@@ -15,15 +15,16 @@
 #include <vector>
 
 #include "core/can_frame.hpp"
+#include "core/node_service.hpp"
 #include "core/od.hpp"
 
 namespace cansim {
 
 class Node;
 
-class NodeGuarding {
+class NodeGuarding : private NodeService {
  public:
-  explicit NodeGuarding(Node& node) : node_(node) {}
+  explicit NodeGuarding(Node& node) : NodeService(node) {}
   bool life_guard_failed() const { return failed_; }
   TimeUs life_time() const { return life_time_; }
 
@@ -45,7 +46,6 @@ class NodeGuarding {
   void read_life_time();
   bool answers() const;
 
-  Node& node_;
   TimeUs next_ = kNever;
   TimeUs life_time_ = 0;
   bool supported_ = false;

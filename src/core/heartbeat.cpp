@@ -25,7 +25,7 @@ void Heartbeat::reset(TimeUs) {
   if (consumers_.size() != subs) consumers_.assign(subs, Consumer{});
   for (std::size_t i = 0; i < subs; ++i) {
     consumers_[i] = Consumer{};
-    if (const OdEntry* e = node_.od().find(0x1016, std::uint8_t(i + 1)))
+    if (const OdEntry* e = node_.od().find(*obj, std::uint8_t(i + 1)))
       configure(consumers_[i], std::uint32_t(node_.values().get_u(*e)));
   }
   update_deadline();

@@ -14,15 +14,16 @@
 #include <vector>
 
 #include "core/can_frame.hpp"
+#include "core/node_service.hpp"
 #include "core/od.hpp"
 
 namespace cansim {
 
 class Node;
 
-class Heartbeat {
+class Heartbeat : private NodeService {
  public:
-  explicit Heartbeat(Node& node) : node_(node) {}
+  explicit Heartbeat(Node& node) : NodeService(node) {}
   // Starts the producer (called by NMT at the boot-up).
   void start(TimeUs now);
   std::uint16_t producer_time_ms() const { return period_ms_; }
@@ -61,7 +62,6 @@ class Heartbeat {
   void time_out(Consumer& c, TimeUs now);
   void update_deadline();
 
-  Node& node_;
   TimeUs next_ = kNever;
   TimeUs next_beat_ = kNever;
   std::uint16_t period_ms_ = 0;

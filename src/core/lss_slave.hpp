@@ -17,6 +17,7 @@
 #include "core/application.hpp"
 #include "core/can_frame.hpp"
 #include "core/node_options.hpp"
+#include "core/node_service.hpp"
 #include "core/od.hpp"
 #include "core/store.hpp"
 
@@ -24,7 +25,7 @@ namespace cansim {
 
 class Node;
 
-class LssSlave {
+class LssSlave : private NodeService {
  public:
   static constexpr std::uint32_t kRequestId = 0x7E5;  // master -> slave
   static constexpr std::uint32_t kReplyId = 0x7E4;    // slave -> master
@@ -32,7 +33,7 @@ class LssSlave {
 
   enum class State : std::uint8_t { kWaiting = 0, kConfiguration = 1 };
 
-  explicit LssSlave(Node& node) : node_(node) {}
+  explicit LssSlave(Node& node) : NodeService(node) {}
   // Called at the start of every reset, before the OD is reloaded: reset node
   // / communication activate the pending node-ID (power-on: Node::power_on
   // applies what store configuration saved).
@@ -84,7 +85,6 @@ class LssSlave {
   void fastscan(const std::uint8_t* d);
   void enter_waiting(TimeUs now);
 
-  Node& node_;
   TimeUs next_ = kNever;
   State state_ = State::kWaiting;
   std::uint8_t pending_node_id_ = kUnconfigured;

@@ -15,6 +15,7 @@
 
 #include "core/can_frame.hpp"
 #include "core/node_options.hpp"
+#include "core/node_service.hpp"
 #include "core/od.hpp"
 
 namespace cansim {
@@ -49,9 +50,9 @@ struct BootPlan {
   TimeUs boot_up_delay = 0;        // from the reset to the boot-up
 };
 
-class NmtSlave {
+class NmtSlave : private NodeService {
  public:
-  explicit NmtSlave(Node& node) : node_(node) {}
+  explicit NmtSlave(Node& node) : NodeService(node) {}
   // Power-on: initialisation, boot-up, then pre-operational (or operational).
   void power_on(TimeUs now);
   // Power lost: INITIALISING again, silently (nobody hears a dead node).
@@ -107,7 +108,6 @@ class NmtSlave {
   void set_state(NmtState s, TimeUs now);
   void update_deadline();
 
-  Node& node_;
   TimeUs next_ = kNever;
   TimeUs boot_at_ = kNever;
   TimeUs start_at_ = kNever;

@@ -303,6 +303,54 @@ const OdEntry* Node::config_object(std::int64_t index) const {
   return index > 0 && index <= 0xFFFF ? od().find(std::uint16_t(index), 0) : nullptr;
 }
 
+NodeSnapshot::NodeSnapshot(const Node& node)
+    : values_(node.values_),
+      node_id_(node.node_id_),
+      bit_rate_(node.bit_rate_),
+      bus_bit_rate_(node.bus_bit_rate_),
+      powered_(node.powered_),
+      silent_(node.silent_),
+      muted_(node.muted_),
+      bus_off_(node.bus_off_),
+      env_next_(node.env_next_),
+      power_on_at_(node.power_on_at_),
+      app_next_(node.app_next_),
+      nmt_(node.nmt_),
+      lss_(node.lss_),
+      sdo_(node.sdo_),
+      heartbeat_(node.heartbeat_),
+      guarding_(node.guarding_),
+      sync_(node.sync_),
+      pdo_(node.pdo_),
+      emcy_(node.emcy_),
+      store_(node.store_) {}
+
+bool Node::restore(const NodeSnapshot& s) {
+  if (&s.values_.layout() != &od()) return false;
+  values_ = s.values_;
+  node_id_ = s.node_id_;
+  bit_rate_ = s.bit_rate_;
+  bus_bit_rate_ = s.bus_bit_rate_;
+  powered_ = s.powered_;
+  silent_ = s.silent_;
+  muted_ = s.muted_;
+  bus_off_ = s.bus_off_;
+  env_next_ = s.env_next_;
+  power_on_at_ = s.power_on_at_;
+  app_next_ = s.app_next_;
+  nmt_ = s.nmt_;
+  lss_ = s.lss_;
+  sdo_ = s.sdo_;
+  heartbeat_ = s.heartbeat_;
+  guarding_ = s.guarding_;
+  sync_ = s.sync_;
+  pdo_ = s.pdo_;
+  emcy_ = s.emcy_;
+  store_ = s.store_;
+  rx_changed();  // a dispatcher re-reads the COB-IDs the node listens to
+  return true;
+}
+
 void Node::reset_services(TimeUs now) {
   for_each_service([&](auto& s) { s.reset(now); });
   app_next_ = app_ ? now : kNever;  // no application: no application deadline

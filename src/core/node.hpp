@@ -36,6 +36,33 @@ struct NodeSetup {
 // Services gated by NMT state (CiA 301 Table 82).
 enum class Service : std::uint8_t { kSdo, kSync, kEmcy, kPdo, kTime };
 
+class Node;
+
+// A node's whole state at one instant (Node::snapshot): OD values, node-ID and
+// bit rates, power and bus flags, its own timers, and every service with its
+// timers, transfers and histories. Not in it: the configuration and what the
+// node is wired to (sink, application, storage, observer), which a restore
+// leaves as they are.
+class NodeSnapshot {
+ private:
+  friend class Node;
+  explicit NodeSnapshot(const Node& node);
+
+  OdValues values_;
+  std::uint8_t node_id_, bit_rate_, bus_bit_rate_;
+  bool powered_, silent_, muted_, bus_off_;
+  TimeUs env_next_, power_on_at_, app_next_;
+  NmtSlave nmt_;
+  LssSlave lss_;
+  SdoServer sdo_;
+  Heartbeat heartbeat_;
+  NodeGuarding guarding_;
+  SyncConsumer sync_;
+  PdoEngine pdo_;
+  Emcy emcy_;
+  StoreRestore store_;
+};
+
 class Node {
  public:
   Node(NodeSetup setup, FrameSink& sink, Application* app = nullptr, NodeStorage* storage = nullptr);
@@ -164,6 +191,16 @@ class Node {
 
   std::size_t memory_bytes() const { return sizeof(*this) + values_.memory_bytes(); }
 
+  // ---- snapshots: the node's state taken whole and brought back with plain
+  // copies (no reset sequence run, nothing sent, the observer not told; no
+  // allocation once the node's buffers are as large as the snapshot's). A
+  // fuzz input starts from the state right after power-on this way.
+  // restore() takes a snapshot of a node of the same layout (false, and
+  // nothing changes, for another); the application and the storage are the
+  // caller's to bring back alongside.
+  NodeSnapshot snapshot() const { return NodeSnapshot(*this); }
+  bool restore(const NodeSnapshot& snapshot);
+
  private:
   void load_all_values();
   // The access-right independent part of read / write (owning service,
@@ -182,11 +219,15 @@ class Node {
   template <typename S>
   bool hears(const S&) const { return true; }
 
+  friend class NodeSnapshot;
+
   NodeSetup setup_;
   FrameSink& sink_;
   Application* app_;
   NodeStorage* storage_;
   NodeObserver* observer_ = nullptr;
+  // The state: every member from here on is in NodeSnapshot (add new ones
+  // there and to restore() too), rx_epoch_ excepted (restore() moves it on).
   OdValues values_;
   std::uint8_t node_id_;
   std::uint8_t bit_rate_;

@@ -1,6 +1,7 @@
 #include "core/od.hpp"
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cmath>
 #include <cstring>
@@ -43,10 +44,18 @@ constexpr TypeInfo kTypes[] = {
     {DataType::kDomain, "DOMAIN", 0, false, false},
 };
 
+// kTypes by type index: type_size() and friends sit on every OD access and
+// every reset of every entry, so they index instead of searching.
+constexpr std::size_t kTypeIndices = 0x20;  // CiA 301 Table 44 indices in use are below this
+constexpr std::array<const TypeInfo*, kTypeIndices> kByIndex = [] {
+  std::array<const TypeInfo*, kTypeIndices> by_index{};
+  for (const auto& i : kTypes) by_index[std::size_t(i.type)] = &i;
+  return by_index;
+}();
+
 const TypeInfo* info(DataType t) {
-  for (const auto& i : kTypes)
-    if (i.type == t) return &i;
-  return nullptr;
+  const auto i = std::size_t(t);
+  return i < kTypeIndices ? kByIndex[i] : nullptr;
 }
 
 constexpr const char* kAccessNames[] = {"ro", "wo", "rw", "rwr", "rww", "const"};
@@ -165,12 +174,14 @@ void OdLayout::finalize() {
   objects_.clear();
   by_key_.clear();
   by_index_.clear();
+  max_capacity_ = 0;
   std::uint32_t offset = 0;
   for (std::size_t i = 0; i < entries_.size(); ++i) {
     OdEntry& e = entries_[i];
     e.slot = std::uint16_t(i);
     e.offset = offset;
     offset += (e.capacity + 7u) & ~7u;  // keep 8-byte alignment of every value
+    max_capacity_ = std::max(max_capacity_, e.capacity);
     by_key_[key(e.index, e.sub)] = std::uint16_t(i);
     if (objects_.empty() || objects_.back().index != e.index) {
       by_index_[e.index] = std::uint16_t(objects_.size());
@@ -179,12 +190,43 @@ void OdLayout::finalize() {
     objects_.back().count++;
   }
   value_bytes_ = offset;
+  build_defaults();
   final_ = true;
+}
+
+void OdLayout::build_defaults() {
+  default_values_.assign(value_bytes_, 0);
+  default_sizes_.assign(entries_.size(), 0);
+  node_id_slots_.clear();
+  for (const OdEntry& e : entries_) {
+    const std::size_t n = std::min<std::size_t>(e.default_bytes.size(), e.capacity);
+    if (n) std::memcpy(default_values_.data() + e.offset, e.default_bytes.data(), n);
+    const bool fixed_size = type_size(e.type) != 0;
+    default_sizes_[e.slot] = std::uint32_t(fixed_size ? e.capacity : n);
+    if (fixed_size && e.default_plus_node_id && !is_real(e.type)) node_id_slots_.push_back(e.slot);
+  }
+}
+
+std::pair<std::size_t, std::size_t> OdLayout::slots(std::uint16_t first, std::uint16_t last) const {
+  auto below = [](std::uint16_t bound) { return [bound](const OdEntry& e) { return e.index < bound; }; };
+  const auto begin = std::partition_point(entries_.begin(), entries_.end(), below(first));
+  const auto end = last == 0xFFFF ? entries_.end() : std::partition_point(begin, entries_.end(), below(last + 1));
+  return {std::size_t(begin - entries_.begin()), std::size_t(end - entries_.begin())};
 }
 
 const OdEntry* OdLayout::find(std::uint16_t index, std::uint8_t sub) const {
   auto it = by_key_.find(key(index, sub));
   return it == by_key_.end() ? nullptr : &entries_[it->second];
+}
+
+// An object's entries are sorted by sub-index; most objects have every
+// sub-index from 0, so entry `sub` is usually the one.
+const OdEntry* OdLayout::find(const OdObject& object, std::uint8_t sub) const {
+  const auto begin = entries_.begin() + object.first;
+  const auto end = begin + object.count;
+  if (sub < object.count && begin[sub].sub == sub) return &begin[sub];
+  const auto it = std::partition_point(begin, end, [sub](const OdEntry& e) { return e.sub < sub; });
+  return it != end && it->sub == sub ? &*it : nullptr;
 }
 
 const OdObject* OdLayout::object(std::uint16_t index) const {
@@ -236,19 +278,20 @@ OdValues::OdValues(std::shared_ptr<const OdLayout> layout) : layout_(std::move(l
   sizes_.assign(layout_->entries().size(), 0);
 }
 
+// The layout's default image over the entries' byte range (padding between
+// values is zero in both), then the node-ID added to the $NODEID defaults.
 void OdValues::reset(std::uint8_t node_id, std::uint16_t first, std::uint16_t last) {
-  for (const OdEntry& e : layout_->entries()) {
-    if (e.index < first || e.index > last) continue;
+  const auto [begin, end] = layout_->slots(first, last);
+  if (begin == end) return;
+  const std::size_t from = layout_->entry(std::uint16_t(begin)).offset;
+  const std::size_t to = end < sizes_.size() ? layout_->entry(std::uint16_t(end)).offset : data_.size();
+  std::memcpy(data_.data() + from, layout_->default_values().data() + from, to - from);
+  std::memcpy(sizes_.data() + begin, layout_->default_sizes().data() + begin, (end - begin) * sizeof(sizes_[0]));
+  for (std::uint16_t slot : layout_->node_id_slots()) {
+    if (slot < begin || slot >= end) continue;
+    const OdEntry& e = layout_->entry(slot);
     std::uint8_t* p = data_.data() + e.offset;
-    std::memset(p, 0, e.capacity);
-    std::size_t n = std::min<std::size_t>(e.default_bytes.size(), e.capacity);
-    if (n) std::memcpy(p, e.default_bytes.data(), n);  // an empty default has no data()
-    if (type_size(e.type)) {
-      n = e.capacity;
-      if (e.default_plus_node_id && !is_real(e.type))
-        encode_u(e.type, decode_u(e.type, p) + node_id, p);
-    }
-    sizes_[e.slot] = std::uint32_t(n);
+    encode_u(e.type, decode_u(e.type, p) + node_id, p);
   }
 }
 

@@ -10,6 +10,7 @@
 #include <string>
 #include <string_view>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include "core/sdo_abort.hpp"
@@ -113,10 +114,13 @@ class OdLayout {
  public:
   // Adds an entry; returns false if (index, sub) already exists.
   bool add(OdEntry entry);
-  // Sorts entries, assigns offsets and builds the lookup tables.
+  // Sorts entries, assigns offsets and builds the lookup tables and the
+  // default values (edits after it must not change defaults, types or sizes).
   void finalize();
 
   const OdEntry* find(std::uint16_t index, std::uint8_t sub) const;
+  // A sub-index of a known object, without a hash lookup.
+  const OdEntry* find(const OdObject& object, std::uint8_t sub) const;
   const OdObject* object(std::uint16_t index) const;
   // Like find(), but says why not: 0x06020000 (no object) or 0x06090011 (no sub).
   const OdEntry* lookup(std::uint16_t index, std::uint8_t sub, SdoAbort& why) const;
@@ -124,7 +128,17 @@ class OdLayout {
   std::span<const OdEntry> entries() const { return entries_; }
   std::span<const OdObject> objects() const { return objects_; }
   std::uint32_t value_bytes() const { return value_bytes_; }
+  std::uint32_t max_capacity() const { return max_capacity_; }  // of the largest entry
   const OdEntry& entry(std::uint16_t slot) const { return entries_[slot]; }
+  // The slots [first, second) of the entries whose index lies in [first, last]
+  // (entries are sorted, so they are adjacent in slots and in value bytes).
+  std::pair<std::size_t, std::size_t> slots(std::uint16_t first, std::uint16_t last) const;
+  // Built by finalize(), so that a reset copies instead of encoding entry by
+  // entry: every value at its default (a $NODEID default without the
+  // node-ID), the size of each, and the slots whose default adds the node-ID.
+  std::span<const std::uint8_t> default_values() const { return default_values_; }
+  std::span<const std::uint32_t> default_sizes() const { return default_sizes_; }
+  std::span<const std::uint16_t> node_id_slots() const { return node_id_slots_; }
   // Mutable access before finalize() (profile loading, personalities setting hooks).
   OdEntry* edit(std::uint16_t index, std::uint8_t sub);
 
@@ -132,11 +146,16 @@ class OdLayout {
   static std::uint32_t key(std::uint16_t index, std::uint8_t sub) {
     return (std::uint32_t(index) << 8) | sub;
   }
+  void build_defaults();
   std::vector<OdEntry> entries_;
   std::vector<OdObject> objects_;
   std::unordered_map<std::uint32_t, std::uint16_t> by_key_;
   std::unordered_map<std::uint16_t, std::uint16_t> by_index_;
   std::uint32_t value_bytes_ = 0;
+  std::uint32_t max_capacity_ = 0;
+  std::vector<std::uint8_t> default_values_;
+  std::vector<std::uint32_t> default_sizes_;
+  std::vector<std::uint16_t> node_id_slots_;
   bool final_ = false;
 };
 

@@ -124,17 +124,21 @@ bool sync_window_open(const S& sync, TimeUs now) {
 // ---------------------------------------------------------------------------
 // Construction, reset, NMT
 
-PdoEngine::PdoEngine(Node& node) : node_(node) {
+PdoEngine::PdoEngine(Node& node) : NodeService(node) {
   for (const OdObject& o : node_.od().objects()) {
     if (o.index >= kTpdoComm && o.index < kTpdoComm + kPdoRange) {
       Tpdo t;
       t.cfg.comm_index = o.index;
       t.cfg.map_index = std::uint16_t(o.index - kTpdoComm + kTpdoMap);
+      t.cfg.comm_object = &o;
+      t.cfg.map_object = node_.od().object(t.cfg.map_index);
       tpdos_.push_back(t);
     } else if (o.index >= kRpdoComm && o.index < kRpdoComm + kPdoRange) {
       Rpdo r;
       r.cfg.comm_index = o.index;
       r.cfg.map_index = std::uint16_t(o.index - kRpdoComm + kRpdoMap);
+      r.cfg.comm_object = &o;
+      r.cfg.map_object = node_.od().object(r.cfg.map_index);
       rpdos_.push_back(r);
     }
   }
@@ -232,10 +236,18 @@ bool PdoEngine::locked(const PdoConfig& cfg) const {
   return !node_.options().pdo_ignore_valid_bit && !(cfg.cobid & kPdoCobInvalid);
 }
 
+const OdEntry* PdoEngine::comm_entry(const PdoConfig& cfg, std::uint8_t sub) const {
+  return node_.od().find(*cfg.comm_object, sub);
+}
+
+const OdEntry* PdoEngine::map_entry(const PdoConfig& cfg, std::uint8_t sub) const {
+  return cfg.map_object ? node_.od().find(*cfg.map_object, sub) : nullptr;
+}
+
 void PdoEngine::load(PdoConfig& cfg, bool tx) {
   const OdValues& v = node_.values();
   auto get = [&](std::uint8_t sub, std::uint64_t fallback) {
-    const OdEntry* e = node_.od().find(cfg.comm_index, sub);
+    const OdEntry* e = comm_entry(cfg, sub);
     return e ? v.get_u(*e) : fallback;
   };
   cfg.cobid = std::uint32_t(get(kSubCobId, kPdoCobInvalid));
@@ -252,20 +264,21 @@ void PdoEngine::load_mapping(PdoConfig& cfg, bool tx) {
   cfg.item_count = 0;
   cfg.bits = 0;
   cfg.declared_empty = false;
-  const OdEntry* count = node_.od().find(cfg.map_index, 0);
+  const OdEntry* count = map_entry(cfg, 0);
   if (!count) return;
   const auto n = unsigned(std::min<std::uint64_t>(node_.values().get_u(*count), PdoConfig::kMaxItems));
   cfg.declared_empty = n == 0;
   unsigned bits = 0;
   for (unsigned i = 1; i <= n; ++i) {
-    const OdEntry* e = node_.od().find(cfg.map_index, std::uint8_t(i));
+    const OdEntry* e = map_entry(cfg, std::uint8_t(i));
     const std::uint32_t raw = e ? std::uint32_t(node_.values().get_u(*e)) : 0;
-    if (raw == 0 || !ok(check_map_entry(raw, tx))) return;
+    const OdEntry* mapped = nullptr;
+    if (raw == 0 || !ok(check_map_entry(raw, tx, &mapped))) return;
     bits += map_bits(raw);
     if (bits > 64) return;
     PdoMapItem& item = cfg.items[i - 1];
     item.bits = map_bits(raw);
-    item.slot = is_dummy(raw) ? PdoMapItem::kDummy : node_.od().find(map_index(raw), map_sub(raw))->slot;
+    item.slot = mapped ? mapped->slot : PdoMapItem::kDummy;
   }
   cfg.item_count = std::uint8_t(n);
   cfg.bits = std::uint8_t(bits);
@@ -376,16 +389,16 @@ SdoAbort PdoEngine::check_cobid(const PdoConfig& cfg, bool tx, std::uint32_t& v)
 // Sub 0 = n enables the mapping: entries 1..n must be valid and fit 64 bits
 // (CiA 301 §7.5.2.36 step 4).
 SdoAbort PdoEngine::check_map_count(const PdoConfig& cfg, bool tx, std::uint32_t n) const {
-  const OdEntry* count = node_.od().find(cfg.map_index, 0);
+  const OdEntry* count = map_entry(cfg, 0);
   if (count && n == node_.values().get_u(*count)) return SdoAbort::kNone;
   if (node_.options().pdo_mapping_needs_invalid && locked(cfg))
     return SdoAbort(node_.options().pdo_mapping_locked_abort);
   // More entries than the mapping record has sub-indices.
-  if (n > PdoConfig::kMaxItems || (n > 0 && !node_.od().find(cfg.map_index, std::uint8_t(n))))
+  if (n > PdoConfig::kMaxItems || (n > 0 && !map_entry(cfg, std::uint8_t(n))))
     return SdoAbort::kValueTooHigh;
   unsigned bits = 0;
   for (unsigned i = 1; i <= n; ++i) {
-    const OdEntry* e = node_.od().find(cfg.map_index, std::uint8_t(i));
+    const OdEntry* e = map_entry(cfg, std::uint8_t(i));
     if (!e) return SdoAbort::kNotMappable;
     const std::uint32_t raw = std::uint32_t(node_.values().get_u(*e));
     if (raw == 0) return SdoAbort::kNotMappable;
@@ -399,9 +412,9 @@ SdoAbort PdoEngine::check_map_count(const PdoConfig& cfg, bool tx, std::uint32_t
 // Entries change only while the PDO does not exist and sub 0 is 0 (CiA 301
 // §7.5.2.36 steps 1-3); a non-zero entry must name a mappable object.
 SdoAbort PdoEngine::check_map_write(const PdoConfig& cfg, bool tx, std::uint8_t sub, std::uint32_t v) const {
-  const OdEntry* e = node_.od().find(cfg.map_index, sub);
+  const OdEntry* e = map_entry(cfg, sub);
   if (e && v == node_.values().get_u(*e)) return SdoAbort::kNone;
-  const OdEntry* count = node_.od().find(cfg.map_index, 0);
+  const OdEntry* count = map_entry(cfg, 0);
   const bool enabled = count && node_.values().get_u(*count) != 0;
   if (enabled || (node_.options().pdo_mapping_needs_invalid && locked(cfg)))
     return SdoAbort(node_.options().pdo_mapping_locked_abort);
@@ -411,7 +424,7 @@ SdoAbort PdoEngine::check_map_write(const PdoConfig& cfg, bool tx, std::uint8_t 
 // One mapping entry: 0x06020000 / 0x06090011 when the object is missing,
 // 0x06040041 when it is not mappable, not readable (TPDO) / writable (RPDO),
 // or its length does not match the type.
-SdoAbort PdoEngine::check_map_entry(std::uint32_t raw, bool tx) const {
+SdoAbort PdoEngine::check_map_entry(std::uint32_t raw, bool tx, const OdEntry** mapped) const {
   const unsigned bits = map_bits(raw);
   if (is_dummy(raw)) {
     if (tx || !node_.options().rpdo_dummy_mapping || map_sub(raw) != 0) return SdoAbort::kNotMappable;
@@ -423,7 +436,9 @@ SdoAbort PdoEngine::check_map_entry(std::uint32_t raw, bool tx) const {
   if (!e) return why;
   if (!e->pdo_mappable) return SdoAbort::kNotMappable;
   if (tx ? !readable(e->access) : !writable(e->access)) return SdoAbort::kNotMappable;
-  return length_fits(e->type, e->capacity, bits) ? SdoAbort::kNone : SdoAbort::kNotMappable;
+  if (!length_fits(e->type, e->capacity, bits)) return SdoAbort::kNotMappable;
+  if (mapped) *mapped = e;
+  return SdoAbort::kNone;
 }
 
 Tpdo* PdoEngine::find_tpdo(const PdoConfig& cfg) {

@@ -18,6 +18,7 @@
 
 #include "core/can_frame.hpp"
 #include "core/node_options.hpp"
+#include "core/node_service.hpp"
 #include "core/od.hpp"
 
 namespace cansim {
@@ -44,6 +45,8 @@ struct PdoConfig {
   static constexpr int kMaxItems = 64;  // CiA 301: sub 0 of a mapping is 0..0x40
   std::uint16_t comm_index = 0;         // 0x1400+n or 0x1800+n
   std::uint16_t map_index = 0;          // 0x1600+n or 0x1A00+n
+  const OdObject* comm_object = nullptr;  // in the layout
+  const OdObject* map_object = nullptr;   // null when the profile has no mapping record
   std::uint32_t cobid = kPdoCobInvalid;
   std::uint8_t type = 255;
   std::uint16_t inhibit_100us = 0;
@@ -76,7 +79,7 @@ struct Rpdo {
   CanFrame buffer;
 };
 
-class PdoEngine {
+class PdoEngine : private NodeService {
  public:
   explicit PdoEngine(Node& node);
   // Re-reads its configuration from the OD (after a reset / power-on).
@@ -119,7 +122,10 @@ class PdoEngine {
   void load_mapping(PdoConfig& cfg, bool tx);
   bool valid(const PdoConfig& cfg) const;
   bool locked(const PdoConfig& cfg) const;  // CiA 301: "while the PDO exists"
-  SdoAbort check_map_entry(std::uint32_t raw, bool tx) const;
+  const OdEntry* comm_entry(const PdoConfig& cfg, std::uint8_t sub) const;
+  const OdEntry* map_entry(const PdoConfig& cfg, std::uint8_t sub) const;
+  // `mapped` (optional) receives the named entry (null for a dummy entry).
+  SdoAbort check_map_entry(std::uint32_t raw, bool tx, const OdEntry** mapped = nullptr) const;
   SdoAbort check_cobid(const PdoConfig& cfg, bool tx, std::uint32_t& v) const;
   SdoAbort check_comm(const PdoConfig& cfg, bool tx, std::uint8_t sub, std::uint32_t& v) const;
   SdoAbort check_map_count(const PdoConfig& cfg, bool tx, std::uint32_t n) const;
@@ -152,7 +158,6 @@ class PdoEngine {
 
   void update_deadline();
 
-  Node& node_;
   std::vector<Tpdo> tpdos_;  // sized once at construction
   std::vector<Rpdo> rpdos_;
   // Indices of the valid event-driven TPDOs and of the RPDOs with deadline

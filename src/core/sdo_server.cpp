@@ -104,8 +104,7 @@ void SdoServer::reset(TimeUs) {
 
   // One buffer for the largest value plus a segment of slack (block download
   // stores whole 7-byte segments before the end frame says how many count).
-  std::size_t need = 7;
-  for (const OdEntry& e : node_.od().entries()) need = std::max<std::size_t>(need, e.capacity + 7);
+  const std::size_t need = node_.od().max_capacity() + 7;
   if (buf_.size() < need) buf_.resize(need);
 
   load_cob_ids();

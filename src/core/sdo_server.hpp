@@ -41,15 +41,16 @@
 #include <vector>
 
 #include "core/can_frame.hpp"
+#include "core/node_service.hpp"
 #include "core/od.hpp"
 
 namespace cansim {
 
 class Node;
 
-class SdoServer {
+class SdoServer : private NodeService {
  public:
-  explicit SdoServer(Node& node) : node_(node) {}
+  explicit SdoServer(Node& node) : NodeService(node) {}
   // Re-reads its configuration from the OD (after a reset / power-on).
   void reset(TimeUs now);
   // Returns true when the frame was addressed to this service.
@@ -167,7 +168,6 @@ class SdoServer {
   void touch(TimeUs now);
   void idle();
 
-  Node& node_;
   // configuration (reset)
   bool valid_ = false;
   bool rx_ext_ = false;

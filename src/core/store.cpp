@@ -1,5 +1,6 @@
 #include "core/store.hpp"
 
+#include <array>
 #include <cstring>
 
 #include "core/node.hpp"
@@ -45,29 +46,41 @@ void append_record(std::vector<std::uint8_t>& out, std::uint16_t index, std::uin
   append_u16(out, std::uint16_t(bytes.size()));
   out.insert(out.end(), bytes.begin(), bytes.end());
 }
+
+// The CRC of every byte value, so that the blob is checked a byte (not a
+// bit) at a time at every power-on.
+constexpr std::array<std::uint32_t, 256> kCrcTable = [] {
+  std::array<std::uint32_t, 256> table{};
+  for (std::uint32_t byte = 0; byte < 256; ++byte) {
+    std::uint32_t crc = byte;
+    for (int bit = 0; bit < 8; ++bit) crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
+    table[byte] = crc;
+  }
+  return table;
+}();
 }  // namespace
 
 std::uint32_t crc32(std::span<const std::uint8_t> data) {
   std::uint32_t crc = 0xFFFFFFFFu;
-  for (std::uint8_t byte : data) {
-    crc ^= byte;
-    for (int bit = 0; bit < 8; ++bit) crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
-  }
+  for (std::uint8_t byte : data) crc = (crc >> 8) ^ kCrcTable[(crc ^ byte) & 0xFFu];
   return ~crc;
 }
 
+// Loads into the cache itself: no allocation once it has held a blob this long.
 void StoreRestore::load() {
   blob_.clear();
   lss_ = LssStored{};
   corrupt_ = false;
   NodeStorage* storage = node_.storage();
-  std::vector<std::uint8_t> data;
-  if (!storage || !storage->load(data) || data.empty()) return;
-  if (!blob_ok(data)) {
+  if (!storage || !storage->load(blob_) || blob_.empty()) {
+    blob_.clear();
+    return;
+  }
+  if (!blob_ok(blob_)) {
+    blob_.clear();
     corrupt_ = true;
     return;
   }
-  blob_ = std::move(data);
   lss_.valid = blob_[5] != 0;
   lss_.node_id = blob_[6];
   lss_.bit_rate_index = blob_[7];

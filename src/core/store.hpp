@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "core/can_frame.hpp"
+#include "core/node_service.hpp"
 #include "core/od.hpp"
 
 namespace cansim {
@@ -33,12 +34,12 @@ struct LssStored {
   std::uint8_t bit_rate_index = 0;
 };
 
-class StoreRestore {
+class StoreRestore : private NodeService {
  public:
   static constexpr std::uint32_t kSave = 0x65766173;  // "save"
   static constexpr std::uint32_t kLoad = 0x64616F6C;  // "load"
 
-  explicit StoreRestore(Node& node) : node_(node) {}
+  explicit StoreRestore(Node& node) : NodeService(node) {}
   // Reads the blob from NodeStorage into the cache (power-on).
   void load();
   // Applies stored values of entries with index in [first, last] to the OD.
@@ -87,7 +88,6 @@ class StoreRestore {
   void defaults_to_ram(std::uint8_t sub);
   bool holds_node_id_default(const OdEntry& e) const;
 
-  Node& node_;
   TimeUs next_ = kNever;
   std::vector<std::uint8_t> blob_;  // validated copy of what storage holds
   LssStored lss_;

@@ -11,15 +11,16 @@
 #include <vector>
 
 #include "core/can_frame.hpp"
+#include "core/node_service.hpp"
 #include "core/od.hpp"
 
 namespace cansim {
 
 class Node;
 
-class SyncConsumer {
+class SyncConsumer : private NodeService {
  public:
-  explicit SyncConsumer(Node& node) : node_(node) {}
+  explicit SyncConsumer(Node& node) : NodeService(node) {}
   // True while synchronous PDOs may be sent: within 0x1007 µs after the last
   // SYNC (always, when 0x1007 = 0).
   bool window_open(TimeUs now) const;
@@ -46,7 +47,6 @@ class SyncConsumer {
   SdoAbort write_cob_id(const OdEntry& e, std::uint32_t v);
   SdoAbort write_overflow(const OdEntry& e, std::uint8_t v);
 
-  Node& node_;
   TimeUs next_ = kNever;
   TimeUs last_sync_ = kNever;
   TimeUs window_us_ = 0;

@@ -5,6 +5,7 @@
 #include <cstring>
 #include <limits>
 #include <string>
+#include <typeinfo>
 
 #include "config/physics_config.hpp"
 #include "config/yaml_util.hpp"
@@ -476,6 +477,24 @@ void SensorSource::stop_recording() {
   recording_.clear();
 }
 
+SensorSource::SensorSource(const SensorSource& other)
+    : faults_(std::make_unique<physics::FaultSet>(*other.faults_)),
+      process_seed_(other.process_seed_),
+      sensor_(other.sensor_) {
+  sensor_.set_faults(faults_.get());
+}
+
+std::unique_ptr<MeasurementSource> SensorSource::snapshot() const {
+  return std::unique_ptr<MeasurementSource>(new SensorSource(*this));
+}
+
+void SensorSource::restore(const MeasurementSource& snapshot) {
+  const auto& from = dynamic_cast<const SensorSource&>(snapshot);
+  *faults_ = *from.faults_;
+  sensor_ = from.sensor_;
+  sensor_.set_faults(faults_.get());
+}
+
 MeasurementSource::Sample SensorSource::sample(physics::Channel ch, TimeUs now) {
   const physics::SensorReading& r = sensor_.read(now);
   if (recorder_ && now != recorded_at_) {
@@ -921,6 +940,32 @@ void Cia404Application::on_channel_events(Node& node, std::size_t ch, unsigned e
 }
 
 TimeUs Cia404Application::environment(Node& node, TimeUs now) { return comm_faults_.apply(node, now); }
+
+std::unique_ptr<Application> Cia404Application::snapshot() const {
+  if (typeid(*this) != typeid(Cia404Application)) return nullptr;
+  std::unique_ptr<MeasurementSource> source = source_->snapshot();
+  if (!source) return nullptr;
+  auto copy = std::make_unique<Cia404Application>(profile_, std::move(source), identity_, node_index_);
+  copy->restore(*this);
+  return copy;
+}
+
+// Every member but the configuration (profile, identity, node index) and
+// the pointers into the source.
+void Cia404Application::restore(const Application& snapshot) {
+  const auto& from = dynamic_cast<const Cia404Application&>(snapshot);
+  source_->restore(*from.source_);
+  override_si_[0] = from.override_si_[0];
+  override_si_[1] = from.override_si_[1];
+  state_ = from.state_;
+  config_epoch_ = from.config_epoch_;
+  comm_faults_.restore(from.comm_faults_);
+  event_channels_ = from.event_channels_;
+  change_channels_ = from.change_channels_;
+  next_scan_ = from.next_scan_;
+  next_check_ = from.next_check_;
+  next_supervision_ = from.next_supervision_;
+}
 
 physics::FaultHandle Cia404Application::arm_fault(Node& node, const physics::FaultSpec& spec, TimeUs now) {
   physics::FaultSet* set = source_->fault_set();

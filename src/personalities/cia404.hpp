@@ -173,6 +173,10 @@ class MeasurementSource {
   virtual void reboot(TimeUs) {}
   // The node's fault schedule (null: this source has none).
   virtual physics::FaultSet* fault_set() { return nullptr; }
+  // A copy of this source's state for Cia404Application::snapshot (null:
+  // this source has none) and the way back to it.
+  virtual std::unique_ptr<MeasurementSource> snapshot() const { return nullptr; }
+  virtual void restore(const MeasurementSource&) {}
 };
 
 // The physics::Sensor of one node with its scheduled faults.
@@ -185,6 +189,10 @@ class SensorSource : public MeasurementSource {
   TimeUs sample_period_us(physics::Channel ch) const override;
   void reboot(TimeUs now) override { sensor_.reboot(now); }
   physics::FaultSet* fault_set() override { return faults_.get(); }
+  // The sensor with its process model and the fault schedule; a recording is
+  // output, not state: a snapshot has none and a restore leaves it running.
+  std::unique_ptr<MeasurementSource> snapshot() const override;
+  void restore(const MeasurementSource& snapshot) override;
   physics::Sensor& sensor() { return sensor_; }
   physics::FaultSet& faults() { return *faults_; }
 
@@ -207,6 +215,7 @@ class SensorSource : public MeasurementSource {
   const physics::CsvRecorder* recorder() const { return recorder_.get(); }
 
  private:
+  SensorSource(const SensorSource& other);  // for snapshot()
   void catch_up(TimeUs now) { sensor_.read(now); }
 
   std::unique_ptr<physics::FaultSet> faults_;  // the sensor keeps a pointer to it
@@ -237,6 +246,11 @@ class Cia404Application : public Application {
   void after_write(Node& node, const OdEntry& e, TimeUs now) override;
   TimeUs process(Node& node, TimeUs now) override;
   TimeUs environment(Node& node, TimeUs now) override;
+  // The chain state, the measurement source (physics, fault schedule) and
+  // the communication faults. Null for a device personality deriving from
+  // this class (its own state would be missing) or a source without snapshots.
+  std::unique_ptr<Application> snapshot() const override;
+  void restore(const Application& snapshot) override;
 
   // ---- the chain, for personalities and tests
   struct Measurement {

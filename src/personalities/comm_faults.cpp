@@ -43,4 +43,13 @@ void CommFaultDriver::apply_levels(Node& node, TimeUs now) {
   }
 }
 
+// The SDO block-drop fault in force is the same entry of the copied schedule.
+void CommFaultDriver::restore(const CommFaultDriver& snapshot) {
+  seed_ = snapshot.seed_;
+  drop_spec_ = nullptr;
+  if (!snapshot.drop_spec_ || !faults_) return;
+  for (physics::FaultHandle h = 0; h < snapshot.faults_->size(); ++h)
+    if (snapshot.faults_->spec(h) == snapshot.drop_spec_) drop_spec_ = faults_->spec(h);
+}
+
 }  // namespace cansim::personalities

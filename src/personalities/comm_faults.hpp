@@ -33,6 +33,9 @@ class CommFaultDriver {
   // A fault was armed or cancelled at run time (the set may have moved its entries).
   void changed() { drop_spec_ = nullptr; }
   void set_listener(FaultListener listener) { listener_ = std::move(listener); }
+  // Takes the state of a driver of a copy of this schedule (Cia404Application
+  // snapshots; the owner restores the schedule); the listener stays.
+  void restore(const CommFaultDriver& snapshot);
 
  private:
   void apply_levels(Node& node, TimeUs now);

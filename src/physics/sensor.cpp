@@ -391,26 +391,27 @@ struct Sensor::ChannelState {
 
 Sensor::Sensor(const SensorSpec& spec, ProcessModel process, std::uint64_t seed, const FaultSet* faults,
                TimeUs boot_time_us)
-    : spec_(spec), process_(std::move(process)), faults_(faults), seed_(seed), boot_us_(boot_time_us) {
+    : spec_(spec), process_(std::move(process)), faults_(faults), seed_(seed), boot_us_(boot_time_us), ch_(2) {
   if (auto e = validate(spec); !e.empty()) throw std::invalid_argument("sensor: " + e);
   const ChannelSpec* cs[2] = {&spec_.pressure, &spec_.temperature};
   for (int i = 0; i < 2; ++i) {
-    ch_[i] = std::make_unique<ChannelState>();
-    ch_[i]->spec = *cs[i];
-    ch_[i]->which = static_cast<Channel>(i);
-    if (cs[i]->enabled) ch_[i]->configure(derive_seed(seed, 0x5E0 + i));
+    ch_[i].spec = *cs[i];
+    ch_[i].which = static_cast<Channel>(i);
+    if (cs[i]->enabled) ch_[i].configure(derive_seed(seed, 0x5E0 + i));
   }
 }
 
 Sensor::Sensor(Sensor&&) noexcept = default;
 Sensor& Sensor::operator=(Sensor&&) noexcept = default;
+Sensor::Sensor(const Sensor&) = default;
+Sensor& Sensor::operator=(const Sensor&) = default;
 Sensor::~Sensor() = default;
 
 const SensorReading& Sensor::read(TimeUs t) noexcept {
   if (t <= last_read_us_) return reading_;
   last_read_us_ = t;
-  ChannelState& P = *ch_[0];
-  ChannelState& T = *ch_[1];
+  ChannelState& P = ch_[0];
+  ChannelState& T = ch_[1];
   const bool pe = P.spec.enabled, te = T.spec.enabled;
   const std::int64_t np = pe ? P.index_at(t, boot_us_) : -1;
   const std::int64_t nt = te ? T.index_at(t, boot_us_) : -1;
@@ -464,21 +465,21 @@ const SensorReading& Sensor::read(TimeUs t) noexcept {
 void Sensor::reboot(TimeUs t) noexcept {
   boot_us_ = t;
   last_read_us_ = std::numeric_limits<TimeUs>::min();
-  ch_[0]->reboot();
-  ch_[1]->reboot();
+  ch_[0].reboot();
+  ch_[1].reboot();
   reading_ = SensorReading{};
 }
 
 void Sensor::replace(TimeUs t) noexcept {
   reboot(t);
   for (auto& c : ch_) {
-    c->damaged = false;
-    c->counters = {};
+    c.damaged = false;
+    c.counters = {};
   }
 }
 
 void Sensor::set_filter(Channel ch, const FilterSpec& filter) {
-  ChannelState& c = *ch_[static_cast<int>(ch)];
+  ChannelState& c = ch_[static_cast<int>(ch)];
   c.spec.filter = filter;
   if (!c.spec.enabled) return;
   c.configure_filter();
@@ -486,19 +487,19 @@ void Sensor::set_filter(Channel ch, const FilterSpec& filter) {
   c.block_skip = 0;
 }
 
-const FilterSpec& Sensor::filter(Channel ch) const noexcept { return ch_[static_cast<int>(ch)]->spec.filter; }
+const FilterSpec& Sensor::filter(Channel ch) const noexcept { return ch_[static_cast<int>(ch)].spec.filter; }
 
-bool Sensor::damaged() const noexcept { return ch_[0]->damaged || ch_[1]->damaged; }
-bool Sensor::damaged(Channel ch) const noexcept { return ch_[static_cast<int>(ch)]->damaged; }
+bool Sensor::damaged() const noexcept { return ch_[0].damaged || ch_[1].damaged; }
+bool Sensor::damaged(Channel ch) const noexcept { return ch_[static_cast<int>(ch)].damaged; }
 
-OverloadCounters Sensor::counters(Channel ch) const noexcept { return ch_[static_cast<int>(ch)]->counters; }
+OverloadCounters Sensor::counters(Channel ch) const noexcept { return ch_[static_cast<int>(ch)].counters; }
 
 void Sensor::reset_counters() noexcept {
-  for (auto& c : ch_) c->counters = {};
+  for (auto& c : ch_) c.counters = {};
 }
 
 const ErrorSpec& Sensor::effective_errors(Channel ch) const noexcept {
-  return ch_[static_cast<int>(ch)]->spec.errors;
+  return ch_[static_cast<int>(ch)].spec.errors;
 }
 
 }  // namespace cansim::physics

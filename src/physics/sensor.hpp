@@ -33,6 +33,7 @@
 #include <limits>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "physics/fault.hpp"
 #include "physics/process.hpp"
@@ -198,6 +199,11 @@ class Sensor {
          TimeUs boot_time_us = 0);
   Sensor(Sensor&&) noexcept;
   Sensor& operator=(Sensor&&) noexcept;
+  /// A copy carries the whole state (process model, filters, noise draws, damage) and the fault
+  /// set pointer and sample hook as they are; an owner with its own FaultSet re-points it with
+  /// set_faults(). Assigning into a sensor of the same spec does not allocate.
+  Sensor(const Sensor&);
+  Sensor& operator=(const Sensor&);
   ~Sensor();
 
   /// Advance to t (processing missed samples) and return the readings of the latest samples.
@@ -244,7 +250,7 @@ class Sensor {
   TimeUs last_read_us_ = std::numeric_limits<TimeUs>::min();
   SampleHook hook_ = nullptr;
   void* hook_ctx_ = nullptr;
-  std::unique_ptr<ChannelState> ch_[2];
+  std::vector<ChannelState> ch_;  // [Pressure], [Temperature]
   Quantity last_q_{};
   SensorReading reading_;
 };

@@ -30,6 +30,26 @@ TEST(Od, LookupDistinguishesMissingObjectAndSub) {
   ASSERT_NE(p.layout->lookup(0x1016, 2, why), nullptr);
 }
 
+TEST(Od, FindWithinAnObjectWithGapsInItsSubIndices) {
+  auto p = config::parse_profile(R"(
+name: t
+objects:
+  - {index: 0x1400, sub: 0, kind: record, type: UNSIGNED8, access: ro, default: 5}
+  - {index: 0x1400, sub: 1, kind: record, type: UNSIGNED32, access: rw, default: 0x201}
+  - {index: 0x1400, sub: 2, kind: record, type: UNSIGNED8, access: rw, default: 255}
+  - {index: 0x1400, sub: 5, kind: record, type: UNSIGNED16, access: rw, default: 0}
+  - {index: 0x1401, sub: 1, kind: record, type: UNSIGNED32, access: rw, default: 0x301}
+)");
+  const OdLayout& od = *p.layout;
+  const OdObject& rpdo1 = *od.object(0x1400);
+  for (std::uint8_t sub : {0, 1, 2, 5}) EXPECT_EQ(od.find(rpdo1, sub), od.find(0x1400, sub)) << int(sub);
+  EXPECT_EQ(od.find(rpdo1, 3), nullptr);
+  EXPECT_EQ(od.find(rpdo1, 6), nullptr);
+  const OdObject& rpdo2 = *od.object(0x1401);  // no sub 0: entry 0 is sub 1
+  EXPECT_EQ(od.find(rpdo2, 0), nullptr);
+  EXPECT_EQ(od.find(rpdo2, 1), od.find(0x1401, 1));
+}
+
 TEST(Od, DefaultsWithNodeIdAndTypes) {
   auto p = config::parse_profile(kProfile);
   OdValues v(p.layout);
@@ -39,6 +59,32 @@ TEST(Od, DefaultsWithNodeIdAndTypes) {
   EXPECT_EQ(v.get_i(*p.layout->find(0x2001, 0)), -5);
   EXPECT_FLOAT_EQ(v.get_f(*p.layout->find(0x2002, 0)), 1.5f);
   EXPECT_EQ(v.get_string(*p.layout->find(0x2000, 0)), "abc");
+}
+
+// A reset communication reloads 0x1000-0x1FFF only (CiA 301 §7.3.2.2.1);
+// values and string lengths outside the range stay as written.
+TEST(Od, ResetOfAnIndexRangeLeavesTheRestAlone) {
+  auto p = config::parse_profile(kProfile);
+  const OdLayout& od = *p.layout;
+  OdValues v(p.layout);
+  v.reset(5);
+  v.set_u(*od.find(0x1014, 0), 0x99);
+  v.set_u(*od.find(0x1016, 1), 0x00050064);
+  v.set_string(*od.find(0x2000, 0), "written!");
+  v.set_i(*od.find(0x2001, 0), 42);
+  v.set_f(*od.find(0x2002, 0), 2.5);
+  v.reset(7, 0x1000, 0x1FFF);
+  EXPECT_EQ(v.u(0x1014, 0), 0x87u);
+  EXPECT_EQ(v.u(0x1016, 1), 0u);
+  EXPECT_EQ(v.u(0x1016, 0), 2u);
+  EXPECT_EQ(v.get_string(*od.find(0x2000, 0)), "written!");
+  EXPECT_EQ(v.get_i(*od.find(0x2001, 0)), 42);
+  v.reset(7, 0x2000, 0x2001);
+  EXPECT_EQ(v.get_string(*od.find(0x2000, 0)), "abc");
+  EXPECT_EQ(v.get_i(*od.find(0x2001, 0)), -5);
+  EXPECT_FLOAT_EQ(v.get_f(*od.find(0x2002, 0)), 2.5f);
+  v.reset(7, 0x3000, 0x3FFF);  // no entry in the range
+  EXPECT_FLOAT_EQ(v.get_f(*od.find(0x2002, 0)), 2.5f);
 }
 
 TEST(Od, WriteChecksLengthLimitsAndAccess) {

@@ -178,6 +178,13 @@ TEST_F(Store, LssAndParametersShareTheBlob) {
   EXPECT_EQ(n->store().stored_lss().node_id, 0x33);
 }
 
+// The CRC-32 of IEEE 802.3 ("check" value of the CRC catalogue).
+TEST(StoreBlob, Crc32OfTheCatalogueCheckString) {
+  const std::string check = "123456789";
+  EXPECT_EQ(crc32({reinterpret_cast<const std::uint8_t*>(check.data()), check.size()}), 0xCBF43926u);
+  EXPECT_EQ(crc32({}), 0u);
+}
+
 TEST_F(Store, CorruptBlobIsIgnored) {
   SimNode& n = start();
   ASSERT_EQ(wr32(n, 0x2000, 0, 99), SdoAbort::kNone);
