@@ -395,8 +395,9 @@ void run_loop(test::ControlFleet& fleet, io::EventLoop& loop, control::ControlEn
     const TimeUs cpu0 = measuring ? thread_cpu_us() : 0;
     fleet.run_due(mono - epoch);
     const TimeUs cpu1 = measuring ? thread_cpu_us() : 0;
-    // Control calls act here, between two passes (as in Daemon::run), and
-    // what the pass produced leaves after them.
+    // What the nodes sent leaves before the control calls are served, and
+    // the calls act here, between two passes (as in Daemon::run).
+    if (endpoints.connections()) flush(s, io::monotonic_now(), mono);
     const TimeUs control_at = endpoints.process();
     const TimeUs cpu2 = measuring ? thread_cpu_us() : 0;
     // A node a call made due runs in this pass (as in Daemon::run).
