@@ -15,9 +15,9 @@
 // start of each B block and disconnect before its end (connection churn is
 // counted in B, as with cansimctl's one connection per command).
 //
-// The daemon sends what a pass produced after the control calls of that pass
-// (sendmmsg at flush, Daemon::run), so frames are timestamped there: once per
-// pass, after process(). Heartbeat period error: |interval − 100 ms| between
+// The daemon sends what the nodes produced before it serves the control calls
+// of a pass, and what the calls caused after them (sendmmsg at flush,
+// Daemon::run), so frames are timestamped at those two flushes. Heartbeat period error: |interval − 100 ms| between
 // consecutive heartbeats of a node. set->PDO: the flush time of node 0's
 // first TPDO1 within 0.1 bar of the new value, minus the time Step returned
 // in the probe thread (negative when the event PDO left before the client
