@@ -116,16 +116,13 @@ void NmtSlave::set_state(NmtState s, TimeUs now) {
 }
 
 void NmtSlave::communication_error(TimeUs now) {
-  react(node_.od().find(0x1029, 1) ? error_behaviour(1) : node_.options().comm_error_reaction_without_1029, now);
+  const OdEntry* e = node_.od().find(0x1029, 1);
+  react(e ? std::int64_t(node_.values().get_u(*e)) : node_.options().comm_error_reaction_without_1029, now);
 }
 
 void NmtSlave::error_reaction(std::uint8_t error_class, TimeUs now) {
   if (error_class == 1) return communication_error(now);
-  if (node_.od().find(0x1029, error_class)) react(error_behaviour(error_class), now);
-}
-
-std::int64_t NmtSlave::error_behaviour(std::uint8_t error_class) const {
-  return std::int64_t(node_.values().get_u(*node_.od().find(0x1029, error_class)));
+  if (const OdEntry* e = node_.od().find(0x1029, error_class)) react(std::int64_t(node_.values().get_u(*e)), now);
 }
 
 void NmtSlave::react(std::int64_t reaction, TimeUs now) {

@@ -99,8 +99,7 @@ class NmtSlave : private NodeService {
   SdoAbort write(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
 
  private:
-  // 0x1029:<error_class>: 0 pre-operational (from operational), 1 no change, 2 stopped.
-  std::int64_t error_behaviour(std::uint8_t error_class) const;
+  // A 0x1029 value: 0 pre-operational (from operational), 1 no change, 2 stopped.
   void react(std::int64_t reaction, TimeUs now);
   void restart(ResetKind kind, TimeUs now, bool reload = true);
   void boot_up(TimeUs now);
