@@ -58,7 +58,6 @@ config::Profile load_profile() {
   const char* dir = std::getenv("CANSIM_SOURCE_DIR");
   std::string path = std::string(dir ? dir : CANSIM_SOURCE_DIR) + "/profiles/generic-404.yaml";
   config::Profile p = config::load_profile(path);
-  personalities::prepare_profile(p);
   return p;
 }
 

@@ -3,7 +3,7 @@
 //   - as the file config/fuzz-fleet.yaml of the source tree (profiles are
 //     resolved as cansimd resolves them: config/profiles, profiles/ of the
 //     source tree, ./profiles), then checked as `cansimd --check` does
-//     (daemon::check_fleet: personalities::prepare_profile on every profile
+//     (config::load_fleet checks every profile
 //     and variant, daemon::make_node_application for every node);
 //   - as a control API AddNodes fragment (one entry, a list, or a document)
 //     added to the demo fleet (config/cansimd.yaml): parse_fleet_fragment,

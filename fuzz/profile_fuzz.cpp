@@ -1,6 +1,6 @@
 // libFuzzer target: the YAML profile loader and everything a profile feeds
 // when cansimd starts. The input is a profile's text; it goes through
-// config::parse_profile, personalities::prepare_profile (vendor, physics,
+// config::parse_profile (vendor, physics,
 // sensor, faults sections), daemon::make_node_application (the node's
 // personality and physics), and a node built from it boots and runs 200 ms
 // of simulated time. No crash, no sanitizer report, no hang, no deadline that
@@ -27,7 +27,6 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const std::string text(reinterpret_cast<const char*>(data), size);
   try {
     auto profile = std::make_shared<config::Profile>(config::parse_profile(text, "fuzz-profile.yaml"));
-    personalities::prepare_profile(*profile);
     config::NodeConfig n;
     n.key = "vcan0/fuzz/0";
     n.name = "fuzz";

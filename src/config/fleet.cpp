@@ -96,19 +96,24 @@ void parse_interfaces(const Where& w, const YAML::Node& map, FleetConfig& out) {
   }
 }
 
-// Applies per-entry overrides to a private copy of the profile.
-std::shared_ptr<Profile> make_variant(const Where& w, const YAML::Node& entry, const Profile& base) {
+// Applies per-entry overrides to a private copy of the profile: its own
+// layout and options, the personality part parsed again from the profile's
+// document with the entry's `vendor:` keys merged over the profile's.
+std::shared_ptr<Profile> make_variant(const Where& w, const YAML::Node& entry, const Profile& base,
+                                      const std::string& base_text) {
   auto p = std::make_shared<Profile>(base);
   p->layout = std::make_shared<OdLayout>(*base.layout);
   p->options = std::make_shared<NodeOptions>(*base.options);
   if (entry["options"]) parse_options(w.child("options"), entry["options"], *p->options);
+  const YAML::Node root = YAML::Load(base_text);
+  YAML::Node vendor = root["vendor"] ? YAML::Clone(root["vendor"]) : YAML::Node(YAML::NodeType::Map);
   if (entry["vendor"]) {
     const YAML::Node& v = entry["vendor"];
     if (!v.IsMap()) fail(w.child("vendor"), v, "expected a mapping of vendor parameters");
-    YAML::Node merged = base.personality_params ? YAML::Clone(base.personality_params) : YAML::Node(YAML::NodeType::Map);
-    for (const auto& kv : v) merged[kv.first.Scalar()] = YAML::Clone(kv.second);
-    p->personality_params = merged;
+    if (!vendor.IsMap()) vendor = YAML::Node(YAML::NodeType::Map);
+    for (const auto& kv : v) vendor[kv.first.Scalar()] = YAML::Clone(kv.second);
   }
+  parse_personality(*p, root, vendor);
   return p;
 }
 
@@ -174,7 +179,7 @@ void parse_node_entry(const Where& w, const YAML::Node& entry, ProfileCache& cac
       fail(w.child("record"), entry["record"], "expected a CSV file name, e.g. recordings/dps-{id}.csv");
   }
   if (entry["options"] || entry["vendor"]) {
-    profile = make_variant(w, entry, *profile);
+    profile = make_variant(w, entry, *profile, cache.text(path));
     cache.add_variant(profile);
   }
   const std::string fingerprint_base = cache.text(path) + "\n---\n" + YAML::Dump(entry);

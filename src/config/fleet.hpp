@@ -40,8 +40,7 @@ struct FleetConfig {
   std::uint64_t seed = 1;
   std::vector<InterfaceConfig> interfaces;
   std::vector<NodeConfig> nodes;
-  // Distinct profiles (base and variants) in first-use order, for
-  // personalities::prepare_profile().
+  // Distinct profiles (base and variants) in first-use order.
   std::vector<std::shared_ptr<Profile>> profiles;
 
   const InterfaceConfig* interface(const std::string& name) const;

@@ -536,12 +536,12 @@ std::vector<FaultSpec> parse_faults(const Where& w, const YAML::Node& n) {
   return out;
 }
 
-PhysicsConfig parse_physics_config(const Profile& profile) {
-  Where root{profile.file, ""};
+PhysicsConfig parse_physics_config(const std::string& file, const YAML::Node& doc) {
+  const Where root{file, ""};
   PhysicsConfig c;
-  c.process = parse_process(root.child("physics"), profile.physics);
-  c.sensor = parse_sensor(root.child("sensor"), profile.sensor, default_sensor());
-  c.faults = parse_faults(root.child("faults"), profile.faults);
+  c.process = parse_process(root.child("physics"), doc["physics"]);
+  c.sensor = parse_sensor(root.child("sensor"), doc["sensor"], default_sensor());
+  c.faults = parse_faults(root.child("faults"), doc["faults"]);
   return c;
 }
 

@@ -29,11 +29,7 @@ enum class Dim : std::uint8_t {
 // Parses one quantity into SI.
 double get_quantity(const Where& w, const YAML::Node& n, Dim dim);
 
-struct PhysicsConfig {
-  physics::ProcessSpec process;
-  physics::SensorSpec sensor;
-  std::vector<physics::FaultSpec> faults;
-};
+using model::PhysicsConfig;
 
 // The defaults used for sections a profile leaves out: a 0..10 bar /
 // -40..125 degC sensor; pressure drifting around 5 bar, temperature
@@ -51,7 +47,7 @@ std::vector<physics::FaultSpec> parse_faults(const Where& w, const YAML::Node& f
 // One entry of `faults:` (a mapping with `kind` and its keys).
 physics::FaultSpec parse_fault(const Where& w, const YAML::Node& fault);
 
-// All three sections of a profile (defaults for the missing ones).
-PhysicsConfig parse_physics_config(const Profile& profile);
+// All three sections of a profile document (defaults for the missing ones).
+PhysicsConfig parse_physics_config(const std::string& file, const YAML::Node& root);
 
 }  // namespace cansim::config

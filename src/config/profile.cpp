@@ -1,6 +1,12 @@
 #include "config/profile.hpp"
 
 #include <cmath>
+#include <cstdio>
+
+#include "config/cia404_yaml.hpp"
+#include "config/physics_config.hpp"
+#include "config/vendor_settings.hpp"
+#include "personalities/catalog.hpp"
 
 namespace cansim::config {
 
@@ -236,7 +242,6 @@ Profile parse_profile(const YAML::Node& root, const std::string& file) {
               "physics", "sensor", "faults"});
   Profile p;
   p.file = file;
-  p.root = root;
   if (root["name"]) p.name = get_string(w.child("name"), root["name"]);
   if (root["description"]) p.description = get_string(w.child("description"), root["description"]);
   if (root["personality"]) p.personality = get_string(w.child("personality"), root["personality"]);
@@ -256,12 +261,47 @@ Profile parse_profile(const YAML::Node& root, const std::string& file) {
   if (!root["objects"]) fail(w.child("objects"), root, "missing the object dictionary ('objects:' list)");
   parse_objects(w.child("objects"), root["objects"], *p.layout);
   p.layout->finalize();
-  // Assigning a missing node throws in yaml-cpp, hence the checks.
-  if (root["vendor"]) p.personality_params = root["vendor"];
-  if (root["physics"]) p.physics = root["physics"];
-  if (root["sensor"]) p.sensor = root["sensor"];
-  if (root["faults"]) p.faults = root["faults"];
+  parse_personality(p, root, root["vendor"]);
   return p;
+}
+
+namespace {
+
+// A missing-object error points at the `objects:` list.
+[[noreturn]] void fail_objects(const Profile& p, const YAML::Node& root, const std::string& expected) {
+  fail(Where{p.file, "objects"}, root["objects"] ? root["objects"] : root, expected);
+}
+
+void check_requirements(const Profile& p, const YAML::Node& root, const personalities::Requirements& needs) {
+  for (const personalities::RequiredObject& o : needs.objects)
+    for (unsigned sub = o.first_sub; sub <= o.last_sub; ++sub) {
+      const OdEntry* e = p.layout->find(o.index, std::uint8_t(sub));
+      if (e && !is_variable_size(e->type)) continue;
+      char id[16];
+      std::snprintf(id, sizeof id, "0x%04X:%02X", o.index, sub);
+      fail_objects(p, root, std::string("a numeric object ") + id + " (personality " + p.personality + " needs it for " +
+                                o.purpose + ")" + (e ? ", not a string or domain" : ""));
+    }
+  if (p.cia404->channels.size() < needs.channels)
+    fail_objects(p, root, "at least " + std::to_string(needs.channels) +
+                              " CiA 404 channel(s) (0x6130:01.. with their vendor.cia404 channels; personality " +
+                              p.personality + " needs them for " + needs.channels_purpose + ")");
+}
+
+}  // namespace
+
+void parse_personality(Profile& p, const YAML::Node& root, const YAML::Node& vendor) {
+  const personalities::PersonalityInfo* info = personalities::find_personality(p.personality);
+  if (!info)
+    fail(Where{p.file, "personality"}, root["personality"],
+         "unknown personality '" + p.personality + "' (expected: " + personalities::personality_names() + ")");
+  const VendorParams v(p.file, vendor);
+  p.cia404 = parse_cia404(v.where("cia404"), v.node("cia404"), *p.layout);
+  p.identity = parse_identity(v);
+  p.physics = parse_physics_config(p.file, root);
+  check_requirements(p, root, info->requirements());
+  p.device = info->default_settings();
+  parse_device_settings(v, p);
 }
 
 Profile parse_profile(const std::string& text, const std::string& file) {

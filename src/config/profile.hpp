@@ -1,6 +1,7 @@
-// A node profile (profiles/*.yaml): identity, bit rate, options (quirks), the
-// object dictionary as data, and the raw sections that the personality and
-// physics layers read themselves. See README "Profile reference".
+// The YAML profile loader (profiles/*.yaml): one file -> one typed, checked
+// model::Profile (identity, bit rate, options, objects, the CiA 404 chain,
+// the personality's settings, physics). Nothing above this layer sees YAML.
+// See README "Profiles".
 #pragma once
 
 #include <yaml-cpp/yaml.h>
@@ -11,31 +12,25 @@
 #include "config/yaml_util.hpp"
 #include "core/node_options.hpp"
 #include "core/od.hpp"
+#include "model/profile.hpp"
 
 namespace cansim::config {
 
-struct Profile {
-  std::string file;                        // where it was loaded from
-  std::string name;
-  std::string description;
-  std::string personality = "generic";     // behaviour module
-  std::uint8_t node_id = 1;                // default node-ID (0xFF = LSS-unconfigured)
-  std::uint32_t bit_rate_kbit = 250;       // default bit rate
-  std::shared_ptr<OdLayout> layout;        // finalized; hooks may still be set by personalities
-  std::shared_ptr<NodeOptions> options;
-  YAML::Node personality_params;           // `vendor:` section, read by the personality
-  YAML::Node physics;                      // `physics:` section, read by the physics layer
-  YAML::Node sensor;                       // `sensor:` section
-  YAML::Node faults;                       // `faults:` section
-  YAML::Node root;                         // the whole document
-  std::shared_ptr<const void> prepared;    // set by personalities::prepare_profile
-};
+using Profile = model::Profile;
 
 // Loads a profile file. Throws ConfigError naming file, line and key.
 Profile load_profile(const std::string& path);
 // Parses a profile from text (tests); `file` is used in error messages.
 Profile parse_profile(const std::string& text, const std::string& file = "<string>");
 Profile parse_profile(const YAML::Node& root, const std::string& file);
+
+// The personality part of a profile: checks the personality's name and
+// what it needs (objects, channels), and parses `vendor` (the profile's
+// `vendor:` section, or a fleet entry's merge of it), `physics:`, `sensor:`
+// and `faults:` of `root` into the typed settings; binds the CiA 404 chain to
+// profile.layout. parse_profile() calls it; a fleet entry's variant (own
+// layout and options) calls it again.
+void parse_personality(Profile& profile, const YAML::Node& root, const YAML::Node& vendor);
 
 // Parses an `objects:` list into a layout (not finalized).
 void parse_objects(const Where& w, const YAML::Node& list, OdLayout& out);

@@ -48,10 +48,6 @@ config::ProfileSearch profile_search(const std::string& config_file) {
   return config::default_search(config_file, CANSIM_PROFILE_DIR);
 }
 
-void prepare_fleet(config::FleetConfig& fleet) {
-  for (auto& p : fleet.profiles) personalities::prepare_profile(*p);
-}
-
 void SerialOverlay::apply(Node& node) {
   if (const OdEntry* e = node.od().find(0x1018, 4)) node.values().set_u(*e, serial_);
 }
@@ -137,7 +133,6 @@ std::string describe(const BitRateMismatch& m) {
 }
 
 std::string check_fleet(config::FleetConfig& fleet, std::vector<std::string>* warnings) {
-  prepare_fleet(fleet);
   for (config::NodeConfig n : fleet.nodes) {
     n.record_file.clear();  // --check must not truncate recordings
     make_node_application(n, fleet.seed);
@@ -372,7 +367,6 @@ void Daemon::remove_node(NodeEntry& e) {
 }
 
 void Daemon::apply(config::FleetConfig cfg, TimeUs now) {
-  prepare_fleet(cfg);
   const std::uint64_t seed = settings_.seed.value_or(cfg.seed);
   auto bus_rate = [&](const std::string& iface) { return rate_index(resolve_bit_rate(*cfg.interface(iface))); };
   // Phase 1 (may throw): decide what changes and build the new applications,

@@ -28,9 +28,6 @@ namespace cansim::daemon {
 // The profile search the daemon uses (installed profiles folder included).
 config::ProfileSearch profile_search(const std::string& config_file);
 
-// Runs personalities::prepare_profile on every profile of the fleet.
-void prepare_fleet(config::FleetConfig& fleet);
-
 // The node's Application: the personality's, wrapped so the configured serial
 // number (0x1018:04) survives every reset. May return nullptr.
 std::unique_ptr<Application> make_node_application(const config::NodeConfig& node, std::uint64_t seed);

@@ -23,72 +23,30 @@
 #include <string_view>
 #include <vector>
 
-#include "config/profile.hpp"
 #include "core/application.hpp"
 #include "core/node.hpp"
 #include "core/node_options.hpp"
 #include "personalities/comm_faults.hpp"
-#include "personalities/units.hpp"
+#include "model/cia404_profile.hpp"
+#include "model/device_settings.hpp"
+#include "model/units.hpp"
 #include "physics/recorder.hpp"
 #include "physics/sensor.hpp"
 
 namespace cansim::personalities {
 
-// What an OD entry is to the chain.
-enum class Role : std::uint8_t {
-  kPv,              // 0x6130 / 0x7130 / 0x9130 (live)
-  kFieldValue,      // 0x6100 / 0x7100 / 0x9100 raw ADC counts (live)
-  kStatus,          // 0x6150 (live)
-  kUnit,            // 0x6131
-  kDigits,          // 0x6132
-  kOffset,          // 0x6124 (+ twins)
-  kAutozero,        // 0x6125 / 0x7125
-  kDelta,           // 0x6133
-  kLowerLimit,      // 0x6134
-  kUpperLimit,      // 0x6135
-  kHysteresis,      // 0x6136
-  kSpanStart,       // 0x6148
-  kSpanEnd,         // 0x6149
-  kFilterType,      // 0x61A0
-  kFilterConstant,  // 0x61A1
-  kExtra,           // a profile-listed object that follows unit changes (e.g. DPS 0x2006)
-  kNone,
-};
-constexpr std::size_t kRoleCount = std::size_t(Role::kExtra);
-
-// One logical value of a channel and its OD views; views[0] is the primary
-// (the REAL32 view when there is one).
-struct Param {
-  const OdEntry* views[4] = {};
-  std::uint8_t count = 0;
-  bool difference = false;  // converted without zero shift on a unit change
-
-  bool present() const { return count != 0; }
-};
-
-struct UnitChoice {
-  std::uint32_t code = 0;
-  UnitScale scale;
-  int max_digits = -1;  // largest 0x6132 allowed with this unit (-1: OD limits only)
-  // User-scaled unit: one unit = (value of this REAL32 object) x `scale`,
-  // latched when the unit is selected (e.g. Gems 0x2032 "non-SI" pressure).
-  const OdEntry* scale_object = nullptr;
-};
-
-struct ChannelConfig {
-  std::uint8_t sub = 1;
-  QuantityKind kind = QuantityKind::kPressure;
-  physics::Channel source = physics::Channel::Pressure;
-  Param params[kRoleCount];
-  std::vector<Param> extras;       // profile-listed unit-dependent objects
-  std::uint32_t dependent_roles = 0;  // bit per Role converted on a unit change
-  std::vector<UnitChoice> units;   // accepted 0x6131 values
-  UnitChoice fixed_unit;           // unit when 0x6131 is absent
-  // Holds the autozero correction in fixed_unit (persisted like any entry);
-  // null: the correction lives in RAM until the next reset node.
-  const OdEntry* zero_object = nullptr;
-  const Param& param(Role r) const { return params[std::size_t(r)]; }
-};
+// The chain's profile data (src/model/cia404_profile.hpp).
+using model::ChannelConfig;
+using model::Cia404Profile;
+using model::Cia404Settings;
+using model::DigitsOnUnitChange;
+using model::IdentitySettings;
+using model::kRoleCount;
+using model::Param;
+using model::QuantityKind;
+using model::Role;
+using model::UnitChoice;
+using model::UnitScale;
 
 // What one event check of a channel found (Cia404Application::on_channel_events).
 enum : unsigned {
@@ -99,61 +57,6 @@ enum : unsigned {
   kEventLowerDown = 0x10,  // PV fell below the lower limit
   kEventLowerUp = 0x20,    // PV rose back to lower limit + hysteresis (re-armed)
   kEventsRaising = kEventChange | kEventDelta | kEventUpperUp | kEventLowerDown,
-};
-
-enum class DigitsOnUnitChange : std::uint8_t { kKeep, kReject, kClamp, kAdjust };
-
-// Chain settings (profile `vendor: cia404:`), default = CiA 404 behaviour.
-struct Cia404Settings {
-  TimeUs event_check_period_us = 0;  // 0: the channel's sample period
-  TimeUs config_scan_period_us = 100000;
-  ByteSet event_tpdo_types;          // TPDO types whose mapped PVs get delta/limit events
-  ByteSet change_event_tpdo_types;   // TPDO types whose mapped PVs get an event on every change
-  bool events_all_channels = false;  // check delta / limits on every channel, mapped or not
-  std::uint8_t filter_type_without_object = 0;  // 0x61A0 value assumed when the profile has none
-  bool limit_level = false;          // false: one event per crossing (edge)
-  bool span_compares_input = false;  // status compares the value before the offset
-  bool unit_informational = false;   // 0x6131 accepts any code and converts nothing
-  DigitsOnUnitChange digits_on_unit_change = DigitsOnUnitChange::kKeep;
-  std::uint32_t autozero_signature = 0x6F72657A;  // "zero"
-  bool autozero_to_correction = false;  // autozero: hidden correction instead of the offset object
-  SdoAbort bad_unit_abort = SdoAbort::kInvalidValue;
-  SdoAbort bad_autozero_abort = SdoAbort::kInvalidValue;
-  SdoAbort digits_abort = SdoAbort::kValueTooHigh;
-  SdoAbort unit_digits_abort = SdoAbort::kParamIncompatible;
-  SdoAbort negative_abort = SdoAbort::kValueTooLow;  // negative delta / hysteresis
-};
-
-// The chain's view of a profile: built once, shared by all its nodes.
-class Cia404Profile {
- public:
-  // Reads the `cia404:` map of the vendor section (may be undefined) and the
-  // layout; sets kHookRead / kHookWrite on the entries the chain serves.
-  // Throws config::ConfigError naming file:line:key.
-  static std::shared_ptr<const Cia404Profile> build(const config::Where& w, const YAML::Node& section,
-                                                    OdLayout& layout);
-
-  struct Binding {
-    std::uint8_t channel = 0xFF;
-    Role role = Role::kNone;
-    std::uint16_t extra = 0;  // index into extras for Role::kExtra
-  };
-  const Binding& binding(const OdEntry& e) const { return by_slot_[e.slot]; }
-
-  struct Tpdo {
-    const OdEntry* cob_id = nullptr;
-    const OdEntry* type = nullptr;
-    const OdEntry* count = nullptr;
-    const OdEntry* map[8] = {};
-  };
-
-  std::vector<ChannelConfig> channels;
-  std::vector<Tpdo> tpdos;
-  Cia404Settings settings;
-
- private:
-  std::vector<Binding> by_slot_;
-  friend struct ProfileBuilder;
 };
 
 // Where a channel's values come from. The default wraps a physics::Sensor.
@@ -224,12 +127,6 @@ class SensorSource : public MeasurementSource {
   std::unique_ptr<physics::CsvRecorder> recorder_;
   std::string recording_;
   TimeUs recorded_at_ = -1;
-};
-
-// Node identity settings of the vendor section.
-struct IdentitySettings {
-  bool serial_per_node = false;       // 0x1018:04 = serial_base + node index
-  std::uint32_t serial_base = 0;
 };
 
 // The per-node Application of a CiA 404 sensor. Device personalities derive

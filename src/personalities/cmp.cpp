@@ -5,18 +5,15 @@
 #include <cstring>
 #include <string>
 
-#include "personalities/vendor_params.hpp"
 
 namespace cansim::personalities::cmp {
 
 namespace {
 
-using config::fail;
-using config::Where;
 
 constexpr unsigned kPdoCount = 4;
-constexpr unsigned kMaxMode = 37;
-constexpr unsigned kMaxEntries = 4;  // 0x1A0x subs 1..4
+constexpr unsigned kMaxMode = model::CmpSettings::kMaxMode;
+constexpr unsigned kMaxEntries = model::CmpSettings::kMaxEntries;  // 0x1A0x subs 1..4
 
 // Vendor objects (0x2001 is printed in the manual, the rest are placeholders).
 constexpr std::uint16_t kBaudRate = 0x2001;
@@ -42,19 +39,8 @@ constexpr std::size_t kSubCodeOffset = 3;                // NodeSubErrorCode in 
 constexpr std::uint16_t kBitRatesKbit[10] = {1000, 800, 500, 250, 125, 100, 50, 20, 10, 0};  // 9 = automatic
 constexpr TimeUs kFaultPoll = 10000;
 
-struct MappingMode {
-  bool defined = false;
-  std::uint8_t count = 0;
-  std::uint32_t entries[kMaxEntries] = {};
-  std::uint8_t event_mask = 0;
-};
-
-struct Settings {
-  std::array<MappingMode, kMaxMode + 1> modes;
-  TimeUs start_indication_delay = 250000;
-  std::uint8_t start_indication_node_id = 0;
-  bool timer_repeats_beyond_limits = true;  // the core timer does not send type 254
-};
+using Settings = model::CmpSettings;
+using MappingMode = Settings::MappingMode;
 
 int bit_rate_index(std::uint64_t kbit) {
   for (int i = 0; i < 10; ++i)
@@ -68,59 +54,11 @@ std::uint8_t lower_bit(QuantityKind k) { return k == QuantityKind::kPressure ? 0
 std::uint8_t upper_bit(QuantityKind k) { return k == QuantityKind::kPressure ? 0x02 : 0x08; }
 std::uint8_t delta_bit(QuantityKind k) { return k == QuantityKind::kPressure ? 0x10 : 0x20; }
 
-void check_entry(const Where& w, const YAML::Node& n, const OdLayout& layout, std::uint32_t raw, unsigned& bits) {
-  const OdEntry* e = layout.find(std::uint16_t(raw >> 16), std::uint8_t(raw >> 8));
-  const unsigned len = raw & 0xFF;
-  if (!e || !e->pdo_mappable) fail(w, n, "expected a PDO-mappable object of this profile");
-  const bool fits = is_variable_size(e->type) ? len % 8 == 0 && len && len / 8 <= e->capacity : len == 8 * type_size(e->type);
-  if (!fits) fail(w, n, "the length in bits does not fit the object's type");
-  bits += len;
-}
-
-MappingMode parse_mode(const Where& w, const YAML::Node& m, const OdLayout& layout) {
-  config::check_keys(w, m, {"entries", "event_mask"});
-  MappingMode mode;
-  mode.defined = true;
-  const YAML::Node& list = m["entries"];
-  if (!list || !list.IsSequence()) fail(w.child("entries"), m, "expected a list of mapping entries");
-  if (list.size() > kMaxEntries) fail(w.child("entries"), list, "at most 4 entries (0x1A0x subs 1..4)");
-  unsigned bits = 0;
-  for (std::size_t i = 0; i < list.size(); ++i) {
-    const auto raw = std::uint32_t(config::get_int(w.child("entries").item(i), list[i], 1, 0xFFFFFFFF));
-    check_entry(w.child("entries").item(i), list[i], layout, raw, bits);
-    mode.entries[mode.count++] = raw;
-  }
-  if (bits > 64) fail(w.child("entries"), list, "more than 8 bytes");
-  if (m["event_mask"]) mode.event_mask = std::uint8_t(config::get_int(w.child("event_mask"), m["event_mask"], 0, 0x3F));
-  return mode;
-}
-
-Settings parse_settings(const config::Profile& profile) {
-  Settings s;
-  const VendorParams v(profile);
-  if (v.has("mapping_modes")) {
-    const YAML::Node modes = v.node("mapping_modes");
-    const Where wm = v.where("mapping_modes");
-    if (!modes.IsMap()) fail(wm, modes, "expected a mapping of mode numbers to {entries, event_mask}");
-    for (const auto& kv : modes) {
-      const auto mode = unsigned(config::get_int(wm, kv.first, 1, kMaxMode));
-      s.modes[mode] = parse_mode(wm.child(kv.first.Scalar()), kv.second, *profile.layout);
-    }
-  }
-  v.time_us("start_indication_delay", s.start_indication_delay, 0.0, VendorParams::kForever, "a time >= 0");
-  v.integer("start_indication_node_id", s.start_indication_node_id, 0, 127);
-  ByteSet timer_types;
-  s.timer_repeats_beyond_limits = ByteSet::parse(profile.options->tpdo_event_timer_types, timer_types) && !timer_types.has(254);
-  v.reject_unknown_keys();
-  return s;
-}
-
 class CmpApplication : public Cia404Application {
  public:
-  CmpApplication(std::shared_ptr<const Settings> settings, const PreparedProfile& prepared,
-                 std::unique_ptr<SensorSource> source, std::uint32_t node_index)
-      : Cia404Application(prepared.cia404, std::move(source), prepared.identity, node_index),
-        settings_(std::move(settings)) {}
+  CmpApplication(const model::Profile& profile, const Settings& settings, std::unique_ptr<SensorSource> source,
+                 std::uint32_t node_index)
+      : Cia404Application(profile.cia404, std::move(source), profile.identity, node_index), settings_(settings) {}
 
   void on_reset(Node& node, ResetKind kind, TimeUs now) override {
     Cia404Application::on_reset(node, kind, now);
@@ -143,7 +81,7 @@ class CmpApplication : public Cia404Application {
   void on_nmt_state(Node& node, NmtState state, TimeUs now) override {
     Cia404Application::on_nmt_state(node, state, now);
     const bool indication = (node.values().u(0x1F80, 0) & 0x02) != 0;
-    indication_due_ = state == NmtState::kOperational && indication ? now + settings_->start_indication_delay : kNever;
+    indication_due_ = state == NmtState::kOperational && indication ? now + settings_.start_indication_delay : kNever;
     node.wake_app(now);
   }
 
@@ -164,7 +102,7 @@ class CmpApplication : public Cia404Application {
   SdoAbort check_write(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now) override {
     if (e.index == kMappingMode) {
       const std::uint64_t mode = decode_u(e.type, data.data());
-      return mode <= kMaxMode && settings_->modes[mode].defined ? SdoAbort::kNone : SdoAbort::kInvalidValue;
+      return mode <= kMaxMode && settings_.modes[mode].defined ? SdoAbort::kNone : SdoAbort::kInvalidValue;
     }
     if (e.index == kBaudRate) return bit_rate_index(decode_u(e.type, data.data())) < 0 ? SdoAbort::kInvalidValue : SdoAbort::kNone;
     return Cia404Application::check_write(node, e, data, now);
@@ -181,7 +119,7 @@ class CmpApplication : public Cia404Application {
     check_faults(node, now);
     if (indication_due_ <= now) {
       indication_due_ = kNever;
-      node.send(CanFrame::make(0x000, {0x01, settings_->start_indication_node_id}));
+      node.send(CanFrame::make(0x000, {0x01, settings_.start_indication_node_id}));
     }
     next = std::min({next, repeat_beyond_limits(node, now), indication_due_, now + kFaultPoll});
     return next;
@@ -227,7 +165,7 @@ class CmpApplication : public Cia404Application {
   // EventMask to the table's standard value (manual, "Event Mask": Important).
   void apply_mapping_mode(Node& node, unsigned n, bool reset_mask, TimeUs now) {
     const auto mode = unsigned(node.values().u(kMappingMode, std::uint8_t(n)));
-    const MappingMode& m = settings_->modes[std::min(mode, kMaxMode)];
+    const MappingMode& m = settings_.modes[std::min(mode, kMaxMode)];
     const auto map = std::uint16_t(0x1A00 + n - 1);
     node.values().set_u(map, 0, m.count);
     for (unsigned i = 0; i < kMaxEntries; ++i) node.values().set_u(map, std::uint8_t(i + 1), i < m.count ? m.entries[i] : 0);
@@ -251,7 +189,7 @@ class CmpApplication : public Cia404Application {
   // actual measured value passes above the upper threshold or below the lower
   // threshold" (manual, Transmission Type; table footnote *).
   TimeUs repeat_beyond_limits(Node& node, TimeUs now) {
-    if (!settings_->timer_repeats_beyond_limits || !node.allowed(Service::kPdo)) {
+    if (!settings_.timer_repeats_beyond_limits || !node.allowed(Service::kPdo)) {
       repeat_due_.fill(kNever);
       return kNever;
     }
@@ -318,7 +256,7 @@ class CmpApplication : public Cia404Application {
     }
   }
 
-  std::shared_ptr<const Settings> settings_;
+  Settings settings_;
   std::array<std::uint8_t, 2> limit_state_{};
   std::array<TimeUs, kPdoCount> repeat_due_{};
   TimeUs indication_due_ = kNever;
@@ -328,13 +266,9 @@ class CmpApplication : public Cia404Application {
 
 }  // namespace
 
-void prepare(config::Profile& profile, PreparedProfile& prepared) {
-  prepared.device = std::make_shared<const Settings>(parse_settings(profile));
-}
-
-std::unique_ptr<Application> make(const config::Profile&, const PreparedProfile& prepared, const NodeContext& ctx) {
-  return std::make_unique<CmpApplication>(std::static_pointer_cast<const Settings>(prepared.device), prepared,
-                                          make_sensor_source(prepared, ctx), ctx.index);
+std::unique_ptr<Application> make(const model::Profile& profile, const model::CmpSettings& settings,
+                                  const NodeContext& ctx) {
+  return std::make_unique<CmpApplication>(profile, settings, make_sensor_source(profile, ctx), ctx.index);
 }
 
 }  // namespace cansim::personalities::cmp

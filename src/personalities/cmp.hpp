@@ -16,8 +16,7 @@
 
 namespace cansim::personalities::cmp {
 
-void prepare(config::Profile& profile, PreparedProfile& prepared);
-std::unique_ptr<Application> make(const config::Profile& profile, const PreparedProfile& prepared,
+std::unique_ptr<Application> make(const model::Profile& profile, const model::CmpSettings& settings,
                                   const NodeContext& ctx);
 
 }  // namespace cansim::personalities::cmp

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 
-#include "personalities/vendor_params.hpp"
 
 namespace cansim::personalities::dps {
 
@@ -15,21 +14,11 @@ constexpr std::uint16_t kEmcySpanOverflow = 0x3201;
 constexpr std::uint16_t kEmcyEeprom = 0x5000;
 constexpr std::uint8_t kManufacturerBit = 0x80;
 
-Settings parse_settings(const config::Profile& profile) {
-  Settings s;
-  const VendorParams v(profile);
-  v.flags({{"span_overflow_emcy", &s.span_overflow_emcy}, {"autozero_shifts_span", &s.autozero_shifts_span}});
-  v.time_us("span_check_period", s.span_check_period_us, VendorParams::kPositive, VendorParams::kForever, "a time > 0");
-  v.reject_unknown_keys();
-  return s;
-}
-
 }  // namespace
 
-DpsApplication::DpsApplication(const PreparedProfile& prepared, std::unique_ptr<MeasurementSource> source,
-                               std::uint32_t node_index)
-    : Cia404Application(prepared.cia404, std::move(source), prepared.identity, node_index),
-      settings_(prepared.device ? device_settings<Settings>(prepared) : Settings{}) {}
+DpsApplication::DpsApplication(std::shared_ptr<const Cia404Profile> profile, std::unique_ptr<MeasurementSource> source,
+                               const Settings& settings, IdentitySettings identity, std::uint32_t node_index)
+    : Cia404Application(std::move(profile), std::move(source), identity, node_index), settings_(settings) {}
 
 void DpsApplication::on_reset(Node& node, ResetKind kind, TimeUs now) {
   Cia404Application::on_reset(node, kind, now);
@@ -90,13 +79,13 @@ void DpsApplication::check_span(Node& node, TimeUs now) {
   span_ = s;
 }
 
-void prepare(config::Profile& profile, PreparedProfile& prepared) {
-  require_channels(profile, prepared, 1, "its span and sensor supervision (§5.4)");
-  prepared.device = std::make_shared<const Settings>(parse_settings(profile));
+Requirements requirements() {
+  return {{}, 1, "its span and sensor supervision (§5.4)"};
 }
 
-std::unique_ptr<Application> make(const config::Profile&, const PreparedProfile& prepared, const NodeContext& ctx) {
-  return std::make_unique<DpsApplication>(prepared, make_sensor_source(prepared, ctx), ctx.index);
+std::unique_ptr<Application> make(const model::Profile& profile, const Settings& settings, const NodeContext& ctx) {
+  return std::make_unique<DpsApplication>(profile.cia404, make_sensor_source(profile, ctx), settings, profile.identity,
+                                          ctx.index);
 }
 
 }  // namespace cansim::personalities::dps

@@ -13,16 +13,12 @@
 
 namespace cansim::personalities::dps {
 
-struct Settings {
-  bool span_overflow_emcy = true;    // EMCY 0x3201 while the PV is outside the span
-  bool autozero_shifts_span = true;  // autozero moves 0x6148 / 0x6149 by the offset change
-  TimeUs span_check_period_us = 1000;
-};
+using Settings = model::DpsSettings;  // the `vendor:` keys (config/vendor_settings.cpp)
 
 class DpsApplication : public Cia404Application {
  public:
-  DpsApplication(const PreparedProfile& prepared, std::unique_ptr<MeasurementSource> source,
-                 std::uint32_t node_index);
+  DpsApplication(std::shared_ptr<const Cia404Profile> profile, std::unique_ptr<MeasurementSource> source,
+                 const Settings& settings, IdentitySettings identity = {}, std::uint32_t node_index = 0);
 
   void on_reset(Node& node, ResetKind kind, TimeUs now) override;
   void after_write(Node& node, const OdEntry& e, TimeUs now) override;
@@ -46,8 +42,9 @@ class DpsApplication : public Cia404Application {
   bool sensor_failed_ = false;
 };
 
-void prepare(config::Profile& profile, PreparedProfile& prepared);
-std::unique_ptr<Application> make(const config::Profile& profile, const PreparedProfile& prepared,
-                                  const NodeContext& ctx);
+// The objects and channels the behaviour needs (personalities/catalog.hpp).
+Requirements requirements();
+
+std::unique_ptr<Application> make(const model::Profile& profile, const Settings& settings, const NodeContext& ctx);
 
 }  // namespace cansim::personalities::dps

@@ -5,7 +5,6 @@
 #include <cstdio>
 #include <cstring>
 
-#include "personalities/vendor_params.hpp"
 #include "physics/fault.hpp"
 
 namespace cansim::personalities::gems9000 {
@@ -258,30 +257,10 @@ void GemsApplication::supervise(Node& node, TimeUs now) {
 
 // ---- registry
 
-namespace {
 
-Settings parse_settings(const config::Profile& profile) {
-  Settings s;
-  const VendorParams v(profile);
-  v.integer("pin", s.pin, 0, 0xFFFFFFFF);
-  v.flags({{"experienced_area_direct_nvm", &s.direct_nvm},
-           {"autostart_on_nmt_reset", &s.autostart_on_nmt_reset},
-           {"boot_alias_2813", &s.boot_alias_2813}});
-  v.choice("emcy_register_mode", s.manual_error_register, "manual", "cia301");
-  v.time_us("supervision_period", s.supervision_period_us, 1e-3, 10.0, "1 ms .. 10 s");
-  v.reject_unknown_keys();
-  return s;
-}
-
-}  // namespace
-
-void prepare(config::Profile& profile, PreparedProfile& prepared) {
-  prepared.device = std::make_shared<const Settings>(parse_settings(profile));
-}
-
-std::unique_ptr<Application> make(const config::Profile&, const PreparedProfile& prepared, const NodeContext& ctx) {
-  return std::make_unique<GemsApplication>(prepared.cia404, make_sensor_source(prepared, ctx),
-                                           device_settings<Settings>(prepared), prepared.identity, ctx.index);
+std::unique_ptr<Application> make(const model::Profile& profile, const Settings& settings, const NodeContext& ctx) {
+  return std::make_unique<GemsApplication>(profile.cia404, make_sensor_source(profile, ctx), settings, profile.identity,
+                                           ctx.index);
 }
 
 }  // namespace cansim::personalities::gems9000

@@ -14,15 +14,7 @@
 
 namespace cansim::personalities::gems9000 {
 
-// `vendor:` keys besides cia404 / serial_number_base.
-struct Settings {
-  std::uint32_t pin = 0x00001234;           // 0x20FF value that unlocks 0x2800-0x2FFF
-  bool direct_nvm = true;                   // experienced_area_direct_nvm
-  bool autostart_on_nmt_reset = false;      // 0x2813 = 0 also skips the boot-up at NMT resets
-  bool boot_alias_2813 = false;             // 'boot' written to 0x2813 is a bootloader request
-  bool manual_error_register = true;        // emcy_register_mode: manual (Fig. 28) | cia301
-  TimeUs supervision_period_us = 10000;     // max / min, counters, EMCY checks
-};
+using Settings = model::GemsSettings;  // the `vendor:` keys (config/vendor_settings.cpp)
 
 class GemsApplication : public Cia404Application {
  public:
@@ -63,8 +55,6 @@ class GemsApplication : public Cia404Application {
   TimeUs powered_at_ = 0;
 };
 
-void prepare(config::Profile& profile, PreparedProfile& prepared);
-std::unique_ptr<Application> make(const config::Profile& profile, const PreparedProfile& prepared,
-                                  const NodeContext& ctx);
+std::unique_ptr<Application> make(const model::Profile& profile, const Settings& settings, const NodeContext& ctx);
 
 }  // namespace cansim::personalities::gems9000

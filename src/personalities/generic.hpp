@@ -1,7 +1,7 @@
 // `generic` personality: the plain CiA 404 chain for the channels of the
 // profile (generic-404.yaml: ch1 pressure in bar, ch2 temperature in degC),
-// measuring the profile's physics. A device personality has the same two
-// functions and usually a Cia404Application subclass with a few overrides.
+// measuring the profile's physics. A device personality has a make() like
+// this one and usually a Cia404Application subclass with a few overrides.
 #pragma once
 
 #include <memory>
@@ -10,8 +10,6 @@
 
 namespace cansim::personalities::generic {
 
-void prepare(config::Profile& profile, PreparedProfile& prepared);
-std::unique_ptr<Application> make(const config::Profile& profile, const PreparedProfile& prepared,
-                                  const NodeContext& ctx);
+std::unique_ptr<Application> make(const model::Profile& profile, const NodeContext& ctx);
 
 }  // namespace cansim::personalities::generic

@@ -2,7 +2,6 @@
 
 #include <cstdio>
 
-#include "personalities/vendor_params.hpp"
 #include "physics/fault.hpp"
 
 namespace cansim::personalities::p92c {
@@ -124,31 +123,10 @@ void P92cApplication::supervise(Node& node, TimeUs now) {
 
 // ---- registry
 
-namespace {
 
-Settings parse_settings(const config::Profile& profile) {
-  Settings s;
-  const VendorParams v(profile);
-  v.integer("serial_part1", s.serial_part1, 0, 99);
-  v.integer("serial_part3", s.serial_part3, 0, 9999);
-  v.flags({{"overload_counters", &s.overload_counters},
-           {"sensor_fault_emcy", &s.sensor_fault_emcy},
-           {"overload_emcy", &s.overload_emcy},
-           {"boot_emcys", &s.boot_emcys}});
-  v.time_us("monitor_period", s.monitor_period_us, 1e-3, 10.0, "1 ms .. 10 s");
-  v.reject_unknown_keys();
-  return s;
-}
-
-}  // namespace
-
-void prepare(config::Profile& profile, PreparedProfile& prepared) {
-  prepared.device = std::make_shared<const Settings>(parse_settings(profile));
-}
-
-std::unique_ptr<Application> make(const config::Profile&, const PreparedProfile& prepared, const NodeContext& ctx) {
-  return std::make_unique<P92cApplication>(prepared.cia404, make_sensor_source(prepared, ctx),
-                                           device_settings<Settings>(prepared), prepared.identity, ctx.index);
+std::unique_ptr<Application> make(const model::Profile& profile, const Settings& settings, const NodeContext& ctx) {
+  return std::make_unique<P92cApplication>(profile.cia404, make_sensor_source(profile, ctx), settings, profile.identity,
+                                           ctx.index);
 }
 
 }  // namespace cansim::personalities::p92c

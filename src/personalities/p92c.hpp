@@ -11,16 +11,7 @@
 
 namespace cansim::personalities::p92c {
 
-// `vendor:` keys besides cia404 / serial_number_base.
-struct Settings {
-  std::uint8_t serial_part1 = 11;      // 0x4E00:01
-  std::uint16_t serial_part3 = 5566;   // 0x4E00:03
-  bool overload_counters = true;       // 0x3000-0x3003
-  bool sensor_fault_emcy = true;       // 0xF011 / 0x4000 while a channel is invalid
-  bool overload_emcy = false;          // ... and while it is overloaded
-  bool boot_emcys = true;              // 0x6161 / 0x6363 / 0x6300 after the boot-up
-  TimeUs monitor_period_us = 10000;
-};
+using Settings = model::P92cSettings;  // the `vendor:` keys (config/vendor_settings.cpp)
 
 class P92cApplication : public Cia404Application {
  public:
@@ -46,8 +37,6 @@ class P92cApplication : public Cia404Application {
   bool error_[2] = {};
 };
 
-void prepare(config::Profile& profile, PreparedProfile& prepared);
-std::unique_ptr<Application> make(const config::Profile& profile, const PreparedProfile& prepared,
-                                  const NodeContext& ctx);
+std::unique_ptr<Application> make(const model::Profile& profile, const Settings& settings, const NodeContext& ctx);
 
 }  // namespace cansim::personalities::p92c

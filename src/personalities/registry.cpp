@@ -1,7 +1,6 @@
-#include <cstdio>
 #include "personalities/registry.hpp"
 
-#include <algorithm>
+#include <variant>
 
 #include "personalities/cmp.hpp"
 #include "personalities/dps.hpp"
@@ -9,101 +8,30 @@
 #include "personalities/generic.hpp"
 #include "personalities/p92c.hpp"
 #include "personalities/smc.hpp"
-#include "personalities/vendor_params.hpp"
 #include "physics/random.hpp"
 
 namespace cansim::personalities {
 
 namespace {
 
-struct Personality {
-  const char* name;
-  void (*prepare)(config::Profile&, PreparedProfile&);
-  std::unique_ptr<Application> (*make)(const config::Profile&, const PreparedProfile&, const NodeContext&);
+// One overload per DeviceSettings alternative: std::visit fails to compile
+// when a personality's settings have no maker.
+struct Maker {
+  const model::Profile& profile;
+  const NodeContext& ctx;
+
+  std::unique_ptr<Application> operator()(const model::GenericSettings&) const { return generic::make(profile, ctx); }
+  std::unique_ptr<Application> operator()(const model::DpsSettings& s) const { return dps::make(profile, s, ctx); }
+  std::unique_ptr<Application> operator()(const model::P92cSettings& s) const { return p92c::make(profile, s, ctx); }
+  std::unique_ptr<Application> operator()(const model::GemsSettings& s) const { return gems9000::make(profile, s, ctx); }
+  std::unique_ptr<Application> operator()(const model::SmcSettings& s) const { return smc::make(profile, s, ctx); }
+  std::unique_ptr<Application> operator()(const model::CmpSettings& s) const { return cmp::make(profile, s, ctx); }
 };
-
-// Device personalities add one line each.
-constexpr Personality kPersonalities[] = {
-    {"generic", generic::prepare, generic::make},
-    {"trafag-cmp", cmp::prepare, cmp::make},
-    {"gems-9000", gems9000::prepare, gems9000::make},
-    {"danfoss-p92c", p92c::prepare, p92c::make},
-    {"adz-smc", smc::prepare, smc::make},
-    {"honeywell-dps", dps::prepare, dps::make},
-};
-
-const Personality* find(const std::string& name) {
-  for (const Personality& p : kPersonalities)
-    if (name == p.name) return &p;
-  return nullptr;
-}
-
-std::string known_names() {
-  std::string s;
-  for (const Personality& p : kPersonalities) s += (s.empty() ? "" : ", ") + std::string(p.name);
-  return s;
-}
 
 }  // namespace
 
-namespace {
-// Where a missing-object error points: the `objects:` list, else the document.
-config::Where objects_where(const config::Profile& profile, YAML::Node& node) {
-  node = profile.root && profile.root.IsMap() && profile.root["objects"] ? profile.root["objects"] : profile.root;
-  return config::Where{profile.file, "objects"};
-}
-}  // namespace
-
-void require_objects(const config::Profile& profile, std::initializer_list<RequiredObject> objects) {
-  for (const RequiredObject& o : objects)
-    for (unsigned sub = o.first_sub; sub <= o.last_sub; ++sub) {
-      const OdEntry* e = profile.layout->find(o.index, std::uint8_t(sub));
-      if (e && !is_variable_size(e->type)) continue;
-      YAML::Node at;
-      config::Where w = objects_where(profile, at);
-      char id[16];
-      std::snprintf(id, sizeof id, "0x%04X:%02X", o.index, sub);
-      config::fail(w, at, std::string("a numeric object ") + id + " (personality " + profile.personality +
-                              " needs it for " + o.purpose + ")" + (e ? ", not a string or domain" : ""));
-    }
-}
-
-void require_channels(const config::Profile& profile, const PreparedProfile& prepared, std::size_t count,
-                      const char* purpose) {
-  if (prepared.cia404 && prepared.cia404->channels.size() >= count) return;
-  YAML::Node at;
-  config::Where w = objects_where(profile, at);
-  config::fail(w, at, "at least " + std::to_string(count) + " CiA 404 channel(s) (0x6130:01.." +
-                          " with their vendor.cia404 channels; personality " + profile.personality + " needs them for " +
-                          purpose + ")");
-}
-
-void prepare_profile(config::Profile& profile) {
-  const Personality* p = find(profile.personality);
-  if (!p) {
-    const YAML::Node n = profile.root && profile.root.IsMap() ? profile.root["personality"] : YAML::Node();
-    config::fail(config::Where{profile.file, "personality"}, n,
-                 "unknown personality '" + profile.personality + "' (expected: " + known_names() + ")");
-  }
-  auto prepared = std::make_shared<PreparedProfile>();
-  const VendorParams vendor(profile);
-  prepared->cia404 = Cia404Profile::build(vendor.where("cia404"), vendor.node("cia404"), *profile.layout);
-  IdentitySettings& id = prepared->identity;
-  id.serial_per_node = vendor.integer("serial_number_base", id.serial_base, 0, 0xFFFFFFFF);
-  prepared->physics = config::parse_physics_config(profile);
-  p->prepare(profile, *prepared);
-  profile.prepared = prepared;
-}
-
-std::unique_ptr<Application> make_application(const config::Profile& profile, const NodeContext& ctx) {
-  if (!profile.prepared) {
-    config::Profile copy = profile;  // shares the layout, so the hooks land on it
-    prepare_profile(copy);
-    return make_application(copy, ctx);
-  }
-  const Personality* p = find(profile.personality);
-  if (!p) return nullptr;
-  return p->make(profile, *std::static_pointer_cast<const PreparedProfile>(profile.prepared), ctx);
+std::unique_ptr<Application> make_application(const model::Profile& profile, const NodeContext& ctx) {
+  return std::visit(Maker{profile, ctx}, profile.device);
 }
 
 std::uint64_t node_seed(const NodeContext& ctx) {
@@ -111,8 +39,8 @@ std::uint64_t node_seed(const NodeContext& ctx) {
   return physics::derive_seed(ctx.fleet_seed, key);
 }
 
-std::unique_ptr<SensorSource> make_sensor_source(const PreparedProfile& prepared, const NodeContext& ctx) {
-  const config::PhysicsConfig& c = prepared.physics;
+std::unique_ptr<SensorSource> make_sensor_source(const model::Profile& profile, const NodeContext& ctx) {
+  const model::PhysicsConfig& c = profile.physics;
   auto source = std::make_unique<SensorSource>(c.sensor, c.process, c.faults, node_seed(ctx));
   std::string error;
   if (!ctx.record_file.empty() && !source->record_to(ctx.record_file, &error))

@@ -1,21 +1,16 @@
-// Personality registry: turns a profile's `personality:` name into the
-// Application that gives each node its vendor behaviour and measurements.
-//
-// A personality is two functions (see generic.hpp): `prepare` validates its
-// part of the `vendor:` section once per profile and `make` builds one node's
-// Application. The shared part — the CiA 404 chain settings (`vendor:
-// cia404:`), identity settings and the physics sections — is parsed here for
-// every personality into a PreparedProfile.
+// Personality registry: turns a typed profile (model::Profile, its `device`
+// settings naming the behaviour) into the Application that gives each node
+// its vendor behaviour and measurements. Profiles come from a loader
+// (config/), which checked them against personalities/catalog.hpp.
 #pragma once
 
 #include <cstdint>
-#include <initializer_list>
 #include <memory>
 #include <string>
 
-#include "config/physics_config.hpp"
-#include "config/profile.hpp"
 #include "core/application.hpp"
+#include "model/profile.hpp"
+#include "personalities/catalog.hpp"
 #include "personalities/cia404.hpp"
 
 namespace cansim::personalities {
@@ -28,44 +23,14 @@ struct NodeContext {
   std::string record_file;        // CSV recording of truth and readings (empty: none)
 };
 
-// Parsed once per profile, shared by its nodes (Profile::prepared).
-struct PreparedProfile {
-  std::shared_ptr<const Cia404Profile> cia404;
-  config::PhysicsConfig physics;
-  IdentitySettings identity;
-  std::shared_ptr<const void> device;  // a device personality's own parsed data
-};
-
-// Checks the profile's personality name, vendor, physics, sensor and faults
-// sections, and marks the OD entries the personality needs hooks on. Called
-// once per profile, before nodes are built. Throws config::ConfigError.
-void prepare_profile(config::Profile& profile);
-
-// One Application per node (nullptr: plain CiA 301 node without measurements).
-std::unique_ptr<Application> make_application(const config::Profile& profile, const NodeContext& ctx);
+// One Application per node, by the profile's device settings.
+std::unique_ptr<Application> make_application(const model::Profile& profile, const NodeContext& ctx);
 
 // ---- helpers for personalities
-// The numeric objects a personality's behaviour reads or writes. Throws
-// config::ConfigError naming the profile's `objects:` line and what the
-// personality needs the first missing one for.
-struct RequiredObject {
-  std::uint16_t index;
-  std::uint8_t first_sub, last_sub;
-  const char* purpose;
-};
-void require_objects(const config::Profile& profile, std::initializer_list<RequiredObject> objects);
-// Fails unless the CiA 404 chain has at least `count` channels.
-void require_channels(const config::Profile& profile, const PreparedProfile& prepared, std::size_t count,
-                      const char* purpose);
-// A device personality's own parsed data (PreparedProfile::device).
-template <class Settings>
-const Settings& device_settings(const PreparedProfile& prepared) {
-  return *std::static_pointer_cast<const Settings>(prepared.device);
-}
 // The node's seed: fleet seed + node key (+ index when the key is empty).
 std::uint64_t node_seed(const NodeContext& ctx);
-// The node's physics (process + sensor + faults) from the prepared profile;
-// opens ctx.record_file when set (throws std::runtime_error when it cannot).
-std::unique_ptr<SensorSource> make_sensor_source(const PreparedProfile& prepared, const NodeContext& ctx);
+// The node's physics (process + sensor + faults) from the profile; opens
+// ctx.record_file when set (throws std::runtime_error when it cannot).
+std::unique_ptr<SensorSource> make_sensor_source(const model::Profile& profile, const NodeContext& ctx);
 
 }  // namespace cansim::personalities

@@ -4,7 +4,6 @@
 #include <cmath>
 #include <limits>
 
-#include "personalities/vendor_params.hpp"
 #include "core/nmt.hpp"
 #include "physics/quantize.hpp"
 
@@ -357,29 +356,9 @@ void SmcApplication::sensor_error(Node& node, TimeUs now) {
 
 // ---------------------------------------------------------------- registry
 
-namespace {
 
-Settings parse_settings(const config::Profile& profile, const PreparedProfile& prepared) {
-  Settings s;
-  const physics::SensorSpec& sensor = prepared.physics.sensor;
-  s.range_min[0] = sensor.pressure.range_min;
-  s.range_max[0] = sensor.pressure.range_max;
-  s.range_min[1] = sensor.temperature.range_min;
-  s.range_max[1] = sensor.temperature.range_max;
-  const VendorParams v(profile);
-  v.integer("ad_fault_info", s.ad_fault_info, 0, 0xFFFF);
-  v.flags({{"reset_node_clears_error_register", &s.reset_node_clears_error_register},
-           {"analog_error_reaction", &s.analog_error_reaction}});
-  v.time_us("stay_set_period", s.stay_set_period_us, 1e-3, 1.0, "1 ms .. 1 s");
-  v.reject_unknown_keys();
-  return s;
-}
-
-}  // namespace
-
-void prepare(config::Profile& profile, PreparedProfile& prepared) {
-  // §5: the measurement chain and its scaling objects, both channels.
-  require_objects(profile, {{0x6121, 1, 2, "the input scaling (§5)"},
+// §5: the measurement chain and its scaling objects, both channels.
+constexpr RequiredObject kRequiredObjects[] = {{0x6121, 1, 2, "the input scaling (§5)"},
                             {0x6123, 1, 2, "the input scaling (§5)"},
                             {0x6126, 1, 2, "the scaling factor of its measurement chain (§5)"},
                             {0x6127, 1, 2, "the scaling offset of its measurement chain (§5)"},
@@ -388,14 +367,13 @@ void prepare(config::Profile& profile, PreparedProfile& prepared) {
                             {0x3201, 1, 2, "the output clamp of its measurement chain (§5)"},
                             {0x3202, 1, 2, "the output clamp of its measurement chain (§5)"},
                             {0x9121, 1, 2, "the integer input scaling (§5)"},
-                            {0x9123, 1, 2, "the integer input scaling (§5)"}});
-  require_channels(profile, prepared, 2, "its pressure and temperature chains (§5)");
-  prepared.device = std::make_shared<const Settings>(parse_settings(profile, prepared));
-}
+                            {0x9123, 1, 2, "the integer input scaling (§5)"}};
 
-std::unique_ptr<Application> make(const config::Profile&, const PreparedProfile& prepared, const NodeContext& ctx) {
-  return std::make_unique<SmcApplication>(prepared.cia404, make_sensor_source(prepared, ctx),
-                                          device_settings<Settings>(prepared), prepared.identity, ctx.index);
+Requirements requirements() { return {kRequiredObjects, 2, "its pressure and temperature chains (§5)"}; }
+
+std::unique_ptr<Application> make(const model::Profile& profile, const Settings& settings, const NodeContext& ctx) {
+  return std::make_unique<SmcApplication>(profile.cia404, make_sensor_source(profile, ctx), settings, profile.identity,
+                                          ctx.index);
 }
 
 }  // namespace cansim::personalities::smc

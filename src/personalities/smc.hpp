@@ -18,15 +18,7 @@
 
 namespace cansim::personalities::smc {
 
-// `vendor:` keys besides cia404 / serial_number_base.
-struct Settings {
-  std::uint16_t ad_fault_info = 0xC555;           // EMCY 0x5030 additional information
-  bool reset_node_clears_error_register = false;  // §6.1.2: only power-off clears 0x1001
-  bool analog_error_reaction = true;              // apply 0x1029:03 on a sensor error
-  TimeUs stay_set_period_us = 10000;              // min/max capture and fault supervision
-  double range_min[2] = {0.0, 218.15};            // SI range mapped to FV 0..20000 (from `sensor:`)
-  double range_max[2] = {5.0e5, 398.15};
-};
+using Settings = model::SmcSettings;  // the `vendor:` keys (config/vendor_settings.cpp)
 
 class SmcApplication : public Cia404Application {
  public:
@@ -81,8 +73,9 @@ class SmcApplication : public Cia404Application {
   TimeUs boot_time_ = 0;
 };
 
-void prepare(config::Profile& profile, PreparedProfile& prepared);
-std::unique_ptr<Application> make(const config::Profile& profile, const PreparedProfile& prepared,
-                                  const NodeContext& ctx);
+// The objects and channels the behaviour needs (personalities/catalog.hpp).
+Requirements requirements();
+
+std::unique_ptr<Application> make(const model::Profile& profile, const Settings& settings, const NodeContext& ctx);
 
 }  // namespace cansim::personalities::smc

@@ -45,10 +45,8 @@ ControlFleet::Bus& ControlFleet::bus(const std::string& name) {
 }
 
 void ControlFleet::add(const config::FleetConfig& cfg) {
-  config::FleetConfig prepared = cfg;
-  daemon::prepare_fleet(prepared);
   std::vector<io::NodeRef> fresh;
-  for (const config::NodeConfig& n : prepared.nodes) {
+  for (const config::NodeConfig& n : cfg.nodes) {
     NodeSetup setup;
     setup.layout = n.profile->layout;
     setup.options = n.profile->options;
@@ -62,7 +60,7 @@ void ControlFleet::add(const config::FleetConfig& cfg) {
     e->handle.profile = n.profile->name;
     e->handle.personality = n.profile->personality;
     e->handle.interface = n.interface;
-    e->handle.ref = core_.add_node(bus(n.interface).id, setup, daemon::make_node_application(n, prepared.seed),
+    e->handle.ref = core_.add_node(bus(n.interface).id, setup, daemon::make_node_application(n, cfg.seed),
                                    std::make_unique<MemoryStorage>());
     e->handle.app = core_.app(e->handle.ref);
     if (auto* overlay = dynamic_cast<daemon::SerialOverlay*>(e->handle.app)) e->handle.app = overlay->inner();

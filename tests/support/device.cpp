@@ -8,7 +8,6 @@ config::Profile prepared_repo_profile(const std::string& name, const std::functi
     profile.options = std::make_shared<NodeOptions>(*profile.options);
     edit(profile);
   }
-  personalities::prepare_profile(profile);
   return profile;
 }
 
@@ -16,14 +15,21 @@ config::Profile prepared_repo_yaml(const std::string& name, const std::function<
   const std::string path = std::string(CANSIM_SOURCE_DIR) + "/profiles/" + name + ".yaml";
   YAML::Node root = YAML::LoadFile(path);
   if (edit) edit(root);
-  config::Profile profile = config::parse_profile(root, path);
-  personalities::prepare_profile(profile);
-  return profile;
+  return config::parse_profile(root, path);
 }
 
-std::string prepare_error(config::Profile p) {
+std::string load_error(const std::string& text, const std::string& file) {
   try {
-    personalities::prepare_profile(p);
+    config::parse_profile(text, file);
+  } catch (const config::ConfigError& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+std::string repo_yaml_error(const std::string& name, const std::function<void(YAML::Node&)>& edit) {
+  try {
+    prepared_repo_yaml(name, edit);
   } catch (const config::ConfigError& e) {
     return e.what();
   }

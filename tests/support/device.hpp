@@ -19,14 +19,16 @@
 
 namespace cansim::test {
 
-// profiles/<name>.yaml prepared by its personality. `edit` may change the
-// profile first (options, vendor settings); the options are copied for it.
+// profiles/<name>.yaml as loaded. `edit` may change the typed profile
+// (options, the personality's settings); the options are copied for it.
 config::Profile prepared_repo_profile(const std::string& name, const std::function<void(config::Profile&)>& edit = {});
 // The same with an edit of the file's YAML document (physics, options, ...).
 config::Profile prepared_repo_yaml(const std::string& name, const std::function<void(YAML::Node&)>& edit);
 
-// The message of the config::ConfigError prepare_profile throws for p, or "no error".
-std::string prepare_error(config::Profile p);
+// The message of the config::ConfigError loading `text` as file `file` throws, or "no error".
+std::string load_error(const std::string& text, const std::string& file = "t.yaml");
+// The same for profiles/<name>.yaml with an edit of its YAML document.
+std::string repo_yaml_error(const std::string& name, const std::function<void(YAML::Node&)>& edit);
 
 // A frame with DLC 8 (SDO and LSS requests are zero-padded to 8 bytes).
 inline CanFrame F8(std::uint32_t id, std::initializer_list<std::uint8_t> bytes) {
@@ -83,7 +85,6 @@ class DeviceFixture : public ::testing::Test {
 
   SimBus bus;
   config::Profile profile;
-  std::shared_ptr<const personalities::PreparedProfile> prepared;
   Source* source = nullptr;
   std::unique_ptr<App> app;
   SimNode* sim = nullptr;
@@ -92,22 +93,21 @@ class DeviceFixture : public ::testing::Test {
  protected:
   // profiles/<name>.yaml (prepared_repo_profile: `edit` comes first) and the
   // node `node_id` (0: the profile's) running the App that `make` builds from
-  // the prepared profile around a new Source.
+  // the profile around a new Source.
   template <class Make>
   void build_node(const std::string& name, std::uint8_t node_id, Make make,
                   const std::function<void(config::Profile&)>& edit = {}) {
     profile = prepared_repo_profile(name, edit);
-    prepared = std::static_pointer_cast<const personalities::PreparedProfile>(profile.prepared);
     auto src = std::make_unique<Source>();
     source = src.get();
-    app = make(*prepared, std::move(src));
+    app = make(profile, std::move(src));
     id = node_id ? node_id : profile.node_id;
     sim = &bus.add(profile, id, app.get());
   }
   // The usual application constructor: App(chain, source, device settings, identity, node index 0).
   template <class Settings>
-  static std::unique_ptr<App> device_app(const personalities::PreparedProfile& p, std::unique_ptr<Source> src) {
-    return std::make_unique<App>(p.cia404, std::move(src), personalities::device_settings<Settings>(p), p.identity, 0);
+  static std::unique_ptr<App> device_app(const config::Profile& p, std::unique_ptr<Source> src) {
+    return std::make_unique<App>(p.cia404, std::move(src), std::get<Settings>(p.device), p.identity, 0);
   }
 };
 

@@ -40,7 +40,6 @@ config::Profile node_fuzz_profile(const std::string& path) {
   root["sensor"]["pressure"]["sample_rate"] = "100 Hz";
   root["sensor"]["temperature"]["sample_rate"] = "10 Hz";
   config::Profile profile = config::parse_profile(root, path);
-  personalities::prepare_profile(profile);
   return profile;
 }
 

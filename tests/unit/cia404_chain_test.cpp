@@ -152,14 +152,15 @@ TEST_F(Chain, NegativeDeltaAndBadFilterSettingsAbort) {
 
 // A profile that restricts digits per unit and rejects incompatible unit changes.
 TEST(ChainProfile, DigitsRangePerUnit) {
-  config::Profile p = load_repo_profile("generic-404");
-  p.personality_params = YAML::Load(R"(
+  config::Profile p = prepared_repo_yaml("generic-404", [](YAML::Node& root) {
+    root["vendor"] = YAML::Load(R"(
 cia404:
   digits_on_unit_change: reject
   channels:
     - {sub: 1, quantity: pressure, units: [{unit: bar, max_digits: 3}, {unit: mbar, max_digits: 1}, psi]}
     - {sub: 2, quantity: temperature}
 )");
+  });
   struct F : ChainFixture {
     void TestBody() override {}
   } fx;

@@ -88,11 +88,11 @@ TEST_F(Events, NoEventsInPreOperational) {
 }
 
 TEST(ChainFilter, MovingAverageSettlesAfterNSamples) {
-  config::Profile p = load_repo_profile("generic-404");
-  p.physics = YAML::Load("{pressure: [{ramp: {from: 0 bar, to: 8 bar, start: 100 ms, duration: 0 s}}]}");
-  p.sensor = YAML::Load("{pressure: {range: [0 bar, 10 bar], sample_rate: 1 kHz, noise: 0 bar}}");
+  config::Profile p = prepared_repo_yaml("generic-404", [](YAML::Node& root) {
+    root["physics"] = YAML::Load("{pressure: [{ramp: {from: 0 bar, to: 8 bar, start: 100 ms, duration: 0 s}}]}");
+    root["sensor"] = YAML::Load("{pressure: {range: [0 bar, 10 bar], sample_rate: 1 kHz, noise: 0 bar}}");
+  });
   SimBus bus;
-  personalities::prepare_profile(p);
   auto app = personalities::make_application(p, {});
   SimNode& n = bus.add(p, 0x10, app.get());
   bus.power_on_all();
@@ -121,7 +121,6 @@ TEST(ChainFilter, MovingAverageSettlesAfterNSamples) {
 
 TEST(ChainPhysics, SameSeedSameValuesOtherKeyOtherValues) {
   config::Profile p = load_repo_profile("generic-404");
-  personalities::prepare_profile(p);
   auto series = [&](const std::string& key) {
     SimBus bus;
     auto app = personalities::make_application(p, {42, 0, key, {}});

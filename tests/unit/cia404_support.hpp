@@ -10,6 +10,7 @@
 
 #include "personalities/cia404.hpp"
 #include "personalities/registry.hpp"
+#include "support/device.hpp"
 #include "support/sim.hpp"
 
 namespace cansim::test {
@@ -31,11 +32,9 @@ class ChainFixture : public ::testing::Test {
  public:
   void build(config::Profile p) {
     profile = std::move(p);
-    personalities::prepare_profile(profile);
-    auto prepared = std::static_pointer_cast<const personalities::PreparedProfile>(profile.prepared);
     auto src = std::make_unique<FakeSource>();
     source = src.get();
-    app = std::make_unique<personalities::Cia404Application>(prepared->cia404, std::move(src));
+    app = std::make_unique<personalities::Cia404Application>(profile.cia404, std::move(src));
     sim = &bus.add(profile, 0x10, app.get());
     bus.power_on_all();
     bus.run_for(ms(1));

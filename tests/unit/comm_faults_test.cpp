@@ -28,7 +28,6 @@ class FaultNode {
     YAML::Node root = YAML::LoadFile(path);
     root["faults"] = YAML::Load(faults);
     profile = config::parse_profile(root, path);
-    personalities::prepare_profile(profile);
     personalities::NodeContext ctx;
     ctx.key = "vcan0/" + name;
     if (serial) {

@@ -462,15 +462,15 @@ TEST_F(ControlHooks, RecordingStartsAndStops) {
 // ---------------------------------------------------------------- odds and ends
 
 TEST(ControlHelpers, UnitsHaveTheControlApiNames) {
-  using personalities::builtin_unit;
-  using personalities::named_unit;
+  using model::builtin_unit;
+  using model::named_unit;
   EXPECT_EQ(named_unit("mbar")->name, "mbar");
   EXPECT_EQ(named_unit("°C")->name, "degC");
   EXPECT_EQ(named_unit("torr")->name, "mmHg");
   EXPECT_EQ(builtin_unit(0x004E0100)->name, "bar");  // SMC: a denominator in bits 15-0
-  EXPECT_EQ(builtin_unit(personalities::make_unit(3, personalities::unit_code::kPascal))->name, "kPa");
-  EXPECT_EQ(builtin_unit(personalities::make_unit(0, personalities::unit_code::kFahrenheit))->name, "degF");
-  EXPECT_EQ(builtin_unit(personalities::make_unit(-6, personalities::unit_code::kBar))->name, "");
+  EXPECT_EQ(builtin_unit(model::make_unit(3, model::unit_code::kPascal))->name, "kPa");
+  EXPECT_EQ(builtin_unit(model::make_unit(0, model::unit_code::kFahrenheit))->name, "degF");
+  EXPECT_EQ(builtin_unit(model::make_unit(-6, model::unit_code::kBar))->name, "");
 }
 
 TEST(ControlHelpers, ParseFaultIsPublic) {

@@ -263,7 +263,7 @@ TEST_F(Accept, AutoZero) {
 
 TEST_F(Accept, AutoZeroStrictCia404KeepsSpan) {
   bus = SimBus();
-  build([](config::Profile& p) { p.personality_params["autozero_shifts_span"] = false; });
+  build([](config::Profile& p) { std::get<model::DpsSettings>(p.device).autozero_shifts_span = false; });
   boot();
   source->psi = 3.0;
   sdo({0x22, 0x25, 0x61, 0x01, 0x7A, 0x65, 0x72, 0x6F});

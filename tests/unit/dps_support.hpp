@@ -58,9 +58,11 @@ class DpsFixture : public DeviceFixture<personalities::dps::DpsApplication, DpsS
   }
 
  private:
-  static std::unique_ptr<personalities::dps::DpsApplication> make_app(const personalities::PreparedProfile& p,
+  static std::unique_ptr<personalities::dps::DpsApplication> make_app(const config::Profile& p,
                                                                      std::unique_ptr<DpsSource> src) {
-    return std::make_unique<personalities::dps::DpsApplication>(p, std::move(src), 0);
+    return std::make_unique<personalities::dps::DpsApplication>(p.cia404, std::move(src),
+                                                                std::get<personalities::dps::Settings>(p.device),
+                                                                p.identity, 0);
   }
 };
 

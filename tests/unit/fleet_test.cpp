@@ -77,14 +77,15 @@ TEST_F(FleetTest, OptionAndVendorOverridesMakeAPrivateProfile) {
                         "    node_id: 2\n"
                         "    bit_rate: 125\n"
                         "    options: {nmt_auto_start: true}\n"
-                        "    vendor: {x: 1}\n");
+                        "    vendor: {serial_number_base: 500}\n");
   EXPECT_EQ(f.seed, 42u);
   ASSERT_EQ(f.nodes.size(), 2u);
   EXPECT_NE(f.nodes[0].profile, f.nodes[1].profile);
   EXPECT_NE(f.nodes[0].profile->layout, f.nodes[1].profile->layout);
   EXPECT_FALSE(f.nodes[0].profile->options->nmt_auto_start);
   EXPECT_TRUE(f.nodes[1].profile->options->nmt_auto_start);
-  EXPECT_EQ(f.nodes[1].profile->personality_params["x"].as<int>(), 1);
+  EXPECT_EQ(f.nodes[1].profile->identity.serial_base, 500u);
+  EXPECT_NE(f.nodes[0].profile->identity.serial_base, 500u);
   EXPECT_EQ(f.nodes[1].bit_rate_kbit, 125u);
   EXPECT_EQ(f.nodes[0].bit_rate_kbit, 250u);
   EXPECT_EQ(f.profiles.size(), 2u);

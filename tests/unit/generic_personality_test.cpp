@@ -18,37 +18,37 @@ float read_f(SimNode& n, std::uint16_t i, std::uint8_t s, TimeUs now) {
 }
 
 TEST(Generic, UnknownPersonalityNamesFileLineAndKey) {
-  config::Profile p = config::parse_profile(
-      "name: t\npersonality: wizard\nobjects:\n  - {index: 0x1000, type: UNSIGNED32, access: ro}\n", "t.yaml");
-  EXPECT_THAT(prepare_error(p), HasSubstr("t.yaml:2:14: personality: unknown personality 'wizard' (expected: generic"));
+  const std::string text = "name: t\npersonality: wizard\nobjects:\n  - {index: 0x1000, type: UNSIGNED32, access: ro}\n";
+  EXPECT_THAT(load_error(text), HasSubstr("t.yaml:2:14: personality: unknown personality 'wizard' (expected: generic"));
 }
 
 TEST(Generic, VendorSectionIsValidated) {
-  config::Profile p = load_repo_profile("generic-404");
-  p.personality_params = YAML::Load("{colour: red}");
-  EXPECT_THAT(prepare_error(p), HasSubstr("vendor.colour: unknown key (expected one of: cia404, serial_number_base)"));
-  p.personality_params = YAML::Load("{cia404: {limit_trigger: sometimes}}");
-  EXPECT_THAT(prepare_error(p), HasSubstr("vendor.cia404.limit_trigger: expected edge or level"));
-  p.personality_params = YAML::Load("{cia404: {channels: [{sub: 1, units: [parsec]}]}}");
-  EXPECT_THAT(prepare_error(p), HasSubstr("vendor.cia404.channels[0].units[0]: unknown unit"));
-  p.personality_params = YAML::Load("{cia404: {channels: [{sub: 2, quantity: temperature, units: [bar]}]}}");
-  EXPECT_THAT(prepare_error(p), HasSubstr("unit of the wrong quantity"));
-  p.personality_params = YAML::Load("{cia404: {channels: [{sub: 1, units: [atm]}]}}");
-  EXPECT_THAT(prepare_error(p), HasSubstr("this unit has no CiA 303-2 code built in: give 'code'"));
+  auto with_vendor = [](const char* vendor) {
+    return repo_yaml_error("generic-404", [&](YAML::Node& root) { root["vendor"] = YAML::Load(vendor); });
+  };
+  EXPECT_THAT(with_vendor("{colour: red}"),
+              HasSubstr("vendor.colour: unknown key (expected one of: cia404, serial_number_base)"));
+  EXPECT_THAT(with_vendor("{cia404: {limit_trigger: sometimes}}"),
+              HasSubstr("vendor.cia404.limit_trigger: expected edge or level"));
+  EXPECT_THAT(with_vendor("{cia404: {channels: [{sub: 1, units: [parsec]}]}}"),
+              HasSubstr("vendor.cia404.channels[0].units[0]: unknown unit"));
+  EXPECT_THAT(with_vendor("{cia404: {channels: [{sub: 2, quantity: temperature, units: [bar]}]}}"),
+              HasSubstr("unit of the wrong quantity"));
+  EXPECT_THAT(with_vendor("{cia404: {channels: [{sub: 1, units: [atm]}]}}"),
+              HasSubstr("this unit has no CiA 303-2 code built in: give 'code'"));
 }
 
 TEST(Generic, PhysicsErrorsComeFromTheProfileFile) {
-  config::Profile p = load_repo_profile("generic-404");
-  EXPECT_NO_THROW(personalities::prepare_profile(p));
-  p.sensor = YAML::Load("{pressure: {sample_rate: fast}}");
-  EXPECT_THAT(prepare_error(p), HasSubstr("sensor.pressure.sample_rate: expected a frequency"));
+  EXPECT_EQ(repo_yaml_error("generic-404", {}), "no error");
+  const std::string error = repo_yaml_error(
+      "generic-404", [](YAML::Node& root) { root["sensor"] = YAML::Load("{pressure: {sample_rate: fast}}"); });
+  EXPECT_THAT(error, HasSubstr("generic-404.yaml:"));
+  EXPECT_THAT(error, HasSubstr("sensor.pressure.sample_rate: expected a frequency"));
 }
 
-TEST(Generic, PrepareSetsHooksOnTheChainObjects) {
-  config::Profile p = load_repo_profile("generic-404");
+TEST(Generic, LoadingSetsHooksOnTheChainObjects) {
   // Delta / limits have no hook in the file; the chain needs them.
-  ASSERT_EQ(p.layout->find(0x6133, 1)->hooks, 0);
-  personalities::prepare_profile(p);
+  config::Profile p = load_repo_profile("generic-404");
   EXPECT_EQ(p.layout->find(0x6133, 1)->hooks, kHookWrite);
   EXPECT_EQ(p.layout->find(0x6130, 2)->hooks, kHookRead);
   EXPECT_EQ(p.layout->find(0x9130, 1)->hooks, kHookRead);
@@ -57,7 +57,6 @@ TEST(Generic, PrepareSetsHooksOnTheChainObjects) {
 
 TEST(Generic, SerialNumberIsBasePlusIndex) {
   config::Profile p = load_repo_profile("generic-404");
-  personalities::prepare_profile(p);
   SimBus bus;
   auto a0 = personalities::make_application(p, {1, 0, "a", {}});
   auto a7 = personalities::make_application(p, {1, 7, "b", {}});
@@ -74,7 +73,7 @@ TEST(Generic, SerialNumberIsBasePlusIndex) {
 TEST(Generic, MeasuresAroundFiveBarAndRoomTemperature) {
   config::Profile p = load_repo_profile("generic-404");
   SimBus bus;
-  auto app = personalities::make_application(p, {7, 0, "vcan0/g", {}});  // prepares on the fly
+  auto app = personalities::make_application(p, {7, 0, "vcan0/g", {}});
   ASSERT_TRUE(app);
   SimNode& n = bus.add(p, 0x10, app.get());
   bus.power_on_all();

@@ -16,7 +16,6 @@ namespace {
 std::string profile_error(const std::string& text) {
   try {
     Profile p = parse_profile(text, "p.yaml");
-    personalities::prepare_profile(p);
   } catch (const ConfigError& e) {
     return e.what();
   }

@@ -230,7 +230,6 @@ TEST(NoAlloc, PlainNodeFramesAndTicks) {
 
 TEST(NoAlloc, NodeWithItsPersonality) {
   auto profile = test::load_repo_profile("generic-404");
-  personalities::prepare_profile(profile);
   auto app = personalities::make_application(profile, personalities::NodeContext{});
   check_no_allocations(profile, app.get());
 }

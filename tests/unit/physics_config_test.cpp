@@ -13,14 +13,15 @@ namespace {
 using namespace cansim::physics;
 using ::testing::HasSubstr;
 
-Profile profile(const std::string& sections) {
+// The physics of a minimal profile with these sections.
+PhysicsConfig physics_of(const std::string& sections) {
   std::string text = "name: t\nobjects:\n  - {index: 0x1000, type: UNSIGNED32, access: ro, default: 0}\n" + sections;
-  return parse_profile(text, "t.yaml");
+  return parse_profile(text, "t.yaml").physics;
 }
 
 std::string error_of(const std::string& sections) {
   try {
-    parse_physics_config(profile(sections));
+    physics_of(sections);
   } catch (const ConfigError& e) {
     return e.what();
   }
@@ -40,7 +41,7 @@ TEST(PhysicsConfig, QuantitiesInUnits) {
 }
 
 TEST(PhysicsConfig, DefaultsWhenSectionsAreAbsent) {
-  PhysicsConfig c = parse_physics_config(profile(""));
+  PhysicsConfig c = physics_of((""));
   ASSERT_EQ(c.process.pressure.size(), 2u);
   EXPECT_DOUBLE_EQ(std::get<ConstantSpec>(c.process.pressure[0]).value, 5.0e5);
   EXPECT_DOUBLE_EQ(c.sensor.pressure.range_max, 10.0e5);
@@ -48,7 +49,7 @@ TEST(PhysicsConfig, DefaultsWhenSectionsAreAbsent) {
 }
 
 TEST(PhysicsConfig, TermsSensorAndFaults) {
-  PhysicsConfig c = parse_physics_config(profile(R"(
+  PhysicsConfig c = physics_of((R"(
 physics:
   pressure:
     - constant: 2 bar

@@ -80,7 +80,6 @@ Outcome try_edit(const std::string& text, const std::string& file) {
   config::Profile profile;
   try {
     profile = config::parse_profile(text, file);
-    personalities::prepare_profile(profile);
   } catch (const config::ConfigError& e) {
     return {true, e.what()};
   }

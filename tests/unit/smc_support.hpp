@@ -35,7 +35,7 @@ class SmcFixture : public DeviceMasterFixture<personalities::smc::SmcApplication
 
   void SetUp() override {
     build_node("smc", kId, device_app<personalities::smc::Settings>);
-    const auto& settings = personalities::device_settings<personalities::smc::Settings>(*prepared);
+    const auto& settings = std::get<personalities::smc::Settings>(profile.device);
     for (int i = 0; i < 2; ++i) {
       source->range_min[i] = settings.range_min[i];
       source->range_max[i] = settings.range_max[i];

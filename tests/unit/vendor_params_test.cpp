@@ -18,8 +18,10 @@
 namespace cansim::test {
 namespace {
 
+using Edits = std::initializer_list<std::pair<std::string, std::string>>;
+
 // profiles/<name>.yaml with each `from` replaced by its `to` (the file's own line numbers).
-config::Profile edited(const std::string& name, std::initializer_list<std::pair<std::string, std::string>> edits) {
+std::string edited_text(const std::string& name, Edits edits) {
   std::ifstream in(std::string(CANSIM_SOURCE_DIR) + "/profiles/" + name + ".yaml");
   std::stringstream text;
   text << in.rdbuf();
@@ -29,17 +31,22 @@ config::Profile edited(const std::string& name, std::initializer_list<std::pair<
     EXPECT_NE(at, std::string::npos) << from;
     if (at != std::string::npos) s.replace(at, from.size(), to);
   }
-  return config::parse_profile(s, "profiles/" + name + ".yaml");
+  return s;
+}
+std::string file_of(const std::string& name) { return "profiles/" + name + ".yaml"; }
+config::Profile edited(const std::string& name, Edits edits) {
+  return config::parse_profile(edited_text(name, edits), file_of(name));
 }
 config::Profile edited(const std::string& name, const std::string& from, const std::string& to) {
   return edited(name, {{from, to}});
 }
+std::string edited_error(const std::string& name, const std::string& from, const std::string& to) {
+  return load_error(edited_text(name, {{from, to}}), file_of(name));
+}
 
 template <class Settings>
-Settings prepared_settings(config::Profile p) {
-  personalities::prepare_profile(p);
-  const auto& prepared = *std::static_pointer_cast<const personalities::PreparedProfile>(p.prepared);
-  return *std::static_pointer_cast<const Settings>(prepared.device);
+Settings prepared_settings(const config::Profile& p) {
+  return std::get<Settings>(p.device);
 }
 
 TEST(VendorParams, P92c) {
@@ -102,7 +109,7 @@ TEST(VendorParams, Dps) {
 }
 
 TEST(VendorParams, CmpAcceptsAZeroStartIndicationDelay) {
-  EXPECT_EQ(prepare_error(edited("cmp", "mapping_modes:", "start_indication_delay: 0 s\n  mapping_modes:")),
+  EXPECT_EQ(edited_error("cmp", "mapping_modes:", "start_indication_delay: 0 s\n  mapping_modes:"),
             "no error");
 }
 
@@ -154,7 +161,7 @@ class VendorParamsErrors : public ::testing::TestWithParam<BadValue> {};
 
 TEST_P(VendorParamsErrors, NameFileLineColumnAndKey) {
   const BadValue& b = GetParam();
-  EXPECT_EQ(prepare_error(edited(b.profile, b.from, b.to)), b.error);
+  EXPECT_EQ(edited_error(b.profile, b.from, b.to), b.error);
 }
 
 INSTANTIATE_TEST_SUITE_P(Devices, VendorParamsErrors, ::testing::ValuesIn(kBadValues));

@@ -1,11 +1,11 @@
-#include "personalities/units.hpp"
+#include "model/units.hpp"
 
 #include <string>
 
 #include "physics/quantize.hpp"
 #include "physics/units.hpp"
 
-namespace cansim::personalities {
+namespace cansim::model {
 
 namespace {
 
@@ -83,4 +83,4 @@ std::optional<UnitScale> named_unit(std::string_view name, std::uint32_t* code) 
   return std::nullopt;
 }
 
-}  // namespace cansim::personalities
+}  // namespace cansim::model

@@ -10,7 +10,7 @@
 #include <optional>
 #include <string_view>
 
-namespace cansim::personalities {
+namespace cansim::model {
 
 enum class QuantityKind : std::uint8_t { kPressure, kTemperature };
 
@@ -60,4 +60,4 @@ inline double convert(double v, const UnitScale& from, const UnitScale& to, bool
   return difference ? to.delta_from_si(from.delta_to_si(v)) : to.from_si(from.to_si(v));
 }
 
-}  // namespace cansim::personalities
+}  // namespace cansim::model

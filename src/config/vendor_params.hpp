@@ -1,11 +1,11 @@
-// A device personality's own keys of the profile's `vendor:` section, each
+// A personality's own keys of the profile's `vendor:` section, each
 // named once: the keys a personality reads are the keys it accepts. Each
 // getter leaves `out` as it is when the key is absent (or the section is not
 // a mapping) and says whether it was given; a bad value throws
 // config::ConfigError naming file:line:column: vendor.<key> and what was
 // expected, like every profile error. reject_unknown_keys() comes last.
 //
-//   VendorParams v(profile);
+//   VendorParams v(file, root["vendor"]);
 //   v.integer("serial_part3", s.serial_part3, 0, 9999);
 //   v.flags({{"overload_counters", &s.overload_counters}, {"boot_emcys", &s.boot_emcys}});
 //   v.time_us("monitor_period", s.monitor_period_us, 1e-3, 10.0, "1 ms .. 10 s");
@@ -19,25 +19,25 @@
 #include <utility>
 #include <vector>
 
-#include "config/profile.hpp"
 #include "config/yaml_util.hpp"
 #include "core/can_frame.hpp"
 
-namespace cansim::personalities {
+namespace cansim::config {
 
 class VendorParams {
  public:
   static constexpr double kPositive = std::numeric_limits<double>::denorm_min();  // lo_s: any time > 0
   static constexpr double kForever = std::numeric_limits<double>::infinity();
 
-  explicit VendorParams(const config::Profile& profile);
+  // `section` is the profile's `vendor:` node (may be undefined).
+  VendorParams(const std::string& file, const YAML::Node& section);
 
   bool has(const char* key) const {
     known_.push_back(key);
     return is_map_ && section_[key];
   }
   YAML::Node node(const char* key) const { return is_map_ ? section_[key] : YAML::Node(); }
-  config::Where where(const char* key) const { return where_.child(key); }
+  Where where(const char* key) const { return where_.child(key); }
 
   bool flag(const char* key, bool& out) const;
   void flags(std::initializer_list<std::pair<const char*, bool*>> list) const;
@@ -53,16 +53,15 @@ class VendorParams {
   // A time ("10 ms") in whole microseconds (rounded), lo_s..hi_s seconds, else
   // "expected <range>". With lo_s > 0 the result is at least 1 us.
   bool time_us(const char* key, TimeUs& out, double lo_s, double hi_s, const std::string& range) const;
-  // Fails on a `vendor:` that is not a mapping, and on a key that neither
-  // this personality asked for nor every personality accepts (cia404,
-  // serial_number_base), listing the keys it expected.
+  // Fails on a `vendor:` that is not a mapping, and on a key other than
+  // `cia404` that no getter asked for, listing the keys it expected.
   void reject_unknown_keys() const;
 
  private:
   const YAML::Node section_;
   const bool is_map_;
-  config::Where where_;
+  Where where_;
   mutable std::vector<const char*> known_;  // the keys asked for, in order
 };
 
-}  // namespace cansim::personalities
+}  // namespace cansim::config

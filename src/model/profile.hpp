@@ -1,0 +1,46 @@
+// A node profile as one typed model: identity, bit rate, options (quirks),
+// the object dictionary, the CiA 404 chain bound to it, the personality's
+// settings and the physics. Filled by a loader (config/: YAML profiles;
+// EDS / DCF files), checked there against what the personality declares it
+// needs, and read by personalities and the daemon, which never see the file.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/node_options.hpp"
+#include "core/od.hpp"
+#include "model/cia404_profile.hpp"
+#include "model/device_settings.hpp"
+#include "physics/fault.hpp"
+#include "physics/process.hpp"
+#include "physics/sensor.hpp"
+
+namespace cansim::model {
+
+// The physics of every node of the profile (`physics:`, `sensor:`, `faults:`).
+struct PhysicsConfig {
+  physics::ProcessSpec process;
+  physics::SensorSpec sensor;
+  std::vector<physics::FaultSpec> faults;
+};
+
+struct Profile {
+  std::string file;                     // where it was loaded from
+  std::string name;
+  std::string description;
+  std::string personality = "generic";  // behaviour module (matches `device`)
+  std::uint8_t node_id = 1;             // default node-ID (0xFF = LSS-unconfigured)
+  std::uint32_t bit_rate_kbit = 250;    // default bit rate
+  std::shared_ptr<OdLayout> layout;     // finalized; the chain's hooks are set
+  std::shared_ptr<NodeOptions> options;
+  // The CiA 404 chain, bound to `layout` (null only before a loader binds it).
+  std::shared_ptr<const Cia404Profile> cia404;
+  IdentitySettings identity;
+  DeviceSettings device;
+  PhysicsConfig physics;
+};
+
+}  // namespace cansim::model
