@@ -61,13 +61,11 @@ struct SettingsParser {
 
   void parse() const {
     check_keys(w, section,
-               {"event_check_period", "config_scan_period", "event_channels", "filter_type_without_object",
+               {"event_check_period", "event_channels", "filter_type_without_object",
                 "event_tpdo_types", "change_event_tpdo_types", "limit_trigger", "span_compare", "unit_informational",
                 "digits_on_unit_change", "autozero_signature", "autozero_target", "bad_unit_abort",
                 "bad_autozero_abort", "digits_abort", "unit_digits_abort", "negative_abort", "channels"});
     time_us("event_check_period", s.event_check_period_us);
-    time_us("config_scan_period", s.config_scan_period_us);
-    if (s.config_scan_period_us <= 0) fail(at("config_scan_period"), section["config_scan_period"], "expected a time > 0");
     types("event_tpdo_types", s.event_tpdo_types);
     types("change_event_tpdo_types", s.change_event_tpdo_types);
     either("event_channels", s.events_all_channels, "mapped", "all");

@@ -2,6 +2,8 @@
 
 #include <variant>
 
+#include "core/pdo.hpp"
+
 namespace cansim::config {
 
 namespace {
@@ -46,17 +48,14 @@ void parse(const VendorParams& v, model::SmcSettings& s, const model::Profile& p
   v.time_us("stay_set_period", s.stay_set_period_us, 1e-3, 1.0, "1 ms .. 1 s");
 }
 
-// A mapping entry (CiA 301 §7.4.8.2 format: index, sub, length in bits) of a
-// PDO-mappable object of the profile, of the object's length.
+// A TPDO mapping entry the core would accept on a mapping write.
 void check_mapping_entry(const Where& w, const YAML::Node& n, const OdLayout& layout, std::uint32_t raw,
                          unsigned& bits) {
-  const OdEntry* e = layout.find(std::uint16_t(raw >> 16), std::uint8_t(raw >> 8));
-  const unsigned len = raw & 0xFF;
+  const PdoMapEntry m = PdoMapEntry::decode(raw);
+  const OdEntry* e = layout.find(m.index, m.sub);
   if (!e || !e->pdo_mappable) fail(w, n, "expected a PDO-mappable object of this profile");
-  const bool fits =
-      is_variable_size(e->type) ? len % 8 == 0 && len && len / 8 <= e->capacity : len == 8 * type_size(e->type);
-  if (!fits) fail(w, n, "the length in bits does not fit the object's type");
-  bits += len;
+  if (!ok(check_pdo_map_entry(layout, raw, true, false))) fail(w, n, "the length in bits does not fit the object's type");
+  bits += m.bits;
 }
 
 CmpSettings::MappingMode parse_mapping_mode(const Where& w, const YAML::Node& m, const OdLayout& layout) {

@@ -38,6 +38,9 @@ class Application {
   virtual void after_write(Node&, const OdEntry&, TimeUs) {}
   // A SYNC frame was consumed (counter 0 when the SYNC has no counter byte).
   virtual void on_sync(Node&, std::uint8_t, TimeUs) {}
+  // A PDO's communication or mapping parameters changed, or the PDOs were
+  // reloaded (reset, restore); node.pdo().tpdos() has the new configuration.
+  virtual void on_pdo_config(Node&, TimeUs) {}
   // Periodic application work (event checks, vendor timers). Returns the
   // next time it wants to run, or kNever.
   virtual TimeUs process(Node&, TimeUs) { return kNever; }

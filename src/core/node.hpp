@@ -185,6 +185,7 @@ class Node {
   NodeGuarding& guarding() { return guarding_; }
   SyncConsumer& sync() { return sync_; }
   PdoEngine& pdo() { return pdo_; }
+  const PdoEngine& pdo() const { return pdo_; }
   Emcy& emcy() { return emcy_; }
   StoreRestore& store() { return store_; }
   LssSlave& lss() { return lss_; }

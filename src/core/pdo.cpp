@@ -47,13 +47,7 @@ bool restricted_can_id(std::uint32_t id) {
 bool reserved_tpdo_type(std::uint32_t t) { return t > kTypeLastCyclic && t < kTypeRtrSync; }
 bool reserved_rpdo_type(std::uint32_t t) { return t > kTypeLastCyclic && t < 254; }
 
-// Mapping entry layout (CiA 301 Figure 73): index 31..16, sub 15..8, bits 7..0.
-std::uint16_t map_index(std::uint32_t raw) { return std::uint16_t(raw >> 16); }
-std::uint8_t map_sub(std::uint32_t raw) { return std::uint8_t(raw >> 8); }
-std::uint8_t map_bits(std::uint32_t raw) { return std::uint8_t(raw); }
-
-// Dummy entries name a data type index 0x0001..0x0007 (CiA 301 §7.4.7.1).
-bool is_dummy(std::uint32_t raw) { return map_index(raw) >= 0x0001 && map_index(raw) <= 0x0007; }
+std::uint8_t map_bits(std::uint32_t raw) { return PdoMapEntry::decode(raw).bits; }
 
 // Length in bits an object of type t may be mapped with. BOOLEAN may be
 // mapped as one bit (CiA 301 §7.1.4.2) or as its byte.
@@ -166,6 +160,13 @@ void PdoEngine::reset(TimeUs now) {
   }
   index_active();
   update_deadline();
+  config_changed(now);
+}
+
+// CiA 404 devices and vendors act on what the TPDOs map (event channels,
+// mapping modes); they are told instead of polling the OD.
+void PdoEngine::config_changed(TimeUs now) {
+  if (Application* app = node_.app()) app->on_pdo_config(node_, now);
 }
 
 void PdoEngine::index_active() {
@@ -424,21 +425,25 @@ SdoAbort PdoEngine::check_map_write(const PdoConfig& cfg, bool tx, std::uint8_t 
 // One mapping entry: 0x06020000 / 0x06090011 when the object is missing,
 // 0x06040041 when it is not mappable, not readable (TPDO) / writable (RPDO),
 // or its length does not match the type.
-SdoAbort PdoEngine::check_map_entry(std::uint32_t raw, bool tx, const OdEntry** mapped) const {
-  const unsigned bits = map_bits(raw);
-  if (is_dummy(raw)) {
-    if (tx || !node_.options().rpdo_dummy_mapping || map_sub(raw) != 0) return SdoAbort::kNotMappable;
-    const auto t = DataType(map_index(raw));
-    return length_fits(t, 0, bits) ? SdoAbort::kNone : SdoAbort::kNotMappable;
+SdoAbort check_pdo_map_entry(const OdLayout& od, std::uint32_t raw, bool tx, bool dummies, const OdEntry** mapped) {
+  const PdoMapEntry m = PdoMapEntry::decode(raw);
+  if (mapped) *mapped = nullptr;
+  if (m.dummy()) {
+    if (tx || !dummies || m.sub != 0) return SdoAbort::kNotMappable;
+    return length_fits(DataType(m.index), 0, m.bits) ? SdoAbort::kNone : SdoAbort::kNotMappable;
   }
   SdoAbort why = SdoAbort::kNone;
-  const OdEntry* e = node_.od().lookup(map_index(raw), map_sub(raw), why);
+  const OdEntry* e = od.lookup(m.index, m.sub, why);
   if (!e) return why;
   if (!e->pdo_mappable) return SdoAbort::kNotMappable;
   if (tx ? !readable(e->access) : !writable(e->access)) return SdoAbort::kNotMappable;
-  if (!length_fits(e->type, e->capacity, bits)) return SdoAbort::kNotMappable;
+  if (!length_fits(e->type, e->capacity, m.bits)) return SdoAbort::kNotMappable;
   if (mapped) *mapped = e;
   return SdoAbort::kNone;
+}
+
+SdoAbort PdoEngine::check_map_entry(std::uint32_t raw, bool tx, const OdEntry** mapped) const {
+  return check_pdo_map_entry(node_.od(), raw, tx, node_.options().rpdo_dummy_mapping, mapped);
 }
 
 Tpdo* PdoEngine::find_tpdo(const PdoConfig& cfg) {
@@ -454,6 +459,11 @@ Rpdo* PdoEngine::find_rpdo(const PdoConfig& cfg) {
 // Re-reads the PDO and reacts: a new COB-ID, type or mapping restarts the PDO;
 // a new event timer restarts the timer only.
 void PdoEngine::after_config_change(PdoConfig& cfg, bool tx, std::uint8_t comm_sub, TimeUs now) {
+  restart(cfg, tx, comm_sub, now);
+  config_changed(now);
+}
+
+void PdoEngine::restart(PdoConfig& cfg, bool tx, std::uint8_t comm_sub, TimeUs now) {
   const std::uint32_t old_cobid = cfg.cobid;
   load(cfg, tx);
   index_active();

@@ -33,6 +33,29 @@ constexpr std::uint32_t kPdoCobFrame = 0x20000000u;    // bit 29: 29-bit CAN-ID
 // Flag on collect_rx_ids() entries for 29-bit identifiers (as SocketCAN's CAN_EFF_FLAG).
 constexpr std::uint32_t kRxIdExtended = 0x80000000u;
 
+// A PDO mapping entry as written to 0x16xx / 0x1Axx (CiA 301 §7.4.8.2):
+// index in bits 31-16, sub-index in bits 15-8, length in bits in bits 7-0.
+struct PdoMapEntry {
+  std::uint16_t index = 0;
+  std::uint8_t sub = 0;
+  std::uint8_t bits = 0;
+
+  static constexpr PdoMapEntry decode(std::uint32_t raw) {
+    return {std::uint16_t(raw >> 16), std::uint8_t(raw >> 8), std::uint8_t(raw)};
+  }
+  // A dummy entry names a data type index 0x0001..0x0007 (CiA 301 §7.4.7.1).
+  constexpr bool dummy() const { return index >= 0x0001 && index <= 0x0007; }
+};
+
+// Checks a mapping entry against a layout as a mapping write does (CiA 301
+// §7.5.2.35-36): the object exists (else 0x06020000 / 0x06090011), is
+// PDO-mappable, readable for a TPDO (tx) or writable for an RPDO, and the
+// length fits its type (else 0x06040041); dummy entries only where
+// `dummies` allows them (RPDOs with rpdo_dummy_mapping). `mapped` receives
+// the entry (null for a dummy).
+SdoAbort check_pdo_map_entry(const OdLayout& od, std::uint32_t raw, bool tx, bool dummies,
+                             const OdEntry** mapped = nullptr);
+
 // One resolved mapping entry: an OD slot and a length in bits.
 struct PdoMapItem {
   static constexpr std::uint16_t kDummy = 0xFFFF;  // dummy entry: bits are skipped
@@ -115,12 +138,18 @@ class PdoEngine : private NodeService {
 
   std::size_t tpdo_count() const { return tpdos_.size(); }
   std::size_t rpdo_count() const { return rpdos_.size(); }
+  // The TPDOs as the engine runs them: COB-ID, type and the resolved mapping
+  // (valid when the configuration is). The application is told of every
+  // change by Application::on_pdo_config().
+  std::span<const Tpdo> tpdos() const { return tpdos_; }
+  // The PDO exists: COB-ID bit 31 clear (or the vendor ignores the bit).
+  bool valid(const PdoConfig& cfg) const;
 
  private:
   // ---- configuration
   void load(PdoConfig& cfg, bool tx);
   void load_mapping(PdoConfig& cfg, bool tx);
-  bool valid(const PdoConfig& cfg) const;
+  void config_changed(TimeUs now);
   bool locked(const PdoConfig& cfg) const;  // CiA 301: "while the PDO exists"
   const OdEntry* comm_entry(const PdoConfig& cfg, std::uint8_t sub) const;
   const OdEntry* map_entry(const PdoConfig& cfg, std::uint8_t sub) const;
@@ -131,6 +160,7 @@ class PdoEngine : private NodeService {
   SdoAbort check_map_count(const PdoConfig& cfg, bool tx, std::uint32_t n) const;
   SdoAbort check_map_write(const PdoConfig& cfg, bool tx, std::uint8_t sub, std::uint32_t v) const;
   void after_config_change(PdoConfig& cfg, bool tx, std::uint8_t comm_sub, TimeUs now);
+  void restart(PdoConfig& cfg, bool tx, std::uint8_t comm_sub, TimeUs now);
   Tpdo* find_tpdo(const PdoConfig& cfg);
   Rpdo* find_rpdo(const PdoConfig& cfg);
 

@@ -70,6 +70,9 @@ void SerialOverlay::after_write(Node& n, const OdEntry& e, TimeUs t) {
 void SerialOverlay::on_sync(Node& n, std::uint8_t c, TimeUs t) {
   if (inner_) inner_->on_sync(n, c, t);
 }
+void SerialOverlay::on_pdo_config(Node& n, TimeUs t) {
+  if (inner_) inner_->on_pdo_config(n, t);
+}
 TimeUs SerialOverlay::process(Node& n, TimeUs t) { return inner_ ? inner_->process(n, t) : kNever; }
 TimeUs SerialOverlay::environment(Node& n, TimeUs t) { return inner_ ? inner_->environment(n, t) : kNever; }
 

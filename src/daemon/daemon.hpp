@@ -70,6 +70,7 @@ class SerialOverlay : public Application {
   SdoAbort check_write(Node& n, const OdEntry& e, std::span<const std::uint8_t> d, TimeUs t) override;
   void after_write(Node& n, const OdEntry& e, TimeUs t) override;
   void on_sync(Node& n, std::uint8_t c, TimeUs t) override;
+  void on_pdo_config(Node& n, TimeUs t) override;
   TimeUs process(Node& n, TimeUs t) override;
   TimeUs environment(Node& n, TimeUs t) override;
   Application* inner() { return inner_.get(); }

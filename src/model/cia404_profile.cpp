@@ -133,15 +133,6 @@ std::shared_ptr<const Cia404Profile> Cia404Builder::finish() {
     for (std::size_t x = 0; x < c.extras.size(); ++x)
       out.by_slot_[c.extras[x].views[0]->slot] = {std::uint8_t(ch), Role::kExtra, std::uint16_t(x)};
   }
-  for (unsigned n = 0; n < 512; ++n) {
-    Cia404Profile::Tpdo t;
-    t.cob_id = layout_.find(std::uint16_t(0x1800 + n), 1);
-    t.type = layout_.find(std::uint16_t(0x1800 + n), 2);
-    t.count = layout_.find(std::uint16_t(0x1A00 + n), 0);
-    if (!t.cob_id || !t.type || !t.count) continue;
-    for (unsigned i = 0; i < 8; ++i) t.map[i] = layout_.find(std::uint16_t(0x1A00 + n), std::uint8_t(i + 1));
-    out.tpdos.push_back(t);
-  }
   return std::move(out_);
 }
 

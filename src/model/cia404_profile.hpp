@@ -101,7 +101,6 @@ enum class DigitsOnUnitChange : std::uint8_t { kKeep, kReject, kClamp, kAdjust }
 // Chain settings (profile `vendor: cia404:`), default = CiA 404 behaviour.
 struct Cia404Settings {
   TimeUs event_check_period_us = 0;  // 0: the channel's sample period
-  TimeUs config_scan_period_us = 100000;
   ByteSet event_tpdo_types = types_254_255();  // TPDO types whose mapped PVs get delta/limit events
   ByteSet change_event_tpdo_types;   // TPDO types whose mapped PVs get an event on every change
   bool events_all_channels = false;  // check delta / limits on every channel, mapped or not
@@ -136,15 +135,7 @@ class Cia404Profile {
   };
   const Binding& binding(const OdEntry& e) const { return by_slot_[e.slot]; }
 
-  struct Tpdo {
-    const OdEntry* cob_id = nullptr;
-    const OdEntry* type = nullptr;
-    const OdEntry* count = nullptr;
-    const OdEntry* map[8] = {};
-  };
-
   std::vector<ChannelConfig> channels;
-  std::vector<Tpdo> tpdos;
   Cia404Settings settings;
 
   // The chain with every channel the layout has (the sub-indices of the PV
@@ -159,7 +150,7 @@ class Cia404Profile {
 
 // Builds a Cia404Profile against a layout. A loader starts each channel with
 // channel(), edits it (views, units, dependents) and adds it; finish() binds
-// the entries (sets their hooks) and collects the TPDOs.
+// the entries (sets their hooks).
 class Cia404Builder {
  public:
   explicit Cia404Builder(OdLayout& layout) : layout_(layout), out_(std::make_shared<Cia404Profile>()) {}

@@ -277,13 +277,18 @@ void Cia404Application::on_reset(Node& node, ResetKind kind, TimeUs now) {
     st.upper_armed = st.lower_armed = true;
   }
   event_channels_ = change_channels_ = 0;
-  next_scan_ = now;
+  rescan_ = true;
   next_check_ = now;
   next_supervision_ = now;
 }
 
 void Cia404Application::on_nmt_state(Node& node, NmtState, TimeUs now) {
-  next_scan_ = now;  // the event TPDO set may have changed
+  rescan_ = true;  // PDOs may have become allowed
+  node.wake_app(now);
+}
+
+void Cia404Application::on_pdo_config(Node& node, TimeUs now) {
+  rescan_ = true;  // the event TPDO set may have changed
   node.wake_app(now);
 }
 
@@ -435,26 +440,22 @@ void Cia404Application::after_write(Node& node, const OdEntry& e, TimeUs now) {
   if (b.role >= Role::kDelta && b.role <= Role::kHysteresis) {
     st.have_ref = false;
     st.upper_armed = st.lower_armed = true;
-    next_scan_ = now;
     node.wake_app(now);
   }
 }
 
 // ---- events (CiA 404 analogue-input interrupts, TPDO types 254/255)
 
+// The channels whose PV a valid TPDO of one of `types` maps (CiA 404: the
+// analogue-input interrupts act on mapped channels).
 std::uint32_t Cia404Application::scan_event_channels(const Node& node, const ByteSet& types) const {
   std::uint32_t mask = 0;
-  const OdValues& v = node.values();
-  for (const Cia404Profile::Tpdo& t : profile_->tpdos) {
-    if (v.get_u(*t.cob_id) & 0x80000000u) continue;  // PDO not valid
-    if (!types.has(std::uint8_t(v.get_u(*t.type)))) continue;
-    const unsigned n = unsigned(std::min<std::uint64_t>(v.get_u(*t.count), 8));
-    for (unsigned i = 0; i < n; ++i) {
-      if (!t.map[i]) continue;
-      const std::uint32_t m = std::uint32_t(v.get_u(*t.map[i]));
-      const OdEntry* e = node.od().find(std::uint16_t(m >> 16), std::uint8_t(m >> 8));
-      if (!e) continue;
-      const Cia404Profile::Binding& b = profile_->binding(*e);
+  const PdoEngine& pdo = node.pdo();
+  for (const Tpdo& t : pdo.tpdos()) {
+    if (!pdo.valid(t.cfg) || !types.has(t.cfg.type)) continue;
+    for (const PdoMapItem& item : std::span(t.cfg.items).first(t.cfg.item_count)) {
+      if (item.slot == PdoMapItem::kDummy) continue;
+      const Cia404Profile::Binding& b = profile_->binding(node.od().entry(item.slot));
       if (b.role == Role::kPv && b.channel < 32) mask |= 1u << b.channel;
     }
   }
@@ -563,7 +564,7 @@ void Cia404Application::restore(const Application& snapshot) {
   comm_faults_.restore(from.comm_faults_);
   event_channels_ = from.event_channels_;
   change_channels_ = from.change_channels_;
-  next_scan_ = from.next_scan_;
+  rescan_ = from.rescan_;
   next_check_ = from.next_check_;
   next_supervision_ = from.next_supervision_;
 }
@@ -701,36 +702,37 @@ TimeUs Cia404Application::process(Node& node, TimeUs now) {
 
 // Delta / limit / change events of the channels mapped into event TPDOs.
 TimeUs Cia404Application::check_events_due(Node& node, TimeUs now) {
-  const TimeUs scan = profile_->settings.config_scan_period_us;
   if (!node.allowed(Service::kPdo)) {
     event_channels_ = change_channels_ = 0;
-    next_scan_ = now;  // rescan once PDOs are allowed again
-    return kNever;     // on_nmt_state wakes the application on the next state change
+    rescan_ = true;  // once PDOs are allowed again
+    return kNever;   // on_nmt_state wakes the application on the next state change
   }
-  if (now >= next_scan_) {
-    const std::uint32_t change = scan_event_channels(node, profile_->settings.change_event_tpdo_types);
-    const std::uint32_t all = state_.size() >= 32 ? ~0u : (1u << state_.size()) - 1u;
-    const std::uint32_t mask =
-        (profile_->settings.events_all_channels ? all : scan_event_channels(node, profile_->settings.event_tpdo_types)) | change;
-    for (std::size_t ch = 0; ch < state_.size() && ch < 32; ++ch) {
-      if ((mask >> ch) & 1 && !((event_channels_ >> ch) & 1)) {
-        state_[ch].have_ref = false;
-        state_[ch].upper_armed = state_[ch].lower_armed = true;
-      }
-      if ((change >> ch) & 1 && !((change_channels_ >> ch) & 1)) state_[ch].have_change_ref = false;
-    }
-    event_channels_ = mask;
-    change_channels_ = change;
-    next_scan_ = now + scan;
-  }
-  if (!event_channels_) return next_scan_;
-  TimeUs period = scan;
+  if (rescan_) rescan_event_channels(node);
+  TimeUs period = kNever;
   for (std::size_t ch = 0; ch < state_.size() && ch < 32; ++ch) {
     if (!((event_channels_ >> ch) & 1)) continue;
     check_events(node, ch, now);
     period = std::min(period, check_period(ch));
   }
-  return std::min(next_scan_, now + period);
+  return period == kNever ? kNever : now + period;
+}
+
+// A channel that joins the event set starts with fresh references.
+void Cia404Application::rescan_event_channels(const Node& node) {
+  const Cia404Settings& s = profile_->settings;
+  const std::uint32_t change = scan_event_channels(node, s.change_event_tpdo_types);
+  const std::uint32_t all = state_.size() >= 32 ? ~0u : (1u << state_.size()) - 1u;
+  const std::uint32_t mask = (s.events_all_channels ? all : scan_event_channels(node, s.event_tpdo_types)) | change;
+  for (std::size_t ch = 0; ch < state_.size() && ch < 32; ++ch) {
+    if ((mask >> ch) & 1 && !((event_channels_ >> ch) & 1)) {
+      state_[ch].have_ref = false;
+      state_[ch].upper_armed = state_[ch].lower_armed = true;
+    }
+    if ((change >> ch) & 1 && !((change_channels_ >> ch) & 1)) state_[ch].have_change_ref = false;
+  }
+  event_channels_ = mask;
+  change_channels_ = change;
+  rescan_ = false;
 }
 
 }  // namespace cansim::personalities

@@ -138,6 +138,7 @@ class Cia404Application : public Application {
 
   void on_reset(Node& node, ResetKind kind, TimeUs now) override;
   void on_nmt_state(Node& node, NmtState state, TimeUs now) override;
+  void on_pdo_config(Node& node, TimeUs now) override;
   void refresh(Node& node, const OdEntry& e, TimeUs now) override;
   SdoAbort check_write(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now) override;
   void after_write(Node& node, const OdEntry& e, TimeUs now) override;
@@ -289,6 +290,7 @@ class Cia404Application : public Application {
   void after_param_write(Node& node, std::size_t ch, const Param& p, const OdEntry& written);
   void autozero(Node& node, std::size_t ch, TimeUs now);
   std::uint32_t scan_event_channels(const Node& node, const ByteSet& types) const;
+  void rescan_event_channels(const Node& node);
   bool changed(Node& node, std::size_t ch);
   bool check_events(Node& node, std::size_t ch, TimeUs now);
   TimeUs check_period(std::size_t ch) const;
@@ -309,7 +311,7 @@ class Cia404Application : public Application {
   CommFaultDriver comm_faults_;
   std::uint32_t event_channels_ = 0;  // bit per channel mapped into an event TPDO
   std::uint32_t change_channels_ = 0;  // subset mapped into a change-event TPDO
-  TimeUs next_scan_ = 0;
+  bool rescan_ = true;  // the event channels follow the TPDO configuration
   TimeUs next_check_ = 0;
   TimeUs next_supervision_ = 0;
 };

@@ -1,5 +1,7 @@
 #include "personalities/p92c.hpp"
 
+#include "core/pdo.hpp"
+
 #include <cstdio>
 
 #include "physics/fault.hpp"
@@ -78,9 +80,8 @@ bool P92cApplication::stored_mapping_valid(const Node& node) const {
   unsigned bits = 0;
   for (std::uint8_t i = 1; i <= n; ++i) {
     const auto raw = std::uint32_t(v.u(kMapping, i));
-    const OdEntry* e = node.od().find(std::uint16_t(raw >> 16), std::uint8_t(raw >> 8));
-    if (!node.od().find(kMapping, i) || !e || !e->pdo_mappable || (raw & 0xFF) != type_size(e->type) * 8) return false;
-    bits += raw & 0xFF;
+    if (!node.od().find(kMapping, i) || !ok(check_pdo_map_entry(node.od(), raw, true, false))) return false;
+    bits += PdoMapEntry::decode(raw).bits;
   }
   return bits <= 64;
 }

@@ -50,6 +50,25 @@ TEST_F(Events, DeltaRaisesTpdoAtTheCheckAfterTheChange) {
   EXPECT_EQ(sent[1].frame, pdo(6.2f, 0));
 }
 
+// The chain follows the TPDO configuration as the master changes it: told
+// by the PDO engine, not by polling the OD.
+TEST_F(Events, EventChannelsFollowTheTpdoTypeAtOnce) {
+  ASSERT_EQ(wf(0x6133, 1, 0.5f), SdoAbort::kNone);
+  ASSERT_EQ(wu8(0x1800, 2, 1), SdoAbort::kNone);  // synchronous: no delta events
+  TimeUs t0 = now();
+  steps = {{0, 5.0}, {t0 + ms(5), 6.0}};
+  bus.run_for(ms(20));
+  EXPECT_TRUE(bus.take().empty());
+  ASSERT_EQ(wu8(0x1800, 2, 255), SdoAbort::kNone);  // event-driven again
+  t0 = now();
+  steps = {{0, 6.0}, {t0 + ms(1), 7.0}};
+  bus.run_for(ms(15));
+  auto sent = bus.take();
+  ASSERT_EQ(sent.size(), 1u) << to_string(sent);
+  EXPECT_EQ(sent[0].time, t0 + ms(10));  // the first 10 ms event check after the step
+  EXPECT_EQ(sent[0].frame, pdo(7.0f, 0));
+}
+
 TEST_F(Events, UpperLimitFiresOncePerCrossingWithHysteresis) {
   ASSERT_EQ(wf(0x6135, 1, 7.0f), SdoAbort::kNone);
   ASSERT_EQ(wf(0x6136, 1, 0.5f), SdoAbort::kNone);

@@ -256,5 +256,72 @@ TEST(PdoConfig, ApplicationHookMayRestrictMappings) {
   EXPECT_EQ(n.write(0x1A00, 1, v, bus.now()), SdoAbort::kNone);
 }
 
+// ---- the public mapping decoder and the configuration notification
+
+TEST(PdoMapEntry, DecodesIndexSubAndLength) {
+  constexpr PdoMapEntry m = PdoMapEntry::decode(0x61300120);
+  static_assert(m.index == 0x6130 && m.sub == 0x01 && m.bits == 0x20);
+  EXPECT_FALSE(m.dummy());
+  EXPECT_TRUE(PdoMapEntry::decode(0x00050008).dummy());  // UNSIGNED8 dummy
+  EXPECT_FALSE(PdoMapEntry::decode(0x00080020).dummy());
+}
+
+TEST(PdoMapEntry, ChecksAgainstTheLayoutAsAMappingWriteDoes) {
+  const config::Profile p = config::parse_profile(pdo_profile("{}"), "pdo-test.yaml");
+  const OdLayout& od = *p.layout;
+  const OdEntry* mapped = nullptr;
+  EXPECT_EQ(check_pdo_map_entry(od, 0x20000020, true, false, &mapped), SdoAbort::kNone);
+  EXPECT_EQ(mapped, od.find(0x2000, 0));
+  EXPECT_EQ(check_pdo_map_entry(od, 0x20000010, true, false), SdoAbort::kNotMappable);  // 16 bits of a U32
+  EXPECT_EQ(check_pdo_map_entry(od, 0x20020008, true, false), SdoAbort::kNotMappable);  // not mappable
+  EXPECT_EQ(check_pdo_map_entry(od, 0x20060008, true, false), SdoAbort::kNotMappable);  // wo in a TPDO
+  EXPECT_EQ(check_pdo_map_entry(od, 0x20060008, false, false), SdoAbort::kNone);        // ... fine in an RPDO
+  EXPECT_EQ(check_pdo_map_entry(od, 0x20040001, true, false), SdoAbort::kNone);         // BOOLEAN as one bit
+  EXPECT_EQ(check_pdo_map_entry(od, 0x30000008, true, false), SdoAbort::kNoObject);
+  EXPECT_EQ(check_pdo_map_entry(od, 0x20000108, true, false), SdoAbort::kNoSubIndex);
+  EXPECT_EQ(check_pdo_map_entry(od, 0x00050008, false, false), SdoAbort::kNotMappable);  // dummies off
+  EXPECT_EQ(check_pdo_map_entry(od, 0x00050008, false, true, &mapped), SdoAbort::kNone);
+  EXPECT_EQ(mapped, nullptr);
+  EXPECT_EQ(check_pdo_map_entry(od, 0x00050008, true, true), SdoAbort::kNotMappable);  // never in a TPDO
+}
+
+class ConfigWatcher : public Application {
+ public:
+  void on_pdo_config(Node& node, TimeUs) override {
+    ++calls;
+    const Tpdo& t1 = node.pdo().tpdos()[0];
+    valid = node.pdo().valid(t1.cfg);
+    type = t1.cfg.type;
+    items = t1.cfg.item_count;
+  }
+  int calls = 0;
+  bool valid = false;
+  int type = -1;
+  int items = -1;
+};
+
+TEST(PdoConfig, ApplicationIsToldOfEveryConfigurationChange) {
+  ConfigWatcher app;
+  PdoBus b("{}", &app);
+  EXPECT_GE(app.calls, 1);  // the power-on reset loaded the PDOs
+  EXPECT_TRUE(app.valid);
+  EXPECT_EQ(app.type, 255);
+  EXPECT_EQ(app.items, 2);
+  app.calls = 0;
+  ASSERT_EQ(b.write(0x1800, 2, 1), SdoAbort::kNone);
+  EXPECT_EQ(app.calls, 1);
+  EXPECT_EQ(app.type, 1);
+  ASSERT_EQ(b.write(0x1800, 1, 0x80000185), SdoAbort::kNone);
+  EXPECT_EQ(app.calls, 2);
+  EXPECT_FALSE(app.valid);
+  ASSERT_EQ(b.write(0x1A00, 0, 0), SdoAbort::kNone);
+  EXPECT_EQ(app.calls, 3);
+  EXPECT_EQ(app.items, 0);
+  b.nmt(0x81);  // reset node: back to the defaults, told again
+  EXPECT_EQ(app.calls, 4);
+  EXPECT_TRUE(app.valid);
+  EXPECT_EQ(app.items, 2);
+}
+
 }  // namespace
 }  // namespace cansim::pdo_test
