@@ -12,6 +12,10 @@
 //   source (physics::Sensor, SI) -> unit 0x6131 -> + offset 0x6124 -> PV 0x6130 / 0x7130 / 0x9130
 //   raw ADC counts -> FV 0x6100 / 0x7100 / 0x9100;  span 0x6148/0x6149 -> status 0x6150
 //   delta 0x6133, limits 0x6134/0x6135 with hysteresis 0x6136 -> TPDO events (type 254/255)
+//
+// Files: cia404.cpp the chain and its events, cia404_faults.cpp the fault
+// glue, cia404_control.cpp the control API hooks, sensor_source.* the
+// physics adapter; the chain's profile data is model/cia404_profile.hpp.
 #pragma once
 
 #include <cstdint>
@@ -26,12 +30,11 @@
 #include "core/application.hpp"
 #include "core/node.hpp"
 #include "core/node_options.hpp"
-#include "personalities/comm_faults.hpp"
 #include "model/cia404_profile.hpp"
 #include "model/device_settings.hpp"
 #include "model/units.hpp"
-#include "physics/recorder.hpp"
-#include "physics/sensor.hpp"
+#include "personalities/comm_faults.hpp"
+#include "personalities/sensor_source.hpp"
 
 namespace cansim::personalities {
 
@@ -57,76 +60,6 @@ enum : unsigned {
   kEventLowerDown = 0x10,  // PV fell below the lower limit
   kEventLowerUp = 0x20,    // PV rose back to lower limit + hysteresis (re-armed)
   kEventsRaising = kEventChange | kEventDelta | kEventUpperUp | kEventLowerDown,
-};
-
-// Where a channel's values come from. The default wraps a physics::Sensor.
-class MeasurementSource {
- public:
-  struct Sample {
-    double si = 0.0;           // Pa / K
-    std::int32_t raw = 0;      // ADC counts
-    std::uint8_t status = 0;   // physics kStatus* bits
-  };
-  virtual ~MeasurementSource() = default;
-  // Must return the same sample for the same `now`: the chain evaluates a
-  // channel once per instant and reuses it.
-  virtual Sample sample(physics::Channel ch, TimeUs now) = 0;
-  virtual void set_filter(physics::Channel, const physics::FilterSpec&) {}
-  virtual TimeUs sample_period_us(physics::Channel) const { return 1000; }
-  virtual void reboot(TimeUs) {}
-  // The node's fault schedule (null: this source has none).
-  virtual physics::FaultSet* fault_set() { return nullptr; }
-  // A copy of this source's state for Cia404Application::snapshot (null:
-  // this source has none) and the way back to it.
-  virtual std::unique_ptr<MeasurementSource> snapshot() const { return nullptr; }
-  virtual void restore(const MeasurementSource&) {}
-};
-
-// The physics::Sensor of one node with its scheduled faults.
-class SensorSource : public MeasurementSource {
- public:
-  SensorSource(const physics::SensorSpec& sensor, const physics::ProcessSpec& process,
-               std::span<const physics::FaultSpec> faults, std::uint64_t node_seed);
-  Sample sample(physics::Channel ch, TimeUs now) override;
-  void set_filter(physics::Channel ch, const physics::FilterSpec& f) override { sensor_.set_filter(ch, f); }
-  TimeUs sample_period_us(physics::Channel ch) const override;
-  void reboot(TimeUs now) override { sensor_.reboot(now); }
-  physics::FaultSet* fault_set() override { return faults_.get(); }
-  // The sensor with its process model and the fault schedule; a recording is
-  // output, not state: a snapshot has none and a restore leaves it running.
-  std::unique_ptr<MeasurementSource> snapshot() const override;
-  void restore(const MeasurementSource& snapshot) override;
-  physics::Sensor& sensor() { return sensor_; }
-  physics::FaultSet& faults() { return *faults_; }
-
-  // ---- the process model at run time. The sensor first catches up to `now`
-  // with the old model, so what it sampled before `now` stays (its filters
-  // then follow the new truth). set_process: the terms' time 0 is `now`;
-  // throws std::invalid_argument, changing nothing, on invalid terms.
-  void set_process(physics::Channel ch, const std::vector<physics::TermSpec>& terms, TimeUs now);
-  void restore_process(physics::Channel ch, TimeUs now);  // back to the profile's model
-  // The process model's value (Pa / K) at `now`.
-  double true_value(physics::Channel ch, TimeUs now);
-
-  // Records one CSV row (physics::CsvRecorder) per instant the node reads its
-  // sensor, replacing a running recording. Returns false with *error (the
-  // running recording kept) when the file cannot be created.
-  bool record_to(const std::string& path, std::string* error);
-  // Flushes and closes the recording.
-  void stop_recording();
-  const std::string& recording() const { return recording_; }  // its path, "" when none
-  const physics::CsvRecorder* recorder() const { return recorder_.get(); }
-
- private:
-  SensorSource(const SensorSource& other);  // for snapshot()
-  void catch_up(TimeUs now) { sensor_.read(now); }
-
-  std::unique_ptr<physics::FaultSet> faults_;  // the sensor keeps a pointer to it
-  std::uint64_t process_seed_;
-  physics::Sensor sensor_;
-  std::unique_ptr<physics::CsvRecorder> recorder_;
-  std::string recording_;
-  TimeUs recorded_at_ = -1;
 };
 
 // The per-node Application of a CiA 404 sensor. Device personalities derive
