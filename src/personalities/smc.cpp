@@ -1,5 +1,7 @@
 #include "personalities/smc.hpp"
 
+#include <stdexcept>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -49,11 +51,11 @@ void SmcApplication::load_chain(const Node& node) {
   for (std::uint8_t sub = 1; sub <= 2; ++sub) {
     Chain& c = chain_[sub - 1];
     const Chain before = c;
-    c.gain = float(node.values().get_f(*node.od().find(0x6126, sub)));
-    c.pv1 = float(node.values().get_f(*node.od().find(0x6127, sub)));
-    c.offset = float(node.values().get_f(*node.od().find(0x3125, sub)));
-    c.cmin = float(node.values().get_f(*node.od().find(0x3201, sub)));
-    c.cmax = float(node.values().get_f(*node.od().find(0x3202, sub)));
+    c.gain = float(node.values().get_f(*objects_[channel_of(sub)].gain));
+    c.pv1 = float(node.values().get_f(*objects_[channel_of(sub)].scale_offset));
+    c.offset = float(node.values().get_f(*objects_[channel_of(sub)].input_offset));
+    c.cmin = float(node.values().get_f(*objects_[channel_of(sub)].clamp_min));
+    c.cmax = float(node.values().get_f(*objects_[channel_of(sub)].clamp_max));
     if (!(c.cmin <= c.cmax)) c.cmax = c.cmin;
     if (!(c == before)) invalidate();  // the PV of this instant changes too
   }
@@ -70,13 +72,29 @@ double SmcApplication::input_value(const ChannelConfig& c, const MeasurementSour
 // §6.2.9: "hysteresis equals 1 % of the total measuring span" (|PV2 - PV1|).
 double SmcApplication::limit_hysteresis(const Node& node, std::size_t ch) const {
   const std::uint8_t sub = std::uint8_t(ch + 1);
-  return 0.01 * std::fabs(node.values().get_f(*node.od().find(0x6123, sub)) -
-                          node.values().get_f(*node.od().find(0x6121, sub)));
+  return 0.01 * std::fabs(node.values().get_f(*objects_[channel_of(sub)].pv2) -
+                          node.values().get_f(*objects_[channel_of(sub)].pv1));
 }
 
 // ---------------------------------------------------------------- reset
 
+// The scaling objects of both channels, which requirements() declares: the
+// loader rejected a profile without them.
+void SmcApplication::resolve_objects(const OdLayout& od) {
+  auto need = [&](std::uint16_t index, std::uint8_t sub) -> const OdEntry* {
+    const OdEntry* e = od.find(index, sub);
+    if (!e) throw std::logic_error("adz-smc: a profile without a required object was not rejected by its loader");
+    return e;
+  };
+  for (std::uint8_t sub = 1; sub <= 2; ++sub) {
+    ScalingObjects& o = objects_[sub - 1];
+    o = {need(0x6121, sub), need(0x6123, sub), need(0x9121, sub), need(0x9123, sub), need(0x6126, sub),
+         need(0x6127, sub), need(0x3124, sub), need(0x3125, sub), need(0x3201, sub), need(0x3202, sub)};
+  }
+}
+
 void SmcApplication::on_reset(Node& node, ResetKind kind, TimeUs now) {
+  resolve_objects(node.od());
   Cia404Application::on_reset(node, kind, now);
   OdValues& v = node.values();
   factory_serial_ = std::uint32_t(v.u(0x1018, 4));
@@ -214,16 +232,16 @@ void SmcApplication::after_write(Node& node, const OdEntry& e, TimeUs now) {
   const std::size_t ch = channel_of(e.sub);
   switch (e.index) {
     case 0x3124:  // one input-offset register, two views
-      v.set_f(*node.od().find(0x3125, e.sub), double(v.get_i(e)));
+      v.set_f(*objects_[channel_of(e.sub)].input_offset, double(v.get_i(e)));
       break;
     case 0x3125:
-      v.set_i(*node.od().find(0x3124, e.sub), physics::to_decimal_i16(v.get_f(e), 0).value);
+      v.set_i(*objects_[channel_of(e.sub)].input_offset_i16, physics::to_decimal_i16(v.get_f(e), 0).value);
       break;
     case 0x3126: {  // "recent Field Value copied into the Input Offset register"
       invalidate();
       const std::int32_t fv = measure(node, ch, now).raw;
-      v.set_f(*node.od().find(0x3125, e.sub), fv);
-      v.set_i(*node.od().find(0x3124, e.sub), fv);
+      v.set_f(*objects_[channel_of(e.sub)].input_offset, fv);
+      v.set_i(*objects_[channel_of(e.sub)].input_offset_i16, fv);
       break;
     }
     case 0x3130:
@@ -232,8 +250,8 @@ void SmcApplication::after_write(Node& node, const OdEntry& e, TimeUs now) {
       v.set_u(e, 4);
       break;
     case 0x3200:  // "least and largest possible float32 values" to min / max
-      v.set_f(*node.od().find(0x3201, e.sub), -kFltMax);
-      v.set_f(*node.od().find(0x3202, e.sub), kFltMax);
+      v.set_f(*objects_[channel_of(e.sub)].clamp_min, -kFltMax);
+      v.set_f(*objects_[channel_of(e.sub)].clamp_max, kFltMax);
       break;
     case 0x4001:
       return change_node_id(node, e.sub, std::uint8_t(v.get_u(e)), now);
@@ -259,8 +277,8 @@ void SmcApplication::after_write(Node& node, const OdEntry& e, TimeUs now) {
       break;
     default:
       Cia404Application::after_write(node, e, now);
-      if (e.index == 0x6132) write_scaling(node, ch, float(v.get_f(*node.od().find(0x6121, e.sub))),
-                                           float(v.get_f(*node.od().find(0x6123, e.sub))));
+      if (e.index == 0x6132) write_scaling(node, ch, float(v.get_f(*objects_[channel_of(e.sub)].pv1)),
+                                           float(v.get_f(*objects_[channel_of(e.sub)].pv2)));
       break;
   }
   load_chain(node);
@@ -272,8 +290,8 @@ void SmcApplication::after_scaling_write(Node& node, const OdEntry& e) {
   OdValues& v = node.values();
   const std::uint8_t sub = e.sub;
   const std::size_t ch = channel_of(sub);
-  float pv1 = float(v.get_f(*node.od().find(0x6121, sub)));
-  float pv2 = float(v.get_f(*node.od().find(0x6123, sub)));
+  float pv1 = float(v.get_f(*objects_[channel_of(sub)].pv1));
+  float pv2 = float(v.get_f(*objects_[channel_of(sub)].pv2));
   const double pow10 = std::pow(10.0, double(std::min<std::uint64_t>(v.u(0x6132, sub), 9)));
   switch (e.index) {
     case 0x9121: pv1 = float(double(v.get_i(e)) / pow10); break;
@@ -281,7 +299,7 @@ void SmcApplication::after_scaling_write(Node& node, const OdEntry& e) {
     case 0x6127: pv1 = float(v.get_f(e)); break;
     case 0x6126: {
       const float gain = float(v.get_f(e));
-      pv2 = float(v.get_f(*node.od().find(0x6127, sub))) + gain * float(kFieldSpan);
+      pv2 = float(v.get_f(*objects_[channel_of(sub)].scale_offset)) + gain * float(kFieldSpan);
       write_scaling(node, ch, pv1, pv2);
       v.set_f(e, gain);  // reads back exactly as written
       return;
@@ -295,12 +313,12 @@ void SmcApplication::write_scaling(Node& node, std::size_t ch, float pv1, float 
   OdValues& v = node.values();
   const auto sub = std::uint8_t(ch + 1);
   const int dd = int(std::min<std::uint64_t>(v.u(0x6132, sub), 9));
-  v.set_f(*node.od().find(0x6121, sub), pv1);
-  v.set_f(*node.od().find(0x6123, sub), pv2);
-  v.set_i(*node.od().find(0x9121, sub), physics::to_decimal_i32(pv1, dd).value);
-  v.set_i(*node.od().find(0x9123, sub), physics::to_decimal_i32(pv2, dd).value);
-  v.set_f(*node.od().find(0x6126, sub), (pv2 - pv1) / float(kFieldSpan));
-  v.set_f(*node.od().find(0x6127, sub), pv1);
+  v.set_f(*objects_[channel_of(sub)].pv1, pv1);
+  v.set_f(*objects_[channel_of(sub)].pv2, pv2);
+  v.set_i(*objects_[channel_of(sub)].pv1_i32, physics::to_decimal_i32(pv1, dd).value);
+  v.set_i(*objects_[channel_of(sub)].pv2_i32, physics::to_decimal_i32(pv2, dd).value);
+  v.set_f(*objects_[channel_of(sub)].gain, (pv2 - pv1) / float(kFieldSpan));
+  v.set_f(*objects_[channel_of(sub)].scale_offset, pv1);
 }
 
 // §6.3.7 / §8.3: the new node-ID is applied at once, no SDO answer, a boot-up

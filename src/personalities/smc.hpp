@@ -54,6 +54,15 @@ class SmcApplication : public Cia404Application {
     void add(std::int32_t v);
   };
 
+  // The §5 scaling objects of one channel (sub 1 pressure, 2 temperature).
+  struct ScalingObjects {
+    const OdEntry *pv1, *pv2, *pv1_i32, *pv2_i32;  // 0x6121 / 0x6123 / 0x9121 / 0x9123
+    const OdEntry *gain, *scale_offset;             // 0x6126 / 0x6127
+    const OdEntry *input_offset_i16, *input_offset; // 0x3124 / 0x3125
+    const OdEntry *clamp_min, *clamp_max;           // 0x3201 / 0x3202
+  };
+
+  void resolve_objects(const OdLayout& od);
   void load_chain(const Node& node);
   void write_scaling(Node& node, std::size_t ch, float pv1, float pv2);
   void after_scaling_write(Node& node, const OdEntry& e);
@@ -64,6 +73,7 @@ class SmcApplication : public Cia404Application {
   void swap_if_big_endian(Node& node, const OdEntry& e);
 
   Settings settings_;
+  ScalingObjects objects_[2] = {};
   Chain chain_[2];
   MinMax uptime_[2];
   MinMax lifetime_[2];  // survives resets; kept by the application object
