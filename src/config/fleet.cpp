@@ -1,5 +1,6 @@
 #include "config/fleet.hpp"
 
+#include "config/eds_reader.hpp"
 #include "core/can_frame.hpp"
 
 #include <algorithm>
@@ -57,7 +58,7 @@ class ProfileCache {
     }
     auto it = by_path_.find(path);
     if (it != by_path_.end()) return it->second;
-    auto p = std::make_shared<Profile>(load_profile(path));
+    auto p = std::make_shared<Profile>(load_any_profile(path));
     by_path_[path] = p;
     text_[path] = read_text(path);
     out_.profiles.push_back(p);
@@ -252,6 +253,10 @@ FleetConfig parse_root(const YAML::Node& root, const std::string& file, const Pr
 
 }  // namespace
 
+Profile load_any_profile(const std::string& path) {
+  return is_device_description(path) ? load_eds_profile(path) : load_profile(path);
+}
+
 const InterfaceConfig* FleetConfig::interface(const std::string& name) const {
   for (const auto& i : interfaces)
     if (i.name == name) return &i;
@@ -275,7 +280,8 @@ std::string find_profile(const std::string& ref, const std::string& config_dir, 
   if (ref.empty()) return {};
   fs::path p(ref);
   if (p.is_absolute()) return is_file(p) ? p.string() : std::string();
-  bool looks_like_path = ref.find('/') != std::string::npos || p.extension() == ".yaml" || p.extension() == ".yml";
+  bool looks_like_path = ref.find('/') != std::string::npos || p.extension() == ".yaml" || p.extension() == ".yml" ||
+                         is_device_description(ref);
   if (looks_like_path) {
     if (!config_dir.empty() && is_file(fs::path(config_dir) / p)) return (fs::path(config_dir) / p).string();
     if (is_file(p)) return p.string();
@@ -375,7 +381,7 @@ FleetConfig single_node_fleet(const std::string& profile_ref, const std::string&
   if (path.empty()) throw ConfigError(profile_ref + ": profile not found (expected a file or a profile name)");
   FleetConfig out;
   out.file = path;
-  auto profile = std::make_shared<Profile>(load_profile(path));
+  auto profile = std::make_shared<Profile>(load_any_profile(path));
   out.profiles.push_back(profile);
   InterfaceConfig ic;
   ic.name = interface;
