@@ -56,7 +56,9 @@ class LineParser {
       ++line;
       std::string_view raw(text_.data() + at, end - at);
       if (line == 1 && raw.substr(0, 3) == "\xEF\xBB\xBF") raw.remove_prefix(3);  // UTF-8 BOM
-      handle(trimmed(raw), line);
+      if (!raw.empty() && raw.back() == '\r') raw.remove_suffix(1);
+      while (!raw.empty() && (raw.front() == ' ' || raw.front() == '\t')) raw.remove_prefix(1);
+      handle(raw, line);  // trailing blanks stay: they may belong to a string value
       at = end + 1;
     }
     return std::move(doc_);
@@ -64,18 +66,21 @@ class LineParser {
 
  private:
   void handle(std::string_view s, int line) {
-    if (s.empty() || s.front() == ';' || s.front() == '#') return;
+    if (trimmed(s).empty() || s.front() == ';' || s.front() == '#') return;
     if (s.front() == '[') return open_section(s, line);
     const std::size_t eq = s.find('=');
     if (eq == std::string_view::npos || trimmed(s.substr(0, eq)).empty()) {
-      std::string got(s);
+      std::string got(trimmed(s));
       reject(doc_.file, line, current_name(), "expected [section], key=value or a ; comment", &got);
     }
     if (doc_.sections.empty()) {
-      std::string got(s);
+      std::string got(trimmed(s));
       reject(doc_.file, line, "(before the first section)", "expected a [section] before any key", &got);
     }
-    EdsKey k{std::string(trimmed(s.substr(0, eq))), std::string(trimmed(s.substr(eq + 1))), line};
+    std::string_view text = s.substr(eq + 1);
+    const bool spaced = eq > 0 && (s[eq - 1] == ' ' || s[eq - 1] == '\t');
+    while (spaced && !text.empty() && (text.front() == ' ' || text.front() == '\t')) text.remove_prefix(1);
+    EdsKey k{std::string(trimmed(s.substr(0, eq))), std::string(trimmed(text)), std::string(text), line};
     EdsSection& sec = doc_.sections.back();
     if (const EdsKey* first = sec.find(k.name))
       reject(doc_.file, line, "[" + sec.name + "] " + k.name,
@@ -88,7 +93,7 @@ class LineParser {
     std::string_view after = close == std::string_view::npos ? "" : trimmed(s.substr(close + 1));
     if (close == std::string_view::npos || trimmed(s.substr(1, close - 1)).empty() ||
         (!after.empty() && after.front() != ';')) {
-      std::string got(s);
+      std::string got(trimmed(s));
       reject(doc_.file, line, current_name(), "expected a section header [name]", &got);
     }
     EdsSection sec{std::string(trimmed(s.substr(1, close - 1))), line, {}};
@@ -235,7 +240,7 @@ void parse_value(const Field& f, OdEntry& e) {
   if (e.type == DataType::kOctetString || e.type == DataType::kDomain) {
     e.default_bytes = get_hex_bytes(f);
   } else if (is_variable_size(e.type)) {
-    e.default_bytes.assign(f.value().begin(), f.value().end());
+    e.default_bytes.assign(f.key->text.begin(), f.key->text.end());
   } else {
     parse_number(f, e.type, e.default_bytes, &e.default_plus_node_id);
   }

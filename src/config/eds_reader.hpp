@@ -18,6 +18,9 @@ namespace cansim::config {
 struct EdsKey {
   std::string name;   // as written
   std::string value;  // without surrounding blanks
+  // A string value: verbatim after '=' (blanks kept), or after the blanks that
+  // follow '=' when the line spaces the key from '=' ("Key = Value").
+  std::string text;
   int line = 0;
 };
 
