@@ -55,8 +55,7 @@ std::string value_text(DataType t, std::span<const std::uint8_t> bytes, bool nod
   }
   if (bytes.size() < type_size(t)) return "0";
   if (is_real(t)) return real_text(t, bytes.data());
-  if (is_signed(t)) return std::to_string(decode_i(t, bytes.data()));
-  const std::string number = hex(decode_u(t, bytes.data()));
+  const std::string number = is_signed(t) ? std::to_string(decode_i(t, bytes.data())) : hex(decode_u(t, bytes.data()));
   return node_id_term ? "$NODEID+" + number : number;
 }
 
