@@ -8,9 +8,11 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <optional>
 #include <sstream>
+#include <unordered_map>
 
 namespace cansim::config {
 
@@ -80,11 +82,12 @@ class LineParser {
     std::string_view text = s.substr(eq + 1);
     const bool spaced = eq > 0 && (s[eq - 1] == ' ' || s[eq - 1] == '\t');
     while (spaced && !text.empty() && (text.front() == ' ' || text.front() == '\t')) text.remove_prefix(1);
-    EdsKey k{std::string(trimmed(s.substr(0, eq))), std::string(trimmed(text)), std::string(text), line};
+    EdsKey k{std::string(trimmed(s.substr(0, eq))), std::string(trimmed(text)), std::string(text), line, {}};
+    k.key = normalized(k.name);
     EdsSection& sec = doc_.sections.back();
-    if (const EdsKey* first = sec.find(k.name))
+    if (const auto [first, fresh] = key_lines_.emplace(k.key, line); !fresh)
       reject(doc_.file, line, "[" + sec.name + "] " + k.name,
-             "expected each key once per section (first at line " + std::to_string(first->line) + ")");
+             "expected each key once per section (first at line " + std::to_string(first->second) + ")");
     sec.keys.push_back(std::move(k));
   }
 
@@ -96,10 +99,12 @@ class LineParser {
       std::string got(trimmed(s));
       reject(doc_.file, line, current_name(), "expected a section header [name]", &got);
     }
-    EdsSection sec{std::string(trimmed(s.substr(1, close - 1))), line, {}};
-    if (const EdsSection* first = doc_.find(sec.name))
+    EdsSection sec{std::string(trimmed(s.substr(1, close - 1))), line, {}, {}};
+    sec.key = normalized(sec.name);
+    if (const auto [first, fresh] = section_lines_.emplace(sec.key, line); !fresh)
       reject(doc_.file, line, "[" + sec.name + "]",
-             "expected each section once (first at line " + std::to_string(first->line) + ")");
+             "expected each section once (first at line " + std::to_string(first->second) + ")");
+    key_lines_.clear();
     doc_.sections.push_back(std::move(sec));
   }
 
@@ -109,6 +114,8 @@ class LineParser {
 
   const std::string& text_;
   EdsDocument doc_;
+  std::unordered_map<std::string, int> section_lines_;  // normalized name -> line
+  std::unordered_map<std::string, int> key_lines_;      // of the current section
 };
 
 // ---------------------------------------------------------------- values
@@ -156,8 +163,7 @@ bool parse_node_id_sum(const std::string& text, std::int64_t& value, bool& plus_
       plus_node_id = true;
     } else {
       std::int64_t v = 0;
-      if (!parse_eds_integer(term, v)) return false;
-      value += v;
+      if (!parse_eds_integer(term, v) || __builtin_add_overflow(value, v, &value)) return false;
     }
     if (end == s.size()) return true;
     start = end + 1;
@@ -221,6 +227,11 @@ void parse_number(const Field& f, DataType t, std::vector<std::uint8_t>& out, bo
     const double v = std::strtod(text.c_str(), &end);
     const bool hex = text.find_first_of("xX") != std::string::npos;
     if (hex || *end || errno || !std::isfinite(v)) f.fail("expected a decimal floating-point number");
+    // Halfway above the largest float rounds to infinity (and converting past it is undefined).
+    const float top = std::numeric_limits<float>::max();
+    const double real32_limit = double(top) + (double(top) - double(std::nextafter(top, 0.0f))) / 2;
+    if (t == DataType::kReal32 && std::fabs(v) >= real32_limit)
+      f.fail("expected a number in the range of REAL32");
     encode_f(t, v, out.data());
     return;
   }
@@ -395,7 +406,7 @@ class ObjectReader {
 
   void check_table(const EdsSection& table, std::uint8_t n) {
     for (const EdsKey& k : table.keys) {
-      if (normalized(k.name) == "nrofentries") continue;
+      if (k.key == "nrofentries") continue;
       std::int64_t sub = 0;
       if (!parse_eds_integer(k.name, sub) || sub < 1 || sub > n)
         reject(doc_.file, k.line, "[" + table.name + "] " + k.name,
@@ -562,14 +573,14 @@ std::string text_of(const EdsDocument& doc, const char* section, const char* key
 const EdsKey* EdsSection::find(std::string_view key) const {
   const std::string want = normalized(key);
   for (const EdsKey& k : keys)
-    if (normalized(k.name) == want) return &k;
+    if (k.key == want) return &k;
   return nullptr;
 }
 
 const EdsSection* EdsDocument::find(std::string_view section) const {
   const std::string want = normalized(section);
   for (const EdsSection& s : sections)
-    if (normalized(s.name) == want) return &s;
+    if (s.key == want) return &s;
   return nullptr;
 }
 

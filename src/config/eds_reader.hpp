@@ -22,11 +22,13 @@ struct EdsKey {
   // follow '=' when the line spaces the key from '=' ("Key = Value").
   std::string text;
   int line = 0;
+  std::string key;  // the name in lower case without blanks, as keys are compared
 };
 
 struct EdsSection {
   std::string name;  // as written, without the brackets
   int line = 0;
+  std::string key;   // the name in lower case without blanks
   std::vector<EdsKey> keys;
   // Case- and space-insensitive ("lowlimit" finds "Low Limit").
   const EdsKey* find(std::string_view key) const;

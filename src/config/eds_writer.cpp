@@ -127,6 +127,13 @@ class Writer {
   void key(const char* name, const V& value) {
     out_ << name << "=" << value << "\n";
   }
+  // Text from the profile: a line break would end the key.
+  void key(const char* name, const std::string& value) {
+    std::string line = value;
+    for (char& c : line)
+      if (c == '\n' || c == '\r') c = ' ';
+    out_ << name << "=" << line << "\n";
+  }
 
   void file_info() {
     out_ << "; " << (dcf_ ? "DCF" : "EDS") << " written by cansimd from profile " << id_.name << "\n";
