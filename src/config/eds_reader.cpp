@@ -36,10 +36,26 @@ bool is_hex(std::string_view s) {
   return !s.empty() && std::all_of(s.begin(), s.end(), [](char c) { return std::isxdigit(static_cast<unsigned char>(c)); });
 }
 
+// Control characters of the file as \xNN: a message is one line of text.
+std::string printable(std::string_view s) {
+  std::string out;
+  for (char c : s) {
+    const auto b = static_cast<unsigned char>(c);
+    if (b >= 0x20 && b != 0x7F) {
+      out += c;
+      continue;
+    }
+    char buf[8];
+    std::snprintf(buf, sizeof buf, "\\x%02X", b);
+    out += buf;
+  }
+  return out;
+}
+
 [[noreturn]] void reject(const std::string& file, int line, const std::string& where, const std::string& expected,
                          const std::string* got = nullptr) {
-  std::string msg = file + ":" + std::to_string(line) + ": " + where + ": " + expected;
-  if (got) msg += ", got '" + *got + "'";
+  std::string msg = file + ":" + std::to_string(line) + ": " + printable(where) + ": " + printable(expected);
+  if (got) msg += ", got '" + printable(*got) + "'";
   throw ConfigError(msg);
 }
 

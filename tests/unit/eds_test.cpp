@@ -300,6 +300,7 @@ TEST(EdsReader, RejectsTheAmbiguousWithFileAndLine) {
       {"[2000]\nDataType=0x9\nAccessType=ro\nLowLimit=1\n", "bad.eds:4: [2000] LowLimit: expected no limit for VISIBLE_STRING, got '1'"},
       {"[2000]\nDataType=0xA\nAccessType=ro\nDefaultValue=ABC\n", "bad.eds:4: [2000] DefaultValue: expected hex bytes, e.g. 0A1B2C, got 'ABC'"},
       {"[FileInfo]\n", "bad.eds:1: (top level): expected at least one object section [xxxx]"},
+      {std::string("[1000\x01]\n"), "bad.eds:1: [1000\\x01]: expected an object section [xxxx]"},
       {"[2000]\nDataType=0x8\nAccessType=ro\nDefaultValue=1e39\n",
        "bad.eds:4: [2000] DefaultValue: expected a number in the range of REAL32, got '1e39'"},
       {"[2000]\nDataType=0x1B\nAccessType=ro\nDefaultValue=0x7FFFFFFFFFFFFFFF+0x7FFFFFFFFFFFFFFF\n",
