@@ -8,7 +8,8 @@ Device descriptions (test_eds): a fleet with one node from the EDS that
 `cansimd --export-eds` wrote of generic-404 and one from the YAML profile;
 every object of the EDS is SDO-read from both and compared ($NODEID values
 relative to each node's ID; the CiA 404 measured values, whose physics
-differ, by size only). `cansimctl dcf` of the EDS node, after an SDO write,
+differ, by size only); started, the EDS node sends its TPDO1 as its 0x1800
+says. `cansimctl dcf` of the EDS node, after an SDO write,
 then runs as a node of its own on vcan1: its node-ID and the written value
 come from the DCF."""
 
@@ -162,6 +163,8 @@ def test_eds(ctx: it.Context) -> None:
             else:
                 assert x == y, f"{where}: EDS node {x!r}, YAML node {y!r}"
         it.log(f"EDS and YAML nodes answer the same {len(entries)} objects")
+        it.nmt(bus0, 0x01, 0x40)
+        it.expect(bus0, it.is_tpdo(0x40, 1), 5, "TPDO1 of the EDS node (event timer 100 ms from its 0x1800)")
 
         a.download_u16(0x1017, 0, 300)
         if not os.access(ctl, os.X_OK):
