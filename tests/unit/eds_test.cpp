@@ -398,6 +398,36 @@ TEST(EdsNodes, GenericEdsAsImportedAnswersAsTheYamlNode) {
   EXPECT_EQ(uploads(yaml, 0x10), uploads(eds, 0x10));
 }
 
+// LSS_Supported decides whether the node answers LSS (CiA 305 inquire node-ID).
+TEST(EdsNodes, LssAsTheEdsSays) {
+  for (const bool lss : {true, false}) {
+    std::string text = export_eds(load_repo_profile("generic-404"));
+    const auto at = text.find("LSS_Supported=1");
+    ASSERT_NE(at, std::string::npos);
+    if (!lss) text.replace(at, 16, "LSS_Supported=0");
+    const config::Profile p = eds_profile(text, "g.eds");
+    SimBus bus;
+    bus.add(p, 0x12);
+    bus.power_on_all();
+    bus.run_for(ms(10));
+    bus.take();
+    CanFrame global = F(0x7E5, {0x04, 0x01, 0, 0, 0, 0, 0, 0}), inquire = F(0x7E5, {0x5E, 0, 0, 0, 0, 0, 0, 0});
+    bus.inject(global);
+    bus.inject(inquire);
+    bus.run_for(ms(10));
+    std::vector<CanFrame> replies;
+    for (const Sent& s : bus.take())
+      if (s.frame.id == 0x7E4) replies.push_back(s.frame);
+    if (lss) {
+      ASSERT_EQ(replies.size(), 1u);
+      EXPECT_EQ(replies[0].data[0], 0x5E);
+      EXPECT_EQ(replies[0].data[1], 0x12);
+    } else {
+      EXPECT_TRUE(replies.empty());
+    }
+  }
+}
+
 TEST(EdsNodes, Cia404ObjectsOfAnEdsGetTheMeasurementChain) {
   config::Profile p = eds_profile(export_eds(load_repo_profile("generic-404")), "generic-404.eds");
   personalities::prepare_profile(p);
