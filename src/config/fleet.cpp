@@ -1,5 +1,6 @@
 #include "config/fleet.hpp"
 
+#include "config/eds_reader.hpp"
 #include "core/can_frame.hpp"
 
 #include <algorithm>
@@ -57,7 +58,7 @@ class ProfileCache {
     }
     auto it = by_path_.find(path);
     if (it != by_path_.end()) return it->second;
-    auto p = std::make_shared<Profile>(load_profile(path));
+    auto p = std::make_shared<Profile>(load_any_profile(path));
     by_path_[path] = p;
     text_[path] = read_text(path);
     out_.profiles.push_back(p);
@@ -105,7 +106,8 @@ std::shared_ptr<Profile> make_variant(const Where& w, const YAML::Node& entry, c
   p->layout = std::make_shared<OdLayout>(*base.layout);
   p->options = std::make_shared<NodeOptions>(*base.options);
   if (entry["options"]) parse_options(w.child("options"), entry["options"], *p->options);
-  const YAML::Node root = YAML::Load(base_text);
+  // A device description has no YAML sections: the entry's are the only ones.
+  const YAML::Node root = is_device_description(base.file) ? YAML::Node(YAML::NodeType::Map) : YAML::Load(base_text);
   YAML::Node vendor = root["vendor"] ? YAML::Clone(root["vendor"]) : YAML::Node(YAML::NodeType::Map);
   if (entry["vendor"]) {
     const YAML::Node& v = entry["vendor"];
@@ -257,6 +259,10 @@ FleetConfig parse_root(const YAML::Node& root, const std::string& file, const Pr
 
 }  // namespace
 
+Profile load_any_profile(const std::string& path) {
+  return is_device_description(path) ? load_eds_profile(path) : load_profile(path);
+}
+
 const InterfaceConfig* FleetConfig::interface(const std::string& name) const {
   for (const auto& i : interfaces)
     if (i.name == name) return &i;
@@ -280,7 +286,8 @@ std::string find_profile(const std::string& ref, const std::string& config_dir, 
   if (ref.empty()) return {};
   fs::path p(ref);
   if (p.is_absolute()) return is_file(p) ? p.string() : std::string();
-  bool looks_like_path = ref.find('/') != std::string::npos || p.extension() == ".yaml" || p.extension() == ".yml";
+  bool looks_like_path = ref.find('/') != std::string::npos || p.extension() == ".yaml" || p.extension() == ".yml" ||
+                         is_device_description(ref);
   if (looks_like_path) {
     if (!config_dir.empty() && is_file(fs::path(config_dir) / p)) return (fs::path(config_dir) / p).string();
     if (is_file(p)) return p.string();
@@ -380,7 +387,7 @@ FleetConfig single_node_fleet(const std::string& profile_ref, const std::string&
   if (path.empty()) throw ConfigError(profile_ref + ": profile not found (expected a file or a profile name)");
   FleetConfig out;
   out.file = path;
-  auto profile = std::make_shared<Profile>(load_profile(path));
+  auto profile = std::make_shared<Profile>(load_any_profile(path));
   out.profiles.push_back(profile);
   InterfaceConfig ic;
   ic.name = interface;

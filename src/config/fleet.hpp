@@ -56,6 +56,10 @@ ProfileSearch default_search(const std::string& config_file, const std::string& 
 // Resolves a profile reference; empty when not found.
 std::string find_profile(const std::string& ref, const std::string& config_dir, const ProfileSearch& search);
 
+// A YAML profile, or a CiA 306 EDS / DCF by its extension .eds / .dcf
+// (README, "Device descriptions (EDS/DCF)").
+Profile load_any_profile(const std::string& path);
+
 FleetConfig load_fleet(const std::string& path, const ProfileSearch& search);
 FleetConfig parse_fleet(const std::string& text, const std::string& file, const ProfileSearch& search);
 // Nodes added at run time (control API AddNodes): `text` is one node entry,

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdio>
 
+#include "config/eds_writer.hpp"
+#include "config/profile.hpp"
 #include "control/od_values.hpp"
 #include "control/service_internal.hpp"
 #include "core/emcy.hpp"
@@ -154,6 +156,48 @@ int write_object(sd_bus_message* m, void* userdata, sd_bus_error* e) {
   return sd_bus_reply_method_return(m, "");
 }
 
+// D-Bus strings are UTF-8: bytes a master wrote into a VISIBLE_STRING that
+// are not become '?'.
+std::string valid_utf8(std::string text) {
+  for (std::size_t i = 0; i < text.size();) {
+    const auto c = static_cast<unsigned char>(text[i]);
+    const std::size_t n = c < 0x80 ? 1 : (c >> 5) == 0x6 ? 2 : (c >> 4) == 0xE ? 3 : (c >> 3) == 0x1E ? 4 : 0;
+    bool ok = n > 0 && i + n <= text.size() && !(n == 1 && c == 0);
+    for (std::size_t k = 1; ok && k < n; ++k) ok = (static_cast<unsigned char>(text[i + k]) >> 6) == 0x2;
+    if (!ok) {
+      text[i++] = '?';
+      continue;
+    }
+    i += n;
+  }
+  return text;
+}
+
+// CiA 306 DCF of the node now: its EDS, [DeviceComissioning] and the value
+// each entry answers (a refused read: the stored value).
+int get_dcf(sd_bus_message* m, void* userdata, sd_bus_error*) {
+  NodeContext& n = ctx(userdata);
+  Node& node = n.node();
+  const TimeUs t = n.act_now();
+  config::EdsIdentity id;
+  id.name = n.handle->profile;
+  id.file_name = n.handle->name + ".dcf";
+  id.description = "DCF of node " + n.handle->key;
+  id.bit_rate_kbit = config::bit_rate_kbit(node.configured_bit_rate_index());
+  config::DcfValues dcf;
+  dcf.node_id = node.node_id();
+  dcf.node_name = n.handle->name;
+  dcf.bit_rate_kbit = config::bit_rate_kbit(node.bit_rate_index());
+  dcf.value = [&](const OdEntry& e) {
+    std::span<const std::uint8_t> bytes;
+    if (!readable(e.access) || node.read_local(e, t, bytes) != SdoAbort::kNone) bytes = node.values().bytes(e);
+    return bytes;
+  };
+  const std::string text = valid_utf8(config::write_eds(node.od(), node.options(), id, &dcf));
+  n.service->touched(n);
+  return sd_bus_reply_method_return(m, "s", text.c_str());
+}
+
 constexpr std::uint64_t kCall = SD_BUS_VTABLE_UNPRIVILEGED;
 constexpr std::uint64_t kEmits = SD_BUS_VTABLE_PROPERTY_EMITS_CHANGE;
 
@@ -201,6 +245,7 @@ const sd_bus_vtable kNodeVtable[] = {
                              read_object, kCall),
     SD_BUS_METHOD_WITH_NAMES("Write", "qyv", SD_BUS_PARAM(index) SD_BUS_PARAM(sub) SD_BUS_PARAM(value), "", ,
                              write_object, kCall),
+    SD_BUS_METHOD_WITH_NAMES("GetDcf", "", , "s", SD_BUS_PARAM(dcf), get_dcf, kCall),
     SD_BUS_METHOD_WITH_NAMES("StartRecording", "s", SD_BUS_PARAM(path), "", , node_start_recording, kCall),
     SD_BUS_METHOD("StopRecording", "", "", node_stop_recording, kCall),
     SD_BUS_SIGNAL_WITH_NAMES("NmtStateChanged", "xss", SD_BUS_PARAM(t) SD_BUS_PARAM(old) SD_BUS_PARAM(new), 0),

@@ -223,6 +223,12 @@ Request build_time(const Words&) {
   return on_fleet(get, Output::kTime);
 }
 
+Request build_dcf(const Words& w) {
+  Request r = on_node(w, node_call("GetDcf"), Output::kDcf);
+  if (const std::string* output = w.option("--output")) r.file = *output;
+  return r;
+}
+
 Request build_stats(const Words&) { return on_fleet(fleet_call("GetBusStatistics"), Output::kStats); }
 
 struct OptionSpec {
@@ -270,6 +276,8 @@ const std::vector<VerbSpec>& verbs() {
       {"store", "NODE [SUB]", "save parameters as a write of 0x1010:SUB (default 1: all)", 1, 2, {}, build_store},
       {"restore", "NODE [SUB]", "restore defaults as a write of 0x1011:SUB (default 1: all)", 1, 2, {},
        build_restore},
+      {"dcf", "NODE [--output FILE]", "the node's CiA 306 DCF (current values), printed or written to FILE", 1, 1,
+       {{"--output", true}}, build_dcf},
       {"watch", "[NODE]", "print events and property changes until Ctrl-C", 0, 1, {}, build_watch},
       {"add", "FILE.yaml", "add the nodes of a fleet YAML fragment, print them", 1, 1, {}, build_add},
       {"remove", "NODE", "remove a node", 1, 1, {}, build_remove},

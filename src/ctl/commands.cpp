@@ -30,6 +30,13 @@ std::string read_text_file(const std::string& path) {
   return text.str();
 }
 
+void write_text_file(const std::string& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary);
+  out << text;
+  out.close();
+  if (!out) throw Failure("cannot write " + path + ": " + std::strerror(errno));
+}
+
 std::vector<NodeRef> node_refs(const std::vector<std::string>& paths) {
   std::vector<NodeRef> refs;
   for (const std::string& p : paths) refs.push_back({p, node_key_of_path(p)});
@@ -50,6 +57,7 @@ void print_reply(const Request& r, const std::string& path, sd_bus_message* repl
     case Output::kAdded: return p.added(node_refs(read_object_paths(reply)));
     case Output::kTime: return p.time(read_int64(reply));
     case Output::kStats: return p.stats(read_bus_stats(reply));
+    case Output::kDcf: return r.file.empty() ? p.document("dcf", read_text(reply)) : write_text_file(r.file, read_text(reply));
     case Output::kNothing:
     case Output::kWatch: return;
   }

@@ -271,6 +271,7 @@ std::int64_t read_int64(sd_bus_message* m) {
 std::uint32_t read_uint32(sd_bus_message* m) { return read_basic<std::uint32_t>(m, 'u'); }
 
 std::string read_object_path(sd_bus_message* m) { return read_string(m, 'o'); }
+std::string read_text(sd_bus_message* m) { return read_string(m, 's'); }
 
 std::vector<std::string> read_object_paths(sd_bus_message* m) { return read_array(m, "o", read_object_path); }
 

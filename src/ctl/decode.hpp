@@ -19,6 +19,7 @@ Value read_value(sd_bus_message* m);
 std::int64_t read_int64(sd_bus_message* m);  // x, or a variant holding x (Properties.Get)
 std::uint32_t read_uint32(sd_bus_message* m);
 std::string read_object_path(sd_bus_message* m);
+std::string read_text(sd_bus_message* m);  // s
 std::vector<std::string> read_object_paths(sd_bus_message* m);  // ao
 std::vector<NodeRow> read_node_rows(sd_bus_message* m);
 std::vector<FaultRow> read_fault_rows(sd_bus_message* m);

@@ -294,6 +294,18 @@ void Printer::added(const std::vector<NodeRef>& nodes) {
   out_ << '\n';
 }
 
+void Printer::document(std::string_view name, const std::string& text) {
+  if (!json_) {
+    out_ << text;
+    return;
+  }
+  JsonWriter json(out_);
+  json.begin_object();
+  json.member(name, std::string_view(text));
+  json.end_object();
+  out_ << '\n';
+}
+
 void Printer::time(std::int64_t us) {
   if (!json_) {
     out_ << format_seconds(us) << " s\n";

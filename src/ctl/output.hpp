@@ -3,6 +3,7 @@
 
 #include <ostream>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "ctl/replies.hpp"
@@ -38,6 +39,7 @@ class Printer {
   void added(const std::vector<NodeRef>& nodes);
   void time(std::int64_t us);
   void stats(const std::vector<BusStats>& rows);
+  void document(std::string_view name, const std::string& text);  // as it is; JSON: {"name": text}
   void event(const Event& e);  // one line, flushed
 
  private:

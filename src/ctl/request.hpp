@@ -55,6 +55,7 @@ enum class Output {
   kAdded,    // AddNodes: its argument is the text of Request::file
   kTime,     // Properties.Get SimulatedTime
   kStats,    // GetBusStatistics
+  kDcf,      // GetDcf: written to Request::file, or printed when it is ""
   kWatch,    // Subscribe, then print signals until SIGINT/SIGTERM (only Request::node's, if given)
 };
 
@@ -62,7 +63,7 @@ struct Request {
   std::string node;       // NODE as given on the command line, "" when none
   Call call;
   Output output = Output::kNothing;
-  std::string file;       // kAdded
+  std::string file;       // kAdded: read; kDcf: written
   ObjectAddress object;   // kValue
 };
 

@@ -17,6 +17,7 @@ bool parse_number(const std::string& text, std::int64_t& out) {
 std::string usage_text() {
   return "usage: cansimd --profile FILE|NAME [--interface IF] [--node-id N] [options]\n"
          "       cansimd --config FILE [options]\n"
+         "       cansimd --export-eds FILE|NAME [--node-id N] [--output FILE]\n"
          "\n"
          "Simulates CANopen (CiA 301/305/404) sensor nodes on SocketCAN interfaces.\n"
          "\n"
@@ -24,6 +25,9 @@ std::string usage_text() {
          "  --interface IF       CAN interface of that node (default vcan0)\n"
          "  --node-id N          its node-ID, 1..127 or 255 = LSS-unconfigured (default: the profile's)\n"
          "  --config FILE        run the fleet described in FILE\n"
+         "  --export-eds FILE|NAME  write the profile's CiA 306 EDS (with --node-id: the DCF of\n"
+         "                       that node at power-on) to --output FILE or stdout, and exit\n"
+         "  --output FILE        where --export-eds writes\n"
          "  --check              validate the configuration and exit (0 valid, 1 invalid)\n"
          "  --state-dir DIR      stored parameters (default $STATE_DIRECTORY, else ./state)\n"
          "  --log-level LEVEL    trace, debug, info, warn, error, critical or off (default info)\n"
@@ -83,6 +87,12 @@ CliResult parse_cli(const std::vector<std::string>& args, const char* state_dire
     } else if (arg == "--config") {
       if (!need_value()) return r;
       o.config = value;
+    } else if (arg == "--export-eds") {
+      if (!need_value()) return r;
+      o.export_eds = value;
+    } else if (arg == "--output") {
+      if (!need_value()) return r;
+      o.output = value;
     } else if (arg == "--interface") {
       if (!need_value()) return r;
       o.interface = value;
@@ -145,6 +155,15 @@ CliResult parse_cli(const std::vector<std::string>& args, const char* state_dire
     }
   }
   if (o.help || o.version) return r;
+  if (!o.output.empty() && o.export_eds.empty()) {
+    r.error = "--output goes with --export-eds";
+    return r;
+  }
+  if (!o.export_eds.empty()) {
+    if (!o.profile.empty() || !o.config.empty() || have_interface || o.check)
+      r.error = "--export-eds takes a profile of its own (no --profile, --config, --interface or --check)";
+    return r;
+  }
   if (o.profile.empty() == o.config.empty()) {
     r.error = o.profile.empty() ? "expected --profile or --config" : "--profile and --config exclude each other";
     return r;

@@ -14,6 +14,8 @@ struct CliOptions {
   std::string interface = "vcan0";     // --interface IF (with --profile)
   std::optional<int> node_id;          // --node-id N (with --profile)
   std::string config;                  // --config FILE: a fleet
+  std::string export_eds;              // --export-eds FILE|NAME: write the profile's EDS and exit
+  std::string output;                  // --output FILE (with --export-eds; default stdout)
   bool check = false;                  // --check: validate and exit
   std::string state_dir;               // --state-dir, $STATE_DIRECTORY, ./state
   std::string log_level = "info";      // --log-level

@@ -3,9 +3,11 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <string>
 #include <vector>
 
+#include "config/eds_writer.hpp"
 #include "config/fleet.hpp"
 #include "daemon/cli.hpp"
 #include "daemon/daemon.hpp"
@@ -27,6 +29,36 @@ config::FleetConfig load(const daemon::CliOptions& o) {
   return fleet;
 }
 
+// cansimd --export-eds: the profile's EDS, or with --node-id the DCF of that
+// node at power-on. Exit 0, or 1 with the error on stderr.
+int export_eds(const daemon::CliOptions& o) {
+  try {
+    const std::string path = config::find_profile(o.export_eds, ".", daemon::profile_search(""));
+    if (path.empty()) throw config::ConfigError(o.export_eds + ": profile not found (expected a file or a profile name)");
+    const config::Profile profile = config::load_any_profile(path);
+    std::string text;
+    if (o.node_id) {
+      text = config::write_default_dcf(profile, std::uint8_t(*o.node_id));
+    } else {
+      config::EdsIdentity id = config::identity_of(profile);
+      id.created = config::eds_time_now();
+      text = config::write_eds(*profile.layout, *profile.options, id);
+    }
+    if (o.output.empty()) {
+      std::fputs(text.c_str(), stdout);
+      return 0;
+    }
+    std::ofstream out(o.output, std::ios::binary);
+    out << text;
+    out.close();
+    if (!out) throw config::ConfigError(o.output + ": cannot write the file");
+    return 0;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "cansimd: %s\n", e.what());
+    return 1;
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -45,6 +77,7 @@ int main(int argc, char** argv) {
     std::printf("cansimd %s\n", CANSIM_VERSION);
     return 0;
   }
+  if (!o.export_eds.empty()) return export_eds(o);
   daemon::setup_logging(o.log_level);
   try {
     if (o.check) {

@@ -2,10 +2,21 @@
 """cansimd --config: two nodes on vcan0 and one on vcan1 each boot on their
 own bus; SIGHUP adds a node without disturbing the others (no boot-up, no
 heartbeat gap); a config error at reload keeps the fleet running;
-SIGTERM -> exit 0."""
+SIGTERM -> exit 0.
+
+Device descriptions (test_eds): a fleet with one node from the EDS that
+`cansimd --export-eds` wrote of generic-404 and one from the YAML profile;
+every object of the EDS is SDO-read from both and compared ($NODEID values
+relative to each node's ID; the CiA 404 measured values, whose physics
+differ, by size only); started, the EDS node sends its TPDO1 as its 0x1800
+says. `cansimctl dcf` of the EDS node, after an SDO write,
+then runs as a node of its own on vcan1: its node-ID and the written value
+come from the DCF."""
 
 import os
+import re
 import signal
+import subprocess
 import sys
 import time
 
@@ -86,4 +97,99 @@ def test(ctx: it.Context) -> None:
         assert d.stop() == 0
 
 
-it.main(test)
+EDS_FLEET = """
+interfaces:
+  vcan0: {{bit_rate: 250}}
+nodes:
+  - {{profile: {eds}, interface: vcan0, node_id: 0x40, name: eds}}
+  - {{profile: {yaml}, interface: vcan0, node_id: 0x41, name: yaml}}
+"""
+# Measured by the CiA 404 chain: the two nodes' physics differ.
+MEASURED = {0x6100, 0x7100, 0x9100, 0x6130, 0x7130, 0x9130, 0x6150}
+
+
+def eds_entries(path: str) -> list:
+    """(index, sub, access, node-ID relative) of every entry of an EDS the exporter wrote."""
+    out, section = [], None
+    with open(path) as f:
+        for line in f:
+            line = line.strip()
+            m = re.fullmatch(r"\[([0-9A-F]{4})(?:sub([0-9A-F]+))?\]", line)
+            if m:
+                section = {"index": int(m.group(1), 16), "sub": int(m.group(2) or "0", 16)}
+                out.append(section)
+            elif section is not None and "=" in line:
+                k, v = line.split("=", 1)
+                section[k] = v
+            elif line.startswith("["):
+                section = None
+    # An object with sub-objects has no DataType of its own.
+    return [(e["index"], e["sub"], e["AccessType"], "$NODEID" in e.get("DefaultValue", ""))
+            for e in out if "DataType" in e]
+
+
+def upload(sdo: it.SdoClient, index: int, sub: int):
+    try:
+        return sdo.upload(index, sub)
+    except it.SdoAbort as a:
+        return a.code
+
+
+def test_eds(ctx: it.Context) -> None:
+    eds = os.path.join(ctx.tmp, "generic-404.eds")
+    subprocess.run([ctx.require_cansimd(), "--export-eds", ctx.source("profiles/generic-404.yaml"), "--output", eds],
+                   check=True, timeout=it.scaled(10))
+    ctl = os.path.join(os.path.dirname(ctx.cansimd), "cansimctl")
+    cfg = os.path.join(ctx.tmp, "eds-fleet.yaml")
+    with open(cfg, "w") as f:
+        f.write(EDS_FLEET.format(eds=eds, yaml=ctx.source("profiles/generic-404.yaml")))
+    sock = os.path.join(ctx.tmp, "control")
+    d = ctx.daemon("--config", cfg, "--state-dir", "{state_dir}", "--bus", "none", "--control-socket", sock,
+                   name="eds-fleet")
+    with it.open_bus("vcan0") as bus0, it.open_bus("vcan1") as bus1:
+        it.drain(bus0)
+        d.start()
+        it.expect(bus0, it.is_bootup(0x40), 10, "boot-up of the EDS node 0x40")
+        a, b = it.SdoClient(bus0, 0x40), it.SdoClient(bus0, 0x41)
+        entries = eds_entries(eds)
+        for index, sub, access, plus_id in entries:
+            x, y = upload(a, index, sub), upload(b, index, sub)
+            where = f"0x{index:04X}:{sub} ({access})"
+            if index in MEASURED and isinstance(x, bytes):
+                assert isinstance(y, bytes) and len(x) == len(y), f"{where}: EDS node {x!r}, YAML node {y!r}"
+            elif plus_id and isinstance(x, bytes):
+                vx, vy = int.from_bytes(x, "little"), int.from_bytes(y, "little")
+                assert vx - 0x40 == vy - 0x41, f"{where}: EDS node 0x{vx:X}, YAML node 0x{vy:X}"
+            else:
+                assert x == y, f"{where}: EDS node {x!r}, YAML node {y!r}"
+        it.log(f"EDS and YAML nodes answer the same {len(entries)} objects")
+        it.nmt(bus0, 0x01, 0x40)
+        it.expect(bus0, it.is_tpdo(0x40, 1), 5, "TPDO1 of the EDS node (event timer 100 ms from its 0x1800)")
+
+        a.download_u16(0x1017, 0, 300)
+        if not os.access(ctl, os.X_OK):
+            it.log(f"cansimctl not built ({ctl}): no DCF round trip")
+            assert d.stop() == 0
+            return
+        dcf = os.path.join(ctx.tmp, "eds-node.dcf")
+        subprocess.run([ctl, "--socket", sock, "dcf", "eds", "--output", dcf], check=True, timeout=it.scaled(20))
+        with open(dcf) as f:
+            text = f.read()
+        assert "[DeviceComissioning]\nNodeID=0x40\n" in text and "ParameterValue=0x12C" in text, text[:2000]
+        assert d.stop() == 0
+
+        it.drain(bus1)
+        d2 = ctx.start_daemon("--profile", dcf, "--interface", "vcan1", "--state-dir", "{state_dir}",
+                              "--bus", "none", "--control-socket", "none", name="dcf-node")
+        it.expect(bus1, it.is_bootup(0x40), 10, "boot-up of the DCF node 0x40 on vcan1")
+        assert it.SdoClient(bus1, 0x40).upload_u16(0x1017) == 300, "0x1017 from the DCF's ParameterValue"
+        it.log("cansimctl dcf: the DCF runs as a node with the node-ID and values it recorded")
+        assert d2.stop() == 0
+
+
+def test_all(ctx: it.Context) -> None:
+    test(ctx)
+    test_eds(ctx)
+
+
+it.main(test_all)

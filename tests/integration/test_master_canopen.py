@@ -17,7 +17,10 @@ prints one line per check with what it saw:
   device has no block transfer); NMT commands and the heartbeat states they
   produce; the master's heartbeat consumer (no timeout while the nodes run,
   a timeout while they are powered off); EMCY on a fault armed with
-  cansimctl; TPDOs decoded from the profile's mapping; LSS fastscan of the
+  cansimctl; TPDOs decoded from the profile's mapping; the EDS cansimd
+  exports of each profile, loaded by the package's own EDS reader, lists
+  exactly the plan's objects with the same data types and access (so the
+  reads check the sizes the EDS announces); LSS fastscan of the
   unconfigured pair, inquire, configure node-ID + store, boot-up on the new
   ID, reset node.
 
@@ -203,6 +206,10 @@ def test(ctx: it.Context) -> None:
         it.skip(f"cansimctl not built next to cansimd ({cansimctl})")
 
     nodes = [plan_node(ctx, k) for k in PROFILES]
+    for n in nodes:  # read by the package's own EDS reader (edsCheck in master_check.js)
+        n["eds"] = os.path.join(ctx.tmp, n["profile"] + ".eds")
+        subprocess.run([ctx.require_cansimd(), "--export-eds", ctx.source("profiles", n["profile"] + ".yaml"),
+                        "--output", n["eds"]], check=True, timeout=it.scaled(10))
     d = ctx.daemon("--config", "{state_dir}/fleet.yaml", "--state-dir", "{state_dir}",
                    "--control-socket", "{state_dir}/control", "--bus", "none")
     lines = ["interfaces:", "  vcan0: {bit_rate: 250}", "nodes:"]

@@ -30,7 +30,7 @@
 const fs = require('fs');
 const { execFile } = require('child_process');
 const can = require('socketcan');
-const { Device, DataType, ObjectType, LssMode } = require('canopen');
+const { Device, DataType, Eds, ObjectType, LssMode } = require('canopen');
 
 const plan = JSON.parse(fs.readFileSync(process.argv[2], 'utf8'));
 const SCALE = plan.scale || 1;
@@ -198,6 +198,48 @@ channel.addListener('onMessage', (m) => {
 
 // --------------------------------------------------------------------------
 // checks
+
+// The EDS cansimd exported of the node's profile (`cansimd --export-eds`),
+// loaded by the package's own EDS reader: every object the plan reads or
+// writes is there with the same data type and access, and nothing else, so
+// the reads below check the sizes the EDS announces and the refused writes
+// its ro / const objects.
+function edsCheck(n) {
+    const P = n.profile;
+    let eds;
+    try {
+        eds = Eds.fromFile(n.eds);
+    } catch (e) {
+        check(P, 'eds-independent-reader', 'FAIL', `${n.eds}: the package's EDS reader failed: ${e.message}`);
+        return;
+    }
+    const entryOf = (index, sub) => {
+        const e = eds.getEntry(index);
+        if (!e) return undefined;
+        return e.subNumber > 0 ? eds.getSubEntry(index, sub) : (sub === 0 ? e : undefined);
+    };
+    const wrong = [];
+    for (const o of n.objects) {
+        const e = entryOf(o.index, o.sub);
+        const where = `${hex(o.index, 4)}:${o.sub}`;
+        if (!e) wrong.push(`${where} missing`);
+        else if (e.dataType !== DataType[o.type] || e.accessType !== o.access)
+            wrong.push(`${where} EDS ${e.dataType}/${e.accessType}, profile ${o.type}/${o.access}`);
+    }
+    let listed = 0;
+    for (const key of eds.keys()) {
+        const index = parseInt(key, 16);
+        const e = eds.getEntry(index);
+        for (let sub = 0; sub < (e.subNumber > 0 ? 256 : 1); sub++) {
+            if (!entryOf(index, sub)) continue;
+            listed++;
+            if (!n.objects.some((o) => o.index === index && o.sub === sub)) wrong.push(`${hex(index, 4)}:${sub} not in the profile`);
+        }
+    }
+    check(P, 'eds-independent-reader', wrong.length ? 'FAIL' : 'PASS',
+        `${listed} entries of ${n.eds.split('/').pop()} (device ${eds.deviceInfo.ProductName}), ${n.objects.length} in the profile`
+        + (wrong.length ? `; ${wrong.slice(0, 8).join(', ')}` : ': same types and access'));
+}
 
 async function sdoReads(n) {
     const P = n.profile;
@@ -609,6 +651,7 @@ async function main() {
 
     phase('heartbeat setup');
     for (const n of plan.nodes) {
+        edsCheck(n);
         await sdoReads(n);
         await sdoReadOnlyWrites(n);
         await segmentedDownloads(n);

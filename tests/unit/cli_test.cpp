@@ -34,6 +34,17 @@ TEST(Cli, NodeIdAcceptsHexAndUnconfigured) {
   EXPECT_EQ(parse({"--profile", "p", "--node-id", "255"}).options.node_id, 255);
 }
 
+TEST(Cli, ExportEdsWithNodeIdAndOutput) {
+  CliResult r = parse({"--export-eds", "p92c", "--node-id", "5", "--output=p92c.dcf"});
+  EXPECT_EQ(r.error, "");
+  EXPECT_EQ(r.options.export_eds, "p92c");
+  EXPECT_EQ(r.options.node_id, 5);
+  EXPECT_EQ(r.options.output, "p92c.dcf");
+  EXPECT_EQ(parse({"--profile", "x", "--output", "f"}).error, "--output goes with --export-eds");
+  EXPECT_EQ(parse({"--export-eds", "x", "--config", "f.yaml"}).error,
+            "--export-eds takes a profile of its own (no --profile, --config, --interface or --check)");
+}
+
 TEST(Cli, StateDirectoryFromSystemd) {
   EXPECT_EQ(parse({"--profile", "p"}, "/var/lib/cansimd").options.state_dir, "/var/lib/cansimd");
   EXPECT_EQ(parse({"--profile", "p"}, "/var/lib/a:/var/lib/b").options.state_dir, "/var/lib/a");

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstring>
 
+#include "config/eds_reader.hpp"
 #include "control/service.hpp"
 #include "support/control_fleet.hpp"
 
@@ -199,6 +200,24 @@ TEST_F(ControlServiceTest, ReadIsTypedByTheObject) {
 
   EXPECT_EQ(node_call("generic/0", "Read", "qy", 0x5555, 0), "io.cansim.Error.UnknownObject");
   EXPECT_EQ(node_call("generic/0", "Read", "qy", 0x1018, 9), "io.cansim.Error.UnknownObject");
+}
+
+// The DCF of a running node carries its commissioning and current values,
+// and loads back as a profile.
+TEST_F(ControlServiceTest, GetDcfReturnsTheNodesCurrentValues) {
+  ASSERT_EQ(node_call("generic/1", "Write", "qyv", 0x1017, 0, "q", 250), "");
+  sd_bus_message* r = bus.call(bus.node_call(path_of("generic/1"), "GetDcf"));
+  ASSERT_NE(r, nullptr);
+  const char* text = nullptr;
+  ASSERT_GT(sd_bus_message_read(r, "s", &text), 0);
+  const std::string dcf = text;
+  sd_bus_message_unref(r);
+  EXPECT_NE(dcf.find("[DeviceComissioning]\nNodeID=0x11\nNodeName=generic\nBaudrate=250"), std::string::npos) << dcf;
+  EXPECT_NE(dcf.find("LSS_SerialNumber=0x00000002"), std::string::npos);
+  const config::Profile p = config::profile_from_eds(config::parse_eds(dcf, "generic.dcf"));
+  EXPECT_EQ(p.node_id, 0x11);
+  EXPECT_EQ(p.layout->find(0x1017, 0)->default_bytes, (std::vector<std::uint8_t>{250, 0}));
+  EXPECT_TRUE(p.layout->find(0x1800, 1)->default_plus_node_id);
 }
 
 TEST_F(ControlServiceTest, WriteActsAsTheApplicationWithRangeChecks) {

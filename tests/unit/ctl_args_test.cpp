@@ -101,6 +101,15 @@ TEST(CtlArgs, FaultListCancelPowerCycleNmt) {
     EXPECT_EQ(parse({"nmt", "dps", c}).call, node_call("Nmt", {s(c)}));
 }
 
+TEST(CtlArgs, DcfPrintsOrWritesAFile) {
+  Request printed = parse({"dcf", "dps"});
+  EXPECT_EQ(printed.call, node_call("GetDcf"));
+  EXPECT_EQ(printed.output, Output::kDcf);
+  EXPECT_EQ(printed.file, "");
+  EXPECT_EQ(parse({"dcf", "dps", "--output", "dps.dcf"}).file, "dps.dcf");
+  expect_usage_error({"dcf"});
+}
+
 TEST(CtlArgs, ReadAndWriteObjects) {
   Request read = parse({"read", "dps", "0x6130:1"});
   EXPECT_EQ(read.call, node_call("Read", {Value(std::uint16_t(0x6130)), Value(std::uint8_t(1))}));

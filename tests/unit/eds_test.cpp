@@ -1,0 +1,511 @@
+// CiA 306 EDS / DCF: every shipped profile exports and reads back to the same
+// object dictionary; the reader takes the messy forms real files use and
+// rejects the ambiguous with file:line; a DCF's ParameterValue wins; nodes
+// built from an exported EDS answer SDO uploads as the YAML-built ones do.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+
+#include "config/eds_reader.hpp"
+#include "config/fleet.hpp"
+#include "config/eds_writer.hpp"
+#include "personalities/registry.hpp"
+#include "support/sim.hpp"
+
+namespace cansim::test {
+namespace {
+
+using ::testing::HasSubstr;
+
+const char* const kProfiles[] = {"cmp", "dps", "gems9000", "generic-404", "p92c", "smc"};
+
+std::string export_eds(const config::Profile& p) {
+  return config::write_eds(*p.layout, *p.options, config::identity_of(p));
+}
+
+config::Profile eds_profile(const std::string& text, const std::string& file = "t.eds") {
+  return config::profile_from_eds(config::parse_eds(text, file));
+}
+
+std::string eds_error(const std::string& text, const std::string& file = "bad.eds") {
+  try {
+    eds_profile(text, file);
+  } catch (const config::ConfigError& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+// The bytes a node of this entry answers at its default.
+std::vector<std::uint8_t> answered_default(const OdEntry& e) {
+  std::vector<std::uint8_t> d = e.default_bytes;
+  if (is_variable_size(e.type) && d.size() > e.capacity) d.resize(e.capacity);
+  return d;
+}
+
+// ---------------------------------------------------------------- round trip
+
+class EdsRoundTrip : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(EdsRoundTrip, ExportReadsBackEntryByEntry) {
+  const config::Profile yaml = load_repo_profile(GetParam());
+  const config::Profile eds = eds_profile(export_eds(yaml), std::string(GetParam()) + ".eds");
+  const auto a = yaml.layout->entries();
+  const auto b = eds.layout->entries();
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    SCOPED_TRACE(::testing::Message() << std::hex << a[i].index << "sub" << int(a[i].sub));
+    EXPECT_EQ(a[i].index, b[i].index);
+    EXPECT_EQ(a[i].sub, b[i].sub);
+    EXPECT_EQ(a[i].type, b[i].type);
+    EXPECT_EQ(a[i].access, b[i].access);
+    EXPECT_EQ(answered_default(a[i]), b[i].default_bytes);
+    EXPECT_EQ(a[i].default_plus_node_id, b[i].default_plus_node_id);
+    EXPECT_EQ(a[i].pdo_mappable, b[i].pdo_mappable);
+    EXPECT_EQ(a[i].has_low, b[i].has_low);
+    EXPECT_EQ(a[i].has_high, b[i].has_high);
+    const std::size_t n = type_size(a[i].type);
+    if (a[i].has_low) {
+      EXPECT_EQ(0, std::memcmp(a[i].low, b[i].low, n));
+    }
+    if (a[i].has_high) {
+      EXPECT_EQ(0, std::memcmp(a[i].high, b[i].high, n));
+    }
+  }
+  EXPECT_EQ(eds.personality, "generic");
+  EXPECT_EQ(eds.options->lss_supported, yaml.options->lss_supported);
+  EXPECT_EQ(eds.options->rpdo_dummy_mapping, yaml.options->rpdo_dummy_mapping);
+}
+
+TEST_P(EdsRoundTrip, DefaultDcfReadsBackWithItsNodeIdAndRate) {
+  const config::Profile yaml = load_repo_profile(GetParam());
+  const config::Profile dcf = eds_profile(config::write_default_dcf(yaml, 0x22), "x.dcf");
+  EXPECT_EQ(dcf.node_id, 0x22);
+  EXPECT_EQ(dcf.bit_rate_kbit, yaml.bit_rate_kbit);
+  ASSERT_EQ(dcf.layout->entries().size(), yaml.layout->entries().size());
+  OdValues a(yaml.layout), b(dcf.layout);
+  a.reset(0x22);
+  b.reset(0x22);
+  for (const OdEntry& e : yaml.layout->entries()) {
+    const OdEntry* f = dcf.layout->find(e.index, e.sub);
+    ASSERT_TRUE(f);
+    const auto x = a.bytes(e), y = b.bytes(*f);
+    EXPECT_EQ(std::vector<std::uint8_t>(x.begin(), x.end()), std::vector<std::uint8_t>(y.begin(), y.end()))
+        << std::hex << e.index << "sub" << int(e.sub);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Profiles, EdsRoundTrip, ::testing::ValuesIn(kProfiles),
+                         [](const auto& info) {
+                           std::string n = info.param;
+                           for (char& c : n)
+                             if (c == '-') c = '_';
+                           return n;
+                         });
+
+TEST(EdsExport, DescribesTheDeviceAndItsObjects) {
+  const std::string text = export_eds(load_repo_profile("generic-404"));
+  for (const char* line : {"[FileInfo]", "EDSVersion=4.0", "VendorNumber=0x00CA5D00", "ProductNumber=0x00000404",
+                           "RevisionNumber=0x00010000", "BaudRate_250=1", "LSS_Supported=1", "SimpleBootUpSlave=1",
+                           "Granularity=1", "NrOfRXPDO=1", "NrOfTXPDO=4", "[DummyUsage]", "[Comments]",
+                           "[MandatoryObjects]\nSupportedObjects=3\n1=0x1000\n2=0x1001\n3=0x1018",
+                           "[1018sub1]", "[1A00sub8]", "DefaultValue=$NODEID+0x180", "PDOMapping=1",
+                           "[ManufacturerObjects]"})
+    EXPECT_THAT(text, HasSubstr(line));
+  EXPECT_THAT(text, ::testing::Not(HasSubstr("[DeviceComissioning]")));
+  EXPECT_THAT(text, ::testing::Not(HasSubstr("ParameterValue")));
+}
+
+TEST(EdsExport, AnObjectTheDeviceLacksIsNotInItsEds) {
+  const std::string dps = export_eds(load_repo_profile("dps"));
+  const config::Profile p = load_repo_profile("dps");
+  for (std::uint16_t index : {0x1003, 0x1016, 0x1029, 0x6130, 0x9130})
+    if (!p.layout->object(index)) {
+      char section[16];
+      std::snprintf(section, sizeof section, "\n[%04X]", index);
+      EXPECT_THAT(dps, ::testing::Not(HasSubstr(section)));
+    }
+}
+
+TEST(EdsExport, BitRatesFollowLssOption) {
+  config::Profile p = load_repo_profile("generic-404");
+  auto options = std::make_shared<NodeOptions>(*p.options);
+  options->lss_bit_rates = "3-4";
+  p.options = options;
+  const std::string text = export_eds(p);
+  EXPECT_THAT(text, HasSubstr("BaudRate_125=1\nBaudRate_250=1\nBaudRate_500=0"));
+  EXPECT_THAT(text, HasSubstr("BaudRate_10=0"));
+  const config::Profile back = eds_profile(text);
+  EXPECT_EQ(back.options->lss_bit_rates, "4,3");
+  EXPECT_EQ(back.bit_rate_kbit, 250u);
+}
+
+// ---------------------------------------------------------------- messy files
+
+// A minimal EDS around `objects` (sections text).
+std::string eds(const std::string& objects, const std::string& device_info = "") {
+  return "[DeviceInfo]\nVendorNumber=\n" + device_info + "\n" + objects;
+}
+
+std::uint64_t default_u(const config::Profile& p, std::uint16_t index, std::uint8_t sub) {
+  const OdEntry* e = p.layout->find(index, sub);
+  EXPECT_TRUE(e) << std::hex << index << "sub" << int(sub);
+  return e ? decode_u(e->type, e->default_bytes.data()) : 0;
+}
+
+TEST(EdsReader, NodeIdInEverySpelling) {
+  const config::Profile p = eds_profile(eds(
+      "[1400]\nObjectType=0x9\nSubNumber=4\n"
+      "[1400sub0]\nDataType=0x0005\nAccessType=ro\nDefaultValue=3\n"
+      "[1400sub1]\nDataType=0x0007\nAccessType=rw\nDefaultValue=$NODEID+0x200\n"
+      "[1400sub2]\nDataType=0x0007\nAccessType=rw\nDefaultValue=0x200+$NODEID\n"
+      "[1400sub3]\nDataType=0x0007\nAccessType=rw\nDefaultValue=$NodeID + 0x200\n"));
+  for (std::uint8_t sub = 1; sub <= 3; ++sub) {
+    EXPECT_EQ(default_u(p, 0x1400, sub), 0x200u);
+    EXPECT_TRUE(p.layout->find(0x1400, sub)->default_plus_node_id);
+  }
+}
+
+TEST(EdsReader, CaseSpacesCommentsCrlfAndBom) {
+  const config::Profile p = eds_profile(
+      "\xEF\xBB\xBF; written by hand\r\n[ deviceinfo ]\r\nLSS_Supported = 0\r\n# another comment\r\n"
+      "[1017]\r\n  parametername = Producer heartbeat time \r\nDATATYPE=0x0006\r\naccess type=RW\r\n"
+      "Default Value=1000\r\nPdoMapping=0\r\n");
+  const OdEntry* e = p.layout->find(0x1017, 0);
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e->name, "Producer heartbeat time");
+  EXPECT_EQ(e->type, DataType::kUnsigned16);
+  EXPECT_EQ(e->access, Access::kRw);
+  EXPECT_EQ(default_u(p, 0x1017, 0), 1000u);
+  EXPECT_FALSE(p.options->lss_supported);
+}
+
+TEST(EdsReader, DecimalHexAndOctalNumbers) {
+  const config::Profile p = eds_profile(eds(
+      "[2000]\nDataType=0x0007\nAccessType=rw\nDefaultValue=010\nLowLimit=0x2\nHighLimit=100\n"
+      "[2001]\nDataType=0x0003\nAccessType=rw\nDefaultValue=0xFFFF\nLowLimit=-100\n"
+      "[2002]\nDataType=0x0008\nAccessType=rw\nDefaultValue=1.5\n"));
+  EXPECT_EQ(default_u(p, 0x2000, 0), 8u);  // CiA 306 §4.2: a leading 0 is octal
+  const OdEntry* e = p.layout->find(0x2000, 0);
+  EXPECT_EQ(decode_u(e->type, e->low), 2u);
+  EXPECT_EQ(decode_u(e->type, e->high), 100u);
+  const OdEntry* s = p.layout->find(0x2001, 0);
+  EXPECT_EQ(decode_i(s->type, s->default_bytes.data()), -1);  // hex gives the INTEGER16 bit pattern
+  EXPECT_EQ(decode_i(s->type, s->low), -100);
+  EXPECT_FLOAT_EQ(float(decode_f(DataType::kReal32, p.layout->find(0x2002, 0)->default_bytes.data())), 1.5f);
+}
+
+TEST(EdsReader, EmptyNumericFieldsAndDomainWithoutDefault) {
+  const config::Profile p = eds_profile(eds(
+      "[1000]\nDataType=0x0007\nAccessType=ro\nDefaultValue=\nLowLimit=\nHighLimit=\nPDOMapping=\n"
+      "[2001]\nDataType=0x000F\nAccessType=rw\n"));
+  EXPECT_EQ(default_u(p, 0x1000, 0), 0u);
+  EXPECT_FALSE(p.layout->find(0x1000, 0)->has_low);
+  EXPECT_TRUE(p.layout->find(0x2001, 0)->default_bytes.empty());
+  EXPECT_EQ(p.layout->find(0x2001, 0)->type, DataType::kDomain);
+}
+
+TEST(EdsReader, CompactSubObjWithNamesAndValuesAndObjFlags) {
+  const config::Profile p = eds_profile(eds(
+      "[1016]\nParameterName=Consumer heartbeat time\nObjectType=0x8\nDataType=0x0007\nAccessType=rw\n"
+      "CompactSubObj=3\nDefaultValue=0\nObjFlags=0x1\n"
+      "[1016Name]\nNrOfEntries=1\n2=Heartbeat of node 5\n"
+      "[1016Value]\nNrOfEntries=1\n2=0x000501F4\n"));
+  EXPECT_EQ(default_u(p, 0x1016, 0), 3u);
+  EXPECT_EQ(p.layout->find(0x1016, 0)->access, Access::kRo);
+  EXPECT_EQ(default_u(p, 0x1016, 1), 0u);
+  EXPECT_EQ(default_u(p, 0x1016, 2), 0x000501F4u);
+  EXPECT_EQ(p.layout->find(0x1016, 2)->name, "Heartbeat of node 5");
+  EXPECT_EQ(p.layout->find(0x1016, 3)->access, Access::kRw);
+  EXPECT_EQ(p.layout->find(0x1016, 3)->kind, ObjectKind::kArray);
+}
+
+TEST(EdsReader, DcfParameterValueWinsOverDefaultValue) {
+  const config::Profile p = eds_profile(
+      eds("[1017]\nDataType=0x0006\nAccessType=rw\nDefaultValue=1000\nParameterValue=250\n"
+          "[1800]\nObjectType=0x9\nSubNumber=2\n[1800sub0]\nDataType=0x5\nAccessType=ro\nDefaultValue=1\n"
+          "[1800sub1]\nDataType=0x7\nAccessType=rw\nDefaultValue=$NODEID+0x180\nParameterValue=0x185\n"
+          "[DeviceComissioning]\nNodeID=5\nBaudrate=125\nNodeName=sensor\n"),
+      "node.dcf");
+  EXPECT_EQ(default_u(p, 0x1017, 0), 250u);
+  EXPECT_EQ(default_u(p, 0x1800, 1), 0x185u);
+  EXPECT_FALSE(p.layout->find(0x1800, 1)->default_plus_node_id);
+  EXPECT_EQ(p.node_id, 5);
+  EXPECT_EQ(p.bit_rate_kbit, 125u);
+  EXPECT_EQ(p.name, "node");
+}
+
+TEST(EdsReader, DeviceInfoGivesLssBitRatesAndDummies) {
+  const config::Profile p = eds_profile(
+      eds("[1000]\nDataType=0x7\nAccessType=ro\n[DummyUsage]\nDummy0001=0\nDummy0002=0\n",
+          "LSS_Supported=1\nBaudRate_125=1\nBaudRate_500=1\nBaudRate_250=0\n"));
+  EXPECT_TRUE(p.options->lss_supported);
+  EXPECT_EQ(p.options->lss_bit_rates, "4,2");
+  EXPECT_EQ(p.bit_rate_kbit, 125u);  // no 250: the first rate the file lists
+  EXPECT_FALSE(p.options->rpdo_dummy_mapping);
+}
+
+TEST(EdsReader, PersistenceGroupsByRange) {
+  const config::Profile p = eds_profile(eds(
+      "[1017]\nDataType=0x6\nAccessType=rw\n[2000]\nDataType=0x7\nAccessType=rww\n"
+      "[2001]\nDataType=0x7\nAccessType=wo\n[1010]\nObjectType=0x8\nSubNumber=2\n"
+      "[1010sub0]\nDataType=0x5\nAccessType=ro\nDefaultValue=1\n[1010sub1]\nDataType=0x7\nAccessType=rw\n"));
+  EXPECT_EQ(p.layout->find(0x1017, 0)->persist, kPersistCommunication);
+  EXPECT_EQ(p.layout->find(0x2000, 0)->persist, kPersistApplication);
+  EXPECT_EQ(p.layout->find(0x2001, 0)->persist, kPersistNone);
+  EXPECT_EQ(p.layout->find(0x1010, 1)->persist, kPersistNone);
+}
+
+// ---------------------------------------------------------------- rejections
+
+TEST(EdsReader, RejectsTheAmbiguousWithFileAndLine) {
+  struct Case {
+    std::string text;
+    std::string message;
+  } cases[] = {
+      {"[1000]\nDataType=0x7\nAccessType=ro\nDefaultValue=08\n",
+       "bad.eds:4: [1000] DefaultValue: expected an integer, optionally plus $NODEID (e.g. $NODEID+0x180), got '08'"},
+      {"[1000]\nDataType=0x7\nAccessType=rx\n", "bad.eds:3: [1000] AccessType: expected one of ro, wo, rw, rwr, rww, const, got 'rx'"},
+      {"[1000]\nAccessType=ro\n", "bad.eds:1: [1000] DataType: missing required key"},
+      {"[1000]\nDataType=0x0C\nAccessType=ro\n", "bad.eds:2: [1000] DataType: expected a CiA 301 basic data type"},
+      {"[1000]\nDataType=0x5\nAccessType=ro\nDefaultValue=256\n",
+       "bad.eds:4: [1000] DefaultValue: expected a value in the range of UNSIGNED8, got '256'"},
+      {"[1000]\nDataType=0x7\nAccessType=ro\nDefaultValue=$NODEID+$NODEID\n", "bad.eds:4: [1000] DefaultValue: expected an integer"},
+      {"[1000]\nDataType=0x7\nAccessType=ro\nLowLimit=$NODEID+1\n", "bad.eds:4: [1000] LowLimit: expected an integer, got '$NODEID+1'"},
+      {"[2000]\nDataType=0x8\nAccessType=ro\nDefaultValue=0x3F800000\n",
+       "bad.eds:4: [2000] DefaultValue: expected a decimal floating-point number, got '0x3F800000'"},
+      {"[1000]\nDataType=0x7\nDataType=0x5\n", "bad.eds:3: [1000] DataType: expected each key once per section (first at line 2)"},
+      {"[1000]\nDataType=0x7\nAccessType=ro\n[1000]\n", "bad.eds:4: [1000]: expected each section once (first at line 1)"},
+      {"DataType=0x7\n", "bad.eds:1: (before the first section): expected a [section] before any key, got 'DataType=0x7'"},
+      {"[1000]\nDataType 0x7\n", "bad.eds:2: [1000]: expected [section], key=value or a ; comment, got 'DataType 0x7'"},
+      {"[1000\n", "bad.eds:1: (before the first section): expected a section header [name], got '[1000'"},
+      {"[1018sub1]\nDataType=0x7\nAccessType=ro\n", "bad.eds:1: [1018sub1]: expected an object section [1018] for this sub-object"},
+      {"[1018]\nObjectType=0x9\nSubNumber=3\n[1018sub0]\nDataType=0x5\nAccessType=ro\n",
+       "bad.eds:3: [1018] SubNumber: expected the number of [1018subN] sections (1), got '3'"},
+      {"[1018]\nObjectType=0x4\n", "bad.eds:2: [1018] ObjectType: expected ObjectType 0x7 (VAR)"},
+      {"[1017]\nDataType=0x6\nAccessType=rw\n[1017sub1]\nDataType=0x6\nAccessType=rw\n",
+       "bad.eds:4: [1017sub1]: expected no sub-object sections for a VAR object"},
+      {"[1000x]\n", "bad.eds:1: [1000x]: expected an object section [xxxx], [xxxxsubN], [xxxxName] or [xxxxValue]"},
+      {"[OptionalObjects]\nSupportedObjects=1\n1=0x1017\n[1000]\nDataType=0x7\nAccessType=ro\n",
+       "bad.eds:3: [OptionalObjects] 1: expected a section [1017] for this listed object, got '0x1017'"},
+      {"[1000]\nDataType=0x7\nAccessType=ro\nPDOMapping=yes please\n", "bad.eds:4: [1000] PDOMapping: expected 0 or 1, got 'yes please'"},
+      {"[1016]\nObjectType=0x8\nSubNumber=1\n[1016sub0]\nDataType=0x5\nAccessType=ro\n[1016Name]\n1=x\n",
+       "bad.eds:7: [1016Name]: expected CompactSubObj in [1016] for this section"},
+      {"[1000]\nDataType=0x7\nAccessType=ro\n[DeviceComissioning]\nNodeID=200\n",
+       "bad.eds:5: [DeviceComissioning] NodeID: expected a node-ID 1..127 or 255 (LSS-unconfigured), got '200'"},
+      {"[2000]\nDataType=0x9\nAccessType=ro\nLowLimit=1\n", "bad.eds:4: [2000] LowLimit: expected no limit for VISIBLE_STRING, got '1'"},
+      {"[2000]\nDataType=0xA\nAccessType=ro\nDefaultValue=ABC\n", "bad.eds:4: [2000] DefaultValue: expected hex bytes, e.g. 0A1B2C, got 'ABC'"},
+      {"[FileInfo]\n", "bad.eds:1: (top level): expected at least one object section [xxxx]"},
+      {std::string("[1000\x01]\n"), "bad.eds:1: [1000\\x01]: expected an object section [xxxx]"},
+      {"[2000]\nDataType=0x8\nAccessType=ro\nDefaultValue=1e39\n",
+       "bad.eds:4: [2000] DefaultValue: expected a number in the range of REAL32, got '1e39'"},
+      {"[2000]\nDataType=0x1B\nAccessType=ro\nDefaultValue=0x7FFFFFFFFFFFFFFF+0x7FFFFFFFFFFFFFFF\n",
+       "bad.eds:4: [2000] DefaultValue: expected an integer"},
+  };
+  for (const Case& c : cases) EXPECT_THAT(eds_error(c.text), HasSubstr(c.message)) << c.text;
+}
+
+// ---------------------------------------------------------------- nodes
+
+struct Upload {
+  std::uint32_t abort = 0;
+  std::vector<std::uint8_t> data;
+  bool operator==(const Upload&) const = default;
+};
+void PrintTo(const Upload& u, std::ostream* os) {
+  *os << "abort " << std::hex << u.abort << " data";
+  for (std::uint8_t b : u.data) *os << ' ' << int(b);
+}
+
+// A master's SDO upload, expedited or segmented.
+Upload upload(SimBus& bus, std::uint8_t id, const OdEntry& e) {
+  const std::uint32_t rx = 0x600u + id, tx = 0x580u + id;
+  auto ask = [&](CanFrame request) {
+    request.dlc = 8;
+    bus.take();
+    bus.inject(request);
+    bus.run_for(ms(1));
+    for (const Sent& s : bus.take())
+      if (s.frame.id == tx) return s.frame;
+    ADD_FAILURE() << "no SDO answer for " << std::hex << e.index << "sub" << int(e.sub);
+    return CanFrame{};
+  };
+  const auto lo = std::uint8_t(e.index), hi = std::uint8_t(e.index >> 8);
+  CanFrame r = ask(F(rx, {0x40, lo, hi, e.sub, 0, 0, 0, 0}));
+  Upload u;
+  if (r.data[0] == 0x80) {
+    u.abort = std::uint32_t(r.data[4] | r.data[5] << 8 | r.data[6] << 16 | std::uint32_t(r.data[7]) << 24);
+    return u;
+  }
+  if (r.data[0] & 0x02) {  // expedited
+    const int n = (r.data[0] & 0x01) ? 4 - ((r.data[0] >> 2) & 3) : 4;
+    u.data.assign(r.data + 4, r.data + 4 + n);
+    return u;
+  }
+  for (std::uint8_t toggle = 0;; toggle ^= 0x10) {
+    r = ask(F(rx, {std::uint8_t(0x60 | toggle), 0, 0, 0, 0, 0, 0, 0}));
+    if (r.data[0] == 0x80 || u.data.size() > 70000) return Upload{1, {}};
+    const int n = 7 - ((r.data[0] >> 1) & 7);
+    u.data.insert(u.data.end(), r.data + 1, r.data + 1 + n);
+    if (r.data[0] & 0x01) return u;
+  }
+}
+
+// The uploads of every object of a core node (no application) of `p`.
+std::vector<Upload> uploads(const config::Profile& p, std::uint8_t id) {
+  SimBus bus;
+  bus.add(p, id);
+  bus.power_on_all();
+  bus.run_for(ms(500));  // past any boot_up_delay_ms
+  std::vector<Upload> out;
+  for (const OdEntry& e : p.layout->entries()) out.push_back(upload(bus, id, e));
+  return out;
+}
+
+class EdsNodes : public ::testing::TestWithParam<const char*> {};
+
+// Options (vendor quirks) and the default bit rate are not in an EDS: the
+// EDS node gets the YAML's, as a fleet entry's `options:` and `bit_rate:`
+// would give them (p92c's 0x4F00 answers the node's bit rate).
+TEST_P(EdsNodes, EdsNodeAnswersEveryUploadAsTheYamlNode) {
+  const config::Profile yaml = load_repo_profile(GetParam());
+  config::Profile eds = eds_profile(export_eds(yaml), std::string(GetParam()) + ".eds");
+  eds.options = yaml.options;
+  eds.bit_rate_kbit = yaml.bit_rate_kbit;
+  // The profile's node-ID: p92c takes its node-ID from its object 0x4F01.
+  const std::vector<Upload> a = uploads(yaml, yaml.node_id), b = uploads(eds, yaml.node_id);
+  ASSERT_EQ(a.size(), b.size());
+  const auto entries = yaml.layout->entries();
+  for (std::size_t i = 0; i < a.size(); ++i)
+    EXPECT_EQ(a[i], b[i]) << std::hex << entries[i].index << "sub" << int(entries[i].sub) << " abort " << a[i].abort
+                          << " vs " << b[i].abort;
+}
+
+INSTANTIATE_TEST_SUITE_P(Profiles, EdsNodes, ::testing::ValuesIn(kProfiles), [](const auto& info) {
+  std::string n = info.param;
+  for (char& c : n)
+    if (c == '-') c = '_';
+  return n;
+});
+
+TEST(EdsNodes, GenericEdsAsImportedAnswersAsTheYamlNode) {
+  const config::Profile yaml = load_repo_profile("generic-404");
+  const config::Profile eds = eds_profile(export_eds(yaml), "generic-404.eds");
+  EXPECT_EQ(uploads(yaml, 0x10), uploads(eds, 0x10));
+}
+
+// LSS_Supported decides whether the node answers LSS (CiA 305 inquire node-ID).
+TEST(EdsNodes, LssAsTheEdsSays) {
+  for (const bool lss : {true, false}) {
+    std::string text = export_eds(load_repo_profile("generic-404"));
+    const auto at = text.find("LSS_Supported=1");
+    ASSERT_NE(at, std::string::npos);
+    if (!lss) text.replace(at, 16, "LSS_Supported=0");
+    const config::Profile p = eds_profile(text, "g.eds");
+    SimBus bus;
+    bus.add(p, 0x12);
+    bus.power_on_all();
+    bus.run_for(ms(10));
+    bus.take();
+    CanFrame global = F(0x7E5, {0x04, 0x01, 0, 0, 0, 0, 0, 0}), inquire = F(0x7E5, {0x5E, 0, 0, 0, 0, 0, 0, 0});
+    bus.inject(global);
+    bus.inject(inquire);
+    bus.run_for(ms(10));
+    std::vector<CanFrame> replies;
+    for (const Sent& s : bus.take())
+      if (s.frame.id == 0x7E4) replies.push_back(s.frame);
+    if (lss) {
+      ASSERT_EQ(replies.size(), 1u);
+      EXPECT_EQ(replies[0].data[0], 0x5E);
+      EXPECT_EQ(replies[0].data[1], 0x12);
+    } else {
+      EXPECT_TRUE(replies.empty());
+    }
+  }
+}
+
+TEST(EdsNodes, Cia404ObjectsOfAnEdsGetTheMeasurementChain) {
+  config::Profile p = eds_profile(export_eds(load_repo_profile("generic-404")), "generic-404.eds");
+  ASSERT_EQ(p.cia404->channels.size(), 2u);
+  EXPECT_EQ(p.cia404->channels[1].kind, model::QuantityKind::kTemperature);  // from 0x6131:02's default
+  EXPECT_EQ(p.layout->find(0x6130, 1)->hooks, kHookRead);
+  EXPECT_EQ(p.layout->find(0x6130, 2)->hooks, kHookRead);
+  auto app = personalities::make_application(p, {7, 0, "vcan0/eds", {}});
+  ASSERT_TRUE(app);
+  SimBus bus;
+  SimNode& n = bus.add(p, 0x10, app.get());
+  bus.power_on_all();
+  bus.run_until(ms(2000));
+  std::span<const std::uint8_t> out;
+  ASSERT_EQ(n->read(0x6130, 1, bus.now(), out), SdoAbort::kNone);
+  const float pv = float(decode_f(DataType::kReal32, out.data()));
+  EXPECT_TRUE(std::isfinite(pv));
+  ASSERT_EQ(n->read(0x6130, 2, bus.now(), out), SdoAbort::kNone);
+  EXPECT_TRUE(std::isfinite(decode_f(DataType::kReal32, out.data())));
+}
+
+// A fleet entry names an EDS like a profile and overrides it as usual. The
+// files go under the test's working directory (the build tree).
+TEST(EdsFleet, EntryTakesAnEdsWithOverrides) {
+  const std::filesystem::path dir = std::filesystem::current_path() / "eds-test-fleet";
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir / "g404.eds") << export_eds(load_repo_profile("generic-404"));
+  const std::string fleet =
+      "interfaces: {vcan0: {bit_rate: 125}}\n"
+      "nodes:\n"
+      "  - {profile: g404.eds, interface: vcan0, node_id: 5, bit_rate: 125, options: {sdo_expedited_only: true}}\n"
+      "  - {profile: g404.eds, interface: vcan0, node_id: 6, count: 2, vendor: {serial_number_base: 100}}\n";
+  const config::FleetConfig f = config::parse_fleet(fleet, (dir / "fleet.yaml").string(), config::ProfileSearch{});
+  ASSERT_EQ(f.nodes.size(), 3u);
+  EXPECT_EQ(f.nodes[0].name, "g404-5");
+  EXPECT_EQ(f.nodes[0].profile->personality, "generic");
+  EXPECT_EQ(f.nodes[0].bit_rate_kbit, 125u);
+  EXPECT_TRUE(f.nodes[0].profile->options->sdo_expedited_only);
+  EXPECT_FALSE(f.nodes[1].profile->options->sdo_expedited_only);
+  EXPECT_EQ(f.nodes[2].node_id, 7);
+  EXPECT_EQ(f.nodes[1].profile->identity.serial_base, 100u);
+  EXPECT_TRUE(f.nodes[1].profile->identity.serial_per_node);
+  EXPECT_NE(f.nodes[0].profile->layout->find(0x6130, 1), nullptr);
+}
+
+TEST(EdsFleet, ErrorsInTheEdsNameTheEdsFile) {
+  const std::filesystem::path dir = std::filesystem::current_path() / "eds-test-fleet";
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir / "broken.eds") << "[1000]\nDataType=0x7\nAccessType=rx\n";
+  const std::string fleet = "interfaces: {vcan0: {}}\nnodes:\n  - {profile: broken.eds, interface: vcan0}\n";
+  try {
+    config::parse_fleet(fleet, (dir / "fleet.yaml").string(), config::ProfileSearch{});
+    ADD_FAILURE() << "no error";
+  } catch (const config::ConfigError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("broken.eds:3: [1000] AccessType: expected one of ro, wo, rw, rwr, rww, const, got 'rx'"));
+  }
+}
+
+TEST(EdsDcf, CurrentValuesBecomeParameterValues) {
+  const config::Profile p = load_repo_profile("generic-404");
+  SimBus bus;
+  SimNode& n = bus.add(p, 0x10);
+  bus.power_on_all();
+  bus.run_for(ms(10));
+  ASSERT_TRUE(n->values().set_u(0x1017, 0, 250));
+  config::DcfValues dcf;
+  dcf.node_id = 0x10;
+  dcf.node_name = "g";
+  dcf.bit_rate_kbit = 250;
+  dcf.value = [&](const OdEntry& e) { return n->values().bytes(e); };
+  const std::string text = config::write_eds(*p.layout, *p.options, config::identity_of(p), &dcf);
+  EXPECT_THAT(text, HasSubstr("[DeviceComissioning]\nNodeID=0x10\nNodeName=g\nBaudrate=250"));
+  EXPECT_THAT(text, HasSubstr("DefaultValue=0x3E8\nPDOMapping=0\nParameterValue=0xFA"));
+  const config::Profile back = eds_profile(text, "g.dcf");
+  EXPECT_EQ(default_u(back, 0x1017, 0), 250u);
+  EXPECT_EQ(default_u(back, 0x1800, 1), 0x180u);  // still "$NODEID+0x180"
+  EXPECT_TRUE(back.layout->find(0x1800, 1)->default_plus_node_id);
+  EXPECT_EQ(back.node_id, 0x10);
+}
+
+}  // namespace
+}  // namespace cansim::test
