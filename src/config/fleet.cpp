@@ -1,6 +1,7 @@
 #include "config/fleet.hpp"
 
 #include "config/eds_reader.hpp"
+#include "config/physics_config.hpp"
 #include "core/can_frame.hpp"
 
 #include <algorithm>
@@ -97,9 +98,47 @@ void parse_interfaces(const Where& w, const YAML::Node& map, FleetConfig& out) {
   }
 }
 
+// The entry's `physics:` / `sensor:` / `faults:` checked where they are
+// written (the fleet file), then laid over the profile's document: physics
+// channel by channel (gas_volume stands for both), sensor key by key within
+// each channel, faults as a whole list.
+void merge_physics(const Where& w, const YAML::Node& entry, YAML::Node& root) {
+  if (const YAML::Node& e = entry["physics"]) {
+    parse_process(w.child("physics"), e);
+    if (!e.IsMap()) return;
+    if (!root["physics"] || !root["physics"].IsMap()) root["physics"] = YAML::Node(YAML::NodeType::Map);
+    YAML::Node physics = root["physics"];
+    if (e["gas_volume"]) {
+      physics.remove("pressure");
+      physics.remove("temperature");
+    } else if (e["pressure"] || e["temperature"]) {
+      physics.remove("gas_volume");
+    }
+    for (const auto& kv : e) physics[kv.first.Scalar()] = YAML::Clone(kv.second);
+  }
+  if (const YAML::Node& e = entry["sensor"]) {
+    parse_sensor(w.child("sensor"), e, default_sensor());
+    if (!e.IsMap()) return;
+    if (!root["sensor"] || !root["sensor"].IsMap()) root["sensor"] = YAML::Node(YAML::NodeType::Map);
+    YAML::Node sensor = root["sensor"];
+    for (const auto& ch : e) {
+      const std::string name = ch.first.Scalar();
+      if (!sensor[name] || !sensor[name].IsMap()) sensor[name] = YAML::Node(YAML::NodeType::Map);
+      YAML::Node into = sensor[name];
+      if (ch.second.IsMap())
+        for (const auto& kv : ch.second) into[kv.first.Scalar()] = YAML::Clone(kv.second);
+    }
+  }
+  if (const YAML::Node& e = entry["faults"]) {
+    parse_faults(w.child("faults"), e);
+    root["faults"] = YAML::Clone(e);
+  }
+}
+
 // Applies per-entry overrides to a private copy of the profile: its own
 // layout and options, the personality part parsed again from the profile's
-// document with the entry's `vendor:` keys merged over the profile's.
+// document with the entry's `vendor:` keys merged over the profile's and its
+// physics sections laid over the profile's.
 std::shared_ptr<Profile> make_variant(const Where& w, const YAML::Node& entry, const Profile& base,
                                       const std::string& base_text) {
   auto p = std::make_shared<Profile>(base);
@@ -107,7 +146,7 @@ std::shared_ptr<Profile> make_variant(const Where& w, const YAML::Node& entry, c
   p->options = std::make_shared<NodeOptions>(*base.options);
   if (entry["options"]) parse_options(w.child("options"), entry["options"], *p->options);
   // A device description has no YAML sections: the entry's are the only ones.
-  const YAML::Node root = is_device_description(base.file) ? YAML::Node(YAML::NodeType::Map) : YAML::Load(base_text);
+  YAML::Node root = is_device_description(base.file) ? YAML::Node(YAML::NodeType::Map) : YAML::Load(base_text);
   YAML::Node vendor = root["vendor"] ? YAML::Clone(root["vendor"]) : YAML::Node(YAML::NodeType::Map);
   if (entry["vendor"]) {
     const YAML::Node& v = entry["vendor"];
@@ -115,6 +154,7 @@ std::shared_ptr<Profile> make_variant(const Where& w, const YAML::Node& entry, c
     if (!vendor.IsMap()) vendor = YAML::Node(YAML::NodeType::Map);
     for (const auto& kv : v) vendor[kv.first.Scalar()] = YAML::Clone(kv.second);
   }
+  merge_physics(w, entry, root);
   parse_personality(*p, root, vendor);
   return p;
 }
@@ -131,7 +171,8 @@ std::string record_file_name(std::string pattern, std::uint8_t node_id, bool gro
 
 void parse_node_entry(const Where& w, const YAML::Node& entry, ProfileCache& cache, FleetConfig& out) {
   check_keys(w, entry,
-             {"profile", "interface", "node_id", "count", "name", "serial", "bit_rate", "record", "options", "vendor"});
+             {"profile", "interface", "node_id", "count", "name", "serial", "bit_rate", "record", "options", "vendor",
+              "physics", "sensor", "faults"});
   if (!entry["profile"]) fail(w.child("profile"), entry, "missing required key 'profile'");
   if (!entry["interface"]) fail(w.child("interface"), entry, "missing required key 'interface'");
   std::string path;
@@ -180,7 +221,7 @@ void parse_node_entry(const Where& w, const YAML::Node& entry, ProfileCache& cac
     if (record.empty() || record.back() == '/')
       fail(w.child("record"), entry["record"], "expected a CSV file name, e.g. recordings/dps-{id}.csv");
   }
-  if (entry["options"] || entry["vendor"]) {
+  if (entry["options"] || entry["vendor"] || entry["physics"] || entry["sensor"] || entry["faults"]) {
     profile = make_variant(w, entry, *profile, cache.text(path));
     cache.add_variant(profile);
   }

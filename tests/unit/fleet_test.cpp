@@ -1,3 +1,4 @@
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <spdlog/sinks/ostream_sink.h>
 #include <spdlog/spdlog.h>
@@ -66,6 +67,42 @@ TEST_F(FleetTest, CountReplicatesOverConsecutiveNodeIdsWithDistinctSerialsAndKey
   EXPECT_EQ(f.nodes[3].profile, f.nodes[0].profile);
   EXPECT_EQ(f.profiles.size(), 1u);
   EXPECT_EQ(f.seed, 1u);
+}
+
+// physics / sensor / faults of an entry lie over the profile's: a channel,
+// a sensor key, the fault list; the personality's settings follow (SMC maps
+// its field value over the sensor range).
+TEST_F(FleetTest, PhysicsOverridesMakeAPrivateProfile) {
+  FleetConfig f = parse(std::string(kIfaces) +
+                        "nodes:\n"
+                        "  - {profile: smc, interface: vcan0, node_id: 1}\n"
+                        "  - profile: smc\n"
+                        "    interface: vcan0\n"
+                        "    node_id: 2\n"
+                        "    physics: {pressure: 4 bar}\n"
+                        "    sensor: {pressure: {range: [0 bar, 10 bar]}}\n"
+                        "    faults: [{kind: open, channel: pressure, at: 1 s}]\n");
+  ASSERT_EQ(f.nodes.size(), 2u);
+  const model::PhysicsConfig& base = f.nodes[0].profile->physics;
+  const model::PhysicsConfig& mine = f.nodes[1].profile->physics;
+  ASSERT_EQ(mine.process.pressure.size(), 1u);
+  EXPECT_DOUBLE_EQ(std::get<physics::ConstantSpec>(mine.process.pressure[0]).value, 4.0e5);
+  EXPECT_EQ(mine.process.temperature.size(), base.process.temperature.size());  // the profile's
+  EXPECT_DOUBLE_EQ(mine.sensor.pressure.range_max, 10.0e5);
+  EXPECT_DOUBLE_EQ(base.sensor.pressure.range_max, 5.0e5);
+  EXPECT_DOUBLE_EQ(mine.sensor.pressure.noise_rms, base.sensor.pressure.noise_rms);  // the profile's other keys
+  EXPECT_EQ(mine.faults.size(), 1u);
+  EXPECT_DOUBLE_EQ(std::get<model::SmcSettings>(f.nodes[1].profile->device).range_max[0], 10.0e5);
+}
+
+TEST_F(FleetTest, PhysicsOverrideErrorsNameTheFleetFile) {
+  try {
+    parse(std::string(kIfaces) + "nodes:\n  - {profile: smc, interface: vcan0, sensor: {pressure: {sample_rate: fast}}}\n");
+    ADD_FAILURE() << "no error";
+  } catch (const ConfigError& e) {
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("fleet.yaml:"));
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("nodes[0].sensor.pressure.sample_rate: expected a frequency"));
+  }
 }
 
 TEST_F(FleetTest, OptionAndVendorOverridesMakeAPrivateProfile) {
