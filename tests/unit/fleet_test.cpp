@@ -73,10 +73,11 @@ TEST_F(FleetTest, CountReplicatesOverConsecutiveNodeIdsWithDistinctSerialsAndKey
 // a sensor key, the fault list; the personality's settings follow (SMC maps
 // its field value over the sensor range).
 TEST_F(FleetTest, PhysicsOverridesMakeAPrivateProfile) {
+  const std::string smc = std::string(CANSIM_SOURCE_DIR) + "/profiles/smc.yaml";
   FleetConfig f = parse(std::string(kIfaces) +
                         "nodes:\n"
-                        "  - {profile: smc, interface: vcan0, node_id: 1}\n"
-                        "  - profile: smc\n"
+                        "  - {profile: " + smc + ", interface: vcan0, node_id: 1}\n"
+                        "  - profile: " + smc + "\n"
                         "    interface: vcan0\n"
                         "    node_id: 2\n"
                         "    physics: {pressure: 4 bar}\n"
@@ -97,7 +98,8 @@ TEST_F(FleetTest, PhysicsOverridesMakeAPrivateProfile) {
 
 TEST_F(FleetTest, PhysicsOverrideErrorsNameTheFleetFile) {
   try {
-    parse(std::string(kIfaces) + "nodes:\n  - {profile: smc, interface: vcan0, sensor: {pressure: {sample_rate: fast}}}\n");
+    parse(std::string(kIfaces) +
+          "nodes:\n  - {profile: generic-404, interface: vcan0, sensor: {pressure: {sample_rate: fast}}}\n");
     ADD_FAILURE() << "no error";
   } catch (const ConfigError& e) {
     EXPECT_THAT(e.what(), ::testing::HasSubstr("fleet.yaml:"));
@@ -166,7 +168,7 @@ TEST_F(FleetTest, ErrorsNameFileLineKeyAndExpectation) {
        "got '3'"},
       {std::string(kIfaces) + n + ", nodeid: 3}\n",
        "D/fleet.yaml:5:46: nodes[0].nodeid: unknown key (expected one of: profile, interface, node_id, count, name, "
-       "serial, bit_rate, record, options, vendor), got 'nodeid'"},
+       "serial, bit_rate, record, options, vendor, physics, sensor, faults), got 'nodeid'"},
       {std::string(kIfaces) + n + ", name: 'a b'}\n",
        "D/fleet.yaml:5:52: nodes[0].name: expected a name of letters, digits, '-', '_' or '.', got 'a b'"},
       {std::string(kIfaces) + n + ", options: {no_such: 1}}\n",
