@@ -47,6 +47,15 @@ std::vector<physics::FaultSpec> parse_faults(const Where& w, const YAML::Node& f
 // One entry of `faults:` (a mapping with `kind` and its keys).
 physics::FaultSpec parse_fault(const Where& w, const YAML::Node& fault);
 
+// The same parsers on text, for the control API: a channel model as YAML
+// text, and a fault from its kind and its keys' values (each a YAML
+// scalar, "2 s", "0.5 bar"). Errors (syntax included) throw ConfigError
+// naming `source` ("<SetModel>:1:5: ...").
+std::vector<physics::TermSpec> parse_channel_model_text(const std::string& source, const std::string& channel_name,
+                                                        const std::string& text, physics::Channel channel);
+physics::FaultSpec parse_fault_text(const std::string& source, const std::string& kind,
+                                    const std::vector<std::pair<std::string, std::string>>& keys);
+
 // All three sections of a profile document (defaults for the missing ones).
 PhysicsConfig parse_physics_config(const std::string& file, const YAML::Node& root);
 

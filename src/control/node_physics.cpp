@@ -3,10 +3,8 @@
 // Everything goes through the node's CiA 404 chain
 // (personalities::Cia404Application), so PDOs and events follow.
 #include <cmath>
-#include <yaml-cpp/yaml.h>
 
 #include "config/physics_config.hpp"
-#include "config/yaml_util.hpp"
 #include "control/service_internal.hpp"
 #include "physics/units.hpp"
 
@@ -127,11 +125,7 @@ int node_set_model(sd_bus_message* m, void* userdata, sd_bus_error* e) {
   if (r < 0 || !chain(n, channel, &ch, e, &r)) return r;
   std::vector<physics::TermSpec> terms;
   try {
-    YAML::Node model = YAML::Load(yaml);
-    terms = config::parse_channel_model(config::Where{"<SetModel>", channel}, model, ch);
-  } catch (const YAML::ParserException& ex) {
-    return fail(e, kErrorInvalidArgument, "<SetModel>:" + std::to_string(ex.mark.line + 1) + ":" +
-                                              std::to_string(ex.mark.column + 1) + ": YAML syntax error: " + ex.msg);
+    terms = config::parse_channel_model_text("<SetModel>", channel, yaml, ch);
   } catch (const std::exception& ex) {
     return fail(e, kErrorInvalidArgument, ex.what());
   }
@@ -173,23 +167,18 @@ int node_arm_fault(sd_bus_message* m, void* userdata, sd_bus_error* e) {
   const char* kind = nullptr;
   int r = sd_bus_message_read(m, "s", &kind);
   if (r < 0) return r;
-  // The same parser as a profile's `faults:` entry, fed the keys as YAML scalars.
-  YAML::Node entry(YAML::NodeType::Map);
-  entry["kind"] = kind;
+  // The same parser as a profile's `faults:` entry, the values as YAML scalars.
+  std::vector<std::pair<std::string, std::string>> keys;
   if ((r = sd_bus_message_enter_container(m, 'a', "{ss}")) < 0) return r;
   const char *key = nullptr, *value = nullptr;
   while ((r = sd_bus_message_read(m, "{ss}", &key, &value)) > 0) {
     if (std::string_view(key) == "kind") return fail(e, kErrorInvalidArgument, "'kind' is the first argument, not a parameter");
-    try {
-      entry[key] = YAML::Load(value);
-    } catch (const YAML::ParserException& ex) {
-      return fail(e, kErrorInvalidArgument, std::string(key) + ": " + ex.msg);
-    }
+    keys.emplace_back(key, value);
   }
   if (r < 0 || (r = sd_bus_message_exit_container(m)) < 0) return r;
   physics::FaultSpec spec;
   try {
-    spec = config::parse_fault(config::Where{"<ArmFault>", ""}, entry);
+    spec = config::parse_fault_text("<ArmFault>", kind, keys);
   } catch (const std::exception& ex) {
     const bool bad_kind = !physics::parse_fault_kind(kind);
     return fail(e, bad_kind ? kErrorUnknownFault : kErrorInvalidArgument, ex.what());
