@@ -1,7 +1,7 @@
 // libFuzzer target: the CiA 306 EDS / DCF reader and everything an imported
 // device description feeds when cansimd starts. The input is a file's text;
 // it goes through config::parse_eds and profile_from_eds, then
-// personalities::prepare_profile and daemon::make_node_application (generic
+// daemon::make_node_application (generic
 // personality, CiA 404 chain when the objects are there), and a node built
 // from it boots and runs 200 ms of simulated time. An accepted file must
 // also export (config::write_eds) to a file that reads back to the same
@@ -84,30 +84,6 @@ void check_export_round_trip(const config::Profile& p) {
   }
 }
 
-void run_profile(const std::shared_ptr<config::Profile>& profile) {
-  personalities::prepare_profile(*profile);
-  config::NodeConfig n;
-  n.key = "vcan0/fuzz/0";
-  n.name = "fuzz";
-  n.interface = "vcan0";
-  n.node_id = profile->node_id;
-  n.bit_rate_kbit = profile->bit_rate_kbit;
-  n.serial = 7;
-  n.profile = profile;
-  auto app = daemon::make_node_application(n, 1);
-  fuzz::CheckingSink sink;
-  fuzz::MemoryStorage storage;
-  NodeSetup setup;
-  setup.layout = profile->layout;
-  setup.options = profile->options;
-  setup.node_id = n.node_id;
-  setup.bit_rate_index = std::uint8_t(config::bit_rate_index(n.bit_rate_kbit));
-  Node node(setup, sink, app.get(), &storage);
-  node.set_bus_bit_rate(setup.bit_rate_index);
-  fuzz::run_node(node, ms(200));
-  node.power_off();
-}
-
 const char* interesting_eds_value(std::mt19937& rng) {
   static const char* const kValues[] = {
       "", "0", "-1", "1", "010", "08", "0x", "0x7F", "0x80", "0xFF", "0xFFFF", "0xFFFFFFFF", "0x100000000",
@@ -138,7 +114,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     std::abort();
   }
   try {
-    run_profile(profile);
+    fuzz::run_profile_node(profile);
   } catch (const config::ConfigError& e) {
     fuzz::check_error_format(e.what());  // the personality's own checks (no vendor section here)
   } catch (const std::exception& e) {

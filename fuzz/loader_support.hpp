@@ -9,12 +9,15 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <memory>
 #include <random>
 #include <string>
 #include <string_view>
 #include <vector>
 
+#include "config/fleet.hpp"
 #include "core/node.hpp"
+#include "daemon/daemon.hpp"
 
 extern "C" std::size_t LLVMFuzzerMutate(std::uint8_t* data, std::size_t size, std::size_t max_size);
 
@@ -91,6 +94,31 @@ inline void run_node(Node& node, TimeUs span) {
     now = std::max(now, next);
     node.advance(now);
   }
+}
+
+// A node of `profile` as the daemon builds it (its application and physics,
+// a storage in memory) on a checking sink, run for 200 ms of simulated time.
+inline void run_profile_node(const std::shared_ptr<config::Profile>& profile) {
+  config::NodeConfig n;
+  n.key = "vcan0/fuzz/0";
+  n.name = "fuzz";
+  n.interface = "vcan0";
+  n.node_id = profile->node_id;
+  n.bit_rate_kbit = profile->bit_rate_kbit;
+  n.serial = 7;
+  n.profile = profile;
+  auto app = daemon::make_node_application(n, 1);
+  CheckingSink sink;
+  MemoryStorage storage;
+  NodeSetup setup;
+  setup.layout = profile->layout;
+  setup.options = profile->options;
+  setup.node_id = n.node_id;
+  setup.bit_rate_index = std::uint8_t(config::bit_rate_index(n.bit_rate_kbit));
+  Node node(setup, sink, app.get(), &storage);
+  node.set_bus_bit_rate(setup.bit_rate_index);
+  run_node(node, ms(200));
+  node.power_off();
 }
 
 // ---- line-level YAML mutations

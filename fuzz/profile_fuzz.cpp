@@ -27,26 +27,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const std::string text(reinterpret_cast<const char*>(data), size);
   try {
     auto profile = std::make_shared<config::Profile>(config::parse_profile(text, "fuzz-profile.yaml"));
-    config::NodeConfig n;
-    n.key = "vcan0/fuzz/0";
-    n.name = "fuzz";
-    n.interface = "vcan0";
-    n.node_id = profile->node_id;
-    n.bit_rate_kbit = profile->bit_rate_kbit;
-    n.serial = 7;
-    n.profile = profile;
-    auto app = daemon::make_node_application(n, 1);
-    fuzz::CheckingSink sink;
-    fuzz::MemoryStorage storage;
-    NodeSetup setup;
-    setup.layout = profile->layout;
-    setup.options = profile->options;
-    setup.node_id = n.node_id;
-    setup.bit_rate_index = std::uint8_t(config::bit_rate_index(n.bit_rate_kbit));
-    Node node(setup, sink, app.get(), &storage);
-    node.set_bus_bit_rate(setup.bit_rate_index);
-    fuzz::run_node(node, ms(200));
-    node.power_off();
+    fuzz::run_profile_node(profile);
   } catch (const config::ConfigError& e) {
     fuzz::check_error_format(e.what());
   } catch (const std::exception& e) {
