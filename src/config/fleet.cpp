@@ -1,5 +1,6 @@
 #include "config/fleet.hpp"
 
+#include "config/strict_mode.hpp"
 #include "core/can_frame.hpp"
 
 #include <algorithm>
@@ -99,9 +100,9 @@ void parse_interfaces(const Where& w, const YAML::Node& map, FleetConfig& out) {
 // Applies per-entry overrides to a private copy of the profile.
 std::shared_ptr<Profile> make_variant(const Where& w, const YAML::Node& entry, const Profile& base) {
   auto p = std::make_shared<Profile>(base);
-  p->layout = std::make_shared<OdLayout>(*base.layout);
-  p->options = std::make_shared<NodeOptions>(*base.options);
-  if (entry["options"]) parse_options(w.child("options"), entry["options"], *p->options);
+  if (entry["strict"]) p->strict = get_bool(w.child("strict"), entry["strict"]);
+  if (entry["options"]) set_option_overrides(*p, w.child("options"), entry["options"]);
+  apply_mode(*p);  // strict mode first, the entry's options on top
   if (entry["vendor"]) {
     const YAML::Node& v = entry["vendor"];
     if (!v.IsMap()) fail(w.child("vendor"), v, "expected a mapping of vendor parameters");
@@ -124,7 +125,8 @@ std::string record_file_name(std::string pattern, std::uint8_t node_id, bool gro
 
 void parse_node_entry(const Where& w, const YAML::Node& entry, ProfileCache& cache, FleetConfig& out) {
   check_keys(w, entry,
-             {"profile", "interface", "node_id", "count", "name", "serial", "bit_rate", "record", "options", "vendor"});
+             {"profile", "interface", "node_id", "count", "name", "serial", "bit_rate", "record", "options", "vendor",
+              "strict"});
   if (!entry["profile"]) fail(w.child("profile"), entry, "missing required key 'profile'");
   if (!entry["interface"]) fail(w.child("interface"), entry, "missing required key 'interface'");
   std::string path;
@@ -173,7 +175,7 @@ void parse_node_entry(const Where& w, const YAML::Node& entry, ProfileCache& cac
     if (record.empty() || record.back() == '/')
       fail(w.child("record"), entry["record"], "expected a CSV file name, e.g. recordings/dps-{id}.csv");
   }
-  if (entry["options"] || entry["vendor"]) {
+  if (entry["options"] || entry["vendor"] || entry["strict"]) {
     profile = make_variant(w, entry, *profile);
     cache.add_variant(profile);
   }

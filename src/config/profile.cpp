@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "config/strict_mode.hpp"
+
 namespace cansim::config {
 
 namespace {
@@ -212,7 +214,7 @@ void parse_options(const Where& w, const YAML::Node& map, NodeOptions& out) {
       else if constexpr (std::is_same_v<T, std::int64_t>) field = get_int(wk, v, INT64_MIN, INT64_MAX);
       else field = get_string(wk, v);
     };
-#define CANSIM_PARSE_OPTION(type, name, def, help) \
+#define CANSIM_PARSE_OPTION(type, name, def, kind, help) \
   if (key == #name) {                               \
     set(out.name, kv.second);                       \
     known = true;                                   \
@@ -233,7 +235,7 @@ Profile parse_profile(const YAML::Node& root, const std::string& file) {
   if (!root.IsMap()) fail(w, root, "expected a profile mapping");
   check_keys(w, root,
              {"name", "description", "personality", "node_id", "bit_rate", "options", "objects", "vendor",
-              "physics", "sensor", "faults"});
+              "physics", "sensor", "faults", "strict", "quirks", "strict_objects"});
   Profile p;
   p.file = file;
   p.root = root;
@@ -256,6 +258,7 @@ Profile parse_profile(const YAML::Node& root, const std::string& file) {
   if (!root["objects"]) fail(w.child("objects"), root, "missing the object dictionary ('objects:' list)");
   parse_objects(w.child("objects"), root["objects"], *p.layout);
   p.layout->finalize();
+  parse_strict_sections(w, root, p);
   // Assigning a missing node throws in yaml-cpp, hence the checks.
   if (root["vendor"]) p.personality_params = root["vendor"];
   if (root["physics"]) p.physics = root["physics"];

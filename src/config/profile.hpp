@@ -7,6 +7,8 @@
 
 #include <memory>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "config/yaml_util.hpp"
 #include "core/node_options.hpp"
@@ -22,7 +24,17 @@ struct Profile {
   std::uint8_t node_id = 1;                // default node-ID (0xFF = LSS-unconfigured)
   std::uint32_t bit_rate_kbit = 250;       // default bit rate
   std::shared_ptr<OdLayout> layout;        // finalized; hooks may still be set by personalities
-  std::shared_ptr<NodeOptions> options;
+  std::shared_ptr<NodeOptions> options;    // in effect: faithful or strict, then overrides
+  // Strict mode (config/strict_mode.hpp): the profile as written, the
+  // entries strict mode replaces or adds, the manual reference per deviation.
+  bool strict = false;
+  std::shared_ptr<const NodeOptions> faithful_options;
+  std::shared_ptr<const OdLayout> faithful_layout;
+  std::vector<OdEntry> strict_objects;
+  std::vector<std::pair<std::string, std::string>> quirks;  // name -> manual reference
+  bool quirks_checked = false;             // has a `quirks:` map (checked against the deviations)
+  YAML::Node option_overrides;             // a fleet entry's `options:`
+  Where option_overrides_where;
   YAML::Node personality_params;           // `vendor:` section, read by the personality
   YAML::Node physics;                      // `physics:` section, read by the physics layer
   YAML::Node sensor;                       // `sensor:` section

@@ -25,6 +25,10 @@ std::string usage_text() {
          "  --node-id N          its node-ID, 1..127 or 255 = LSS-unconfigured (default: the profile's)\n"
          "  --config FILE        run the fleet described in FILE\n"
          "  --check              validate the configuration and exit (0 valid, 1 invalid)\n"
+         "  --strict             every node in strict mode: each vendor deviation at its CiA value\n"
+         "                       (options a fleet entry sets still win)\n"
+         "  --quirks             with --profile: list the profile's deviations from CiA (option,\n"
+         "                       manual reference, faithful and strict value) and exit\n"
          "  --state-dir DIR      stored parameters (default $STATE_DIRECTORY, else ./state)\n"
          "  --log-level LEVEL    trace, debug, info, warn, error, critical or off (default info)\n"
          "  --seed N             fleet random seed (default: the config's, else 1)\n"
@@ -77,6 +81,12 @@ CliResult parse_cli(const std::vector<std::string>& args, const char* state_dire
     } else if (arg == "--check") {
       if (!no_value()) return r;
       o.check = true;
+    } else if (arg == "--strict") {
+      if (!no_value()) return r;
+      o.strict = true;
+    } else if (arg == "--quirks") {
+      if (!no_value()) return r;
+      o.quirks = true;
     } else if (arg == "--profile") {
       if (!need_value()) return r;
       o.profile = value;
@@ -147,6 +157,10 @@ CliResult parse_cli(const std::vector<std::string>& args, const char* state_dire
   if (o.help || o.version) return r;
   if (o.profile.empty() == o.config.empty()) {
     r.error = o.profile.empty() ? "expected --profile or --config" : "--profile and --config exclude each other";
+    return r;
+  }
+  if (o.quirks && o.profile.empty()) {
+    r.error = "--quirks goes with --profile";
     return r;
   }
   if (!o.config.empty() && (have_interface || o.node_id)) {

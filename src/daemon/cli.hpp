@@ -15,6 +15,8 @@ struct CliOptions {
   std::optional<int> node_id;          // --node-id N (with --profile)
   std::string config;                  // --config FILE: a fleet
   bool check = false;                  // --check: validate and exit
+  bool strict = false;                 // --strict: every node CiA-strict (entry options still win)
+  bool quirks = false;                 // --quirks: print the profile's quirk inventory and exit
   std::string state_dir;               // --state-dir, $STATE_DIRECTORY, ./state
   std::string log_level = "info";      // --log-level
   std::optional<std::uint64_t> seed;   // --seed

@@ -10,6 +10,7 @@
 #include "daemon/cli.hpp"
 #include "daemon/daemon.hpp"
 #include "daemon/logging.hpp"
+#include "personalities/registry.hpp"
 
 #ifndef CANSIM_VERSION
 #define CANSIM_VERSION "unknown"
@@ -24,7 +25,25 @@ config::FleetConfig load(const daemon::CliOptions& o) {
   config::FleetConfig fleet = single ? config::single_node_fleet(o.profile, o.interface, o.node_id, daemon::profile_search(""))
                                      : config::load_fleet(o.config, daemon::profile_search(o.config));
   config::apply_record_option(fleet, o.record, single);
+  if (o.strict) config::make_fleet_strict(fleet.profiles);
   return fleet;
+}
+
+// `cansimd --profile P --quirks`: the deviations faithful mode has, as a
+// Markdown table (scripts/gen-quirk-docs pastes it into docs/devices).
+int print_quirks(const daemon::CliOptions& o) {
+  config::FleetConfig fleet = config::single_node_fleet(o.profile, o.interface, o.node_id, daemon::profile_search(""));
+  config::Profile& profile = *fleet.profiles.front();
+  personalities::prepare_profile(profile);
+  const std::vector<config::Quirk> rows = personalities::quirk_inventory(profile);
+  std::printf("%s: %zu deviation(s) from CiA 301 / 305 / 404 in faithful mode; strict mode sets the strict value.\n",
+              profile.name.c_str(), rows.size());
+  if (rows.empty()) return 0;
+  std::printf("\n| Quirk | Manual | Faithful | Strict |\n|---|---|---|---|\n");
+  for (const config::Quirk& q : rows)
+    std::printf("| `%s` | %s | `%s` | `%s` |\n", q.name.c_str(), q.reference.c_str(), q.faithful.c_str(),
+                q.strict.c_str());
+  return 0;
 }
 
 }  // namespace
@@ -47,6 +66,7 @@ int main(int argc, char** argv) {
   }
   daemon::setup_logging(o.log_level);
   try {
+    if (o.quirks) return print_quirks(o);
     if (o.check) {
       config::FleetConfig fleet = load(o);
       std::vector<std::string> warnings;
@@ -72,7 +92,7 @@ int main(int argc, char** argv) {
     daemon::Daemon d(std::move(settings));
     return d.run();
   } catch (const std::exception& e) {
-    if (o.check) std::fprintf(stderr, "%s\n", e.what());
+    if (o.check || o.quirks) std::fprintf(stderr, "%s\n", e.what());
     else spdlog::critical("{}", e.what());
     return 1;
   }

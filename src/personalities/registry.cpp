@@ -9,6 +9,7 @@
 #include "personalities/generic.hpp"
 #include "personalities/p92c.hpp"
 #include "personalities/smc.hpp"
+#include "personalities/strict.hpp"
 #include "personalities/vendor_params.hpp"
 #include "physics/random.hpp"
 
@@ -16,20 +17,35 @@ namespace cansim::personalities {
 
 namespace {
 
+// The device settings strict mode changes (strict.hpp); applied when `strict`.
+template <class Settings>
+std::vector<config::Quirk> device_strict(PreparedProfile& prepared, bool strict) {
+  const Settings& faithful = device_settings<Settings>(prepared);
+  std::vector<config::Quirk> changes = strict_changes(faithful);
+  if (strict) {
+    auto s = std::make_shared<Settings>(faithful);
+    make_strict(*s);
+    prepared.device = std::move(s);
+  }
+  return changes;
+}
+std::vector<config::Quirk> no_device_quirks(PreparedProfile&, bool) { return {}; }
+
 struct Personality {
   const char* name;
   void (*prepare)(config::Profile&, PreparedProfile&);
   std::unique_ptr<Application> (*make)(const config::Profile&, const PreparedProfile&, const NodeContext&);
+  std::vector<config::Quirk> (*strict)(PreparedProfile&, bool strict);
 };
 
 // Device personalities add one line each.
 constexpr Personality kPersonalities[] = {
-    {"generic", generic::prepare, generic::make},
-    {"trafag-cmp", cmp::prepare, cmp::make},
-    {"gems-9000", gems9000::prepare, gems9000::make},
-    {"danfoss-p92c", p92c::prepare, p92c::make},
-    {"adz-smc", smc::prepare, smc::make},
-    {"honeywell-dps", dps::prepare, dps::make},
+    {"generic", generic::prepare, generic::make, no_device_quirks},
+    {"trafag-cmp", cmp::prepare, cmp::make, no_device_quirks},
+    {"gems-9000", gems9000::prepare, gems9000::make, no_device_quirks},
+    {"danfoss-p92c", p92c::prepare, p92c::make, no_device_quirks},
+    {"adz-smc", smc::prepare, smc::make, device_strict<smc::Settings>},
+    {"honeywell-dps", dps::prepare, dps::make, device_strict<dps::Settings>},
 };
 
 const Personality* find(const std::string& name) {
@@ -78,6 +94,41 @@ void require_channels(const config::Profile& profile, const PreparedProfile& pre
                           purpose + ")");
 }
 
+namespace {
+
+// Strict mode of the chain and device settings; their deviations must be the
+// `cia404.*` / `vendor.*` keys of the profile's `quirks:` (with references).
+void prepare_strict(const Personality& p, config::Profile& profile, PreparedProfile& prepared, Cia404Profile& chain) {
+  std::vector<config::Quirk> changes = strict_changes(chain.settings);
+  if (profile.strict) make_strict(chain.settings);
+  for (config::Quirk& q : p.strict(prepared, profile.strict)) changes.push_back(std::move(q));
+  const config::Where w{profile.file, "quirks"};
+  const YAML::Node quirks = profile.root && profile.root.IsMap() ? profile.root["quirks"] : YAML::Node();
+  for (config::Quirk& q : changes) {
+    q.reference = config::quirk_reference(profile, q.name);
+    if (q.reference.empty())
+      config::fail(w.child(q.name), quirks, "setting '" + q.name + "' deviates from CiA: `quirks:` needs its manual reference");
+  }
+  // A key may name a setting the profile keeps at its CiA value (a test or
+  // fleet entry switched the quirk off), but it must be one strict mode knows.
+  for (const auto& [name, ref] : profile.quirks) {
+    if (name.rfind("cia404.", 0) != 0 && name.rfind("vendor.", 0) != 0) continue;
+    if (!is_strict_setting(name)) config::fail(w.child(name), quirks[name], "not a chain or device setting strict mode changes");
+  }
+  prepared.setting_quirks = std::move(changes);
+}
+
+}  // namespace
+
+std::vector<config::Quirk> quirk_inventory(const config::Profile& profile) {
+  std::vector<config::Quirk> rows = config::option_quirks(profile);
+  if (profile.prepared) {
+    const auto& prepared = *std::static_pointer_cast<const PreparedProfile>(profile.prepared);
+    rows.insert(rows.end(), prepared.setting_quirks.begin(), prepared.setting_quirks.end());
+  }
+  return rows;
+}
+
 void prepare_profile(config::Profile& profile) {
   const Personality* p = find(profile.personality);
   if (!p) {
@@ -87,11 +138,14 @@ void prepare_profile(config::Profile& profile) {
   }
   auto prepared = std::make_shared<PreparedProfile>();
   const VendorParams vendor(profile);
-  prepared->cia404 = Cia404Profile::build(vendor.where("cia404"), vendor.node("cia404"), *profile.layout);
+  auto chain = std::make_shared<Cia404Profile>(
+      *Cia404Profile::build(vendor.where("cia404"), vendor.node("cia404"), *profile.layout));
+  prepared->cia404 = chain;
   IdentitySettings& id = prepared->identity;
   id.serial_per_node = vendor.integer("serial_number_base", id.serial_base, 0, 0xFFFFFFFF);
   prepared->physics = config::parse_physics_config(profile);
   p->prepare(profile, *prepared);
+  prepare_strict(*p, profile, *prepared, *chain);
   profile.prepared = prepared;
 }
 

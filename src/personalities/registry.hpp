@@ -15,6 +15,7 @@
 
 #include "config/physics_config.hpp"
 #include "config/profile.hpp"
+#include "config/strict_mode.hpp"
 #include "core/application.hpp"
 #include "personalities/cia404.hpp"
 
@@ -34,12 +35,18 @@ struct PreparedProfile {
   config::PhysicsConfig physics;
   IdentitySettings identity;
   std::shared_ptr<const void> device;  // a device personality's own parsed data
+  // Chain / device settings strict mode changes (faithful vs strict value, reference).
+  std::vector<config::Quirk> setting_quirks;
 };
 
 // Checks the profile's personality name, vendor, physics, sensor and faults
 // sections, and marks the OD entries the personality needs hooks on. Called
 // once per profile, before nodes are built. Throws config::ConfigError.
 void prepare_profile(config::Profile& profile);
+
+// The profile's deviations from CiA (`cansimd --quirks`): options and
+// objects, then chain / device settings once the profile is prepared.
+std::vector<config::Quirk> quirk_inventory(const config::Profile& profile);
 
 // One Application per node (nullptr: plain CiA 301 node without measurements).
 std::unique_ptr<Application> make_application(const config::Profile& profile, const NodeContext& ctx);
