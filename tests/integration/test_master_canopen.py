@@ -21,6 +21,11 @@ prints one line per check with what it saw:
   unconfigured pair, inquire, configure node-ID + store, boot-up on the new
   ID, reset node.
 
+Each device runs a second time with `strict: true` (node-IDs 0x40-0x44);
+after the master, raw CiA service checks (python3-can) run on every device
+node in both modes: a strict node must show no deviation, a faithful node only
+deviations its profile's `quirks:` map documents (one RAW line per node).
+
 Documented device deviations (docs/devices/*.md) are SKIP lines naming the
 doc, not failures. Needs node + tests/master/node_modules (scripts/install-deps
 runs `npm ci --prefix tests/master`)."""
