@@ -241,7 +241,7 @@ void parse_channels(const Where& wl, const YAML::Node& list, OdLayout& layout, C
 
 }  // namespace
 
-std::shared_ptr<const model::Cia404Profile> parse_cia404(const Where& w, const YAML::Node& section, OdLayout& layout) {
+std::shared_ptr<model::Cia404Profile> parse_cia404(const Where& w, const YAML::Node& section, OdLayout& layout) {
   const bool given = section && !section.IsNull();
   if (given && !section.IsMap()) fail(w, section, "expected a mapping");
   if (!given || !section["channels"]) {

@@ -11,6 +11,6 @@
 
 namespace cansim::config {
 
-std::shared_ptr<const model::Cia404Profile> parse_cia404(const Where& w, const YAML::Node& section, OdLayout& layout);
+std::shared_ptr<model::Cia404Profile> parse_cia404(const Where& w, const YAML::Node& section, OdLayout& layout);
 
 }  // namespace cansim::config

@@ -1,5 +1,7 @@
 #include "config/eds_reader.hpp"
 
+#include "config/strict_mode.hpp"
+
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
@@ -640,7 +642,7 @@ EdsDocument load_eds_file(const std::string& path) {
   return parse_eds(os.str(), path);
 }
 
-Profile profile_from_eds(const EdsDocument& doc) {
+Profile profile_from_eds(const EdsDocument& doc, bool strict) {
   Profile p;
   p.file = doc.file;
   p.name = profile_name(doc.file);
@@ -662,11 +664,13 @@ Profile profile_from_eds(const EdsDocument& doc) {
   // The generic personality with the CiA 404 chain on the file's channels
   // and the default physics: what a YAML profile without `vendor:`,
   // `physics:`, `sensor:` or `faults:` gets.
-  parse_personality(p, YAML::Node(YAML::NodeType::Map), YAML::Node());
+  const YAML::Node none(YAML::NodeType::Map);
+  parse_strict_sections(Where{doc.file, ""}, none, p, strict);
+  parse_personality(p, none, YAML::Node());
   return p;
 }
 
-Profile load_eds_profile(const std::string& path) { return profile_from_eds(load_eds_file(path)); }
+Profile load_eds_profile(const std::string& path, bool strict) { return profile_from_eds(load_eds_file(path), strict); }
 
 bool is_device_description(const std::string& path) {
   const std::string ext = normalized(std::filesystem::path(path).extension().string());

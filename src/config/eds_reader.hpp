@@ -51,8 +51,9 @@ EdsDocument load_eds_file(const std::string& path);
 // wins over DefaultValue), the "generic" personality, and the node options the
 // file states (LSS support, bit rates, dummy mapping). The only place where an
 // EDS becomes a Profile.
-Profile profile_from_eds(const EdsDocument& doc);
-Profile load_eds_profile(const std::string& path);
+// `strict`: in strict mode (an EDS has no quirks: its options stay CiA's).
+Profile profile_from_eds(const EdsDocument& doc, bool strict = false);
+Profile load_eds_profile(const std::string& path, bool strict = false);
 
 // True for a file name ending in .eds or .dcf (any case).
 bool is_device_description(const std::string& path);

@@ -2,6 +2,7 @@
 
 #include "config/eds_reader.hpp"
 #include "config/physics_config.hpp"
+#include "config/strict_mode.hpp"
 #include "core/can_frame.hpp"
 
 #include <algorithm>
@@ -59,13 +60,14 @@ class ProfileCache {
     }
     auto it = by_path_.find(path);
     if (it != by_path_.end()) return it->second;
-    auto p = std::make_shared<Profile>(load_any_profile(path));
+    auto p = std::make_shared<Profile>(load_any_profile(path, search_.strict));
     by_path_[path] = p;
     text_[path] = read_text(path);
     out_.profiles.push_back(p);
     return p;
   }
   const std::string& text(const std::string& path) { return text_[path]; }
+  bool strict() const { return search_.strict; }
   void add_variant(std::shared_ptr<Profile> p) { out_.profiles.push_back(std::move(p)); }
 
  private:
@@ -140,11 +142,10 @@ void merge_physics(const Where& w, const YAML::Node& entry, YAML::Node& root) {
 // document with the entry's `vendor:` keys merged over the profile's and its
 // physics sections laid over the profile's.
 std::shared_ptr<Profile> make_variant(const Where& w, const YAML::Node& entry, const Profile& base,
-                                      const std::string& base_text) {
+                                      const std::string& base_text, bool strict) {
   auto p = std::make_shared<Profile>(base);
-  p->layout = std::make_shared<OdLayout>(*base.layout);
-  p->options = std::make_shared<NodeOptions>(*base.options);
-  if (entry["options"]) parse_options(w.child("options"), entry["options"], *p->options);
+  if (entry["strict"]) p->strict = strict || get_bool(w.child("strict"), entry["strict"]);
+  apply_mode(*p, w.child("options"), entry["options"]);  // strict mode first, the entry's options on top
   // A device description has no YAML sections: the entry's are the only ones.
   YAML::Node root = is_device_description(base.file) ? YAML::Node(YAML::NodeType::Map) : YAML::Load(base_text);
   YAML::Node vendor = root["vendor"] ? YAML::Clone(root["vendor"]) : YAML::Node(YAML::NodeType::Map);
@@ -172,7 +173,7 @@ std::string record_file_name(std::string pattern, std::uint8_t node_id, bool gro
 void parse_node_entry(const Where& w, const YAML::Node& entry, ProfileCache& cache, FleetConfig& out) {
   check_keys(w, entry,
              {"profile", "interface", "node_id", "count", "name", "serial", "bit_rate", "record", "options", "vendor",
-              "physics", "sensor", "faults"});
+              "physics", "sensor", "faults", "strict"});
   if (!entry["profile"]) fail(w.child("profile"), entry, "missing required key 'profile'");
   if (!entry["interface"]) fail(w.child("interface"), entry, "missing required key 'interface'");
   std::string path;
@@ -221,8 +222,8 @@ void parse_node_entry(const Where& w, const YAML::Node& entry, ProfileCache& cac
     if (record.empty() || record.back() == '/')
       fail(w.child("record"), entry["record"], "expected a CSV file name, e.g. recordings/dps-{id}.csv");
   }
-  if (entry["options"] || entry["vendor"] || entry["physics"] || entry["sensor"] || entry["faults"]) {
-    profile = make_variant(w, entry, *profile, cache.text(path));
+  if (entry["options"] || entry["vendor"] || entry["physics"] || entry["sensor"] || entry["faults"] || entry["strict"]) {
+    profile = make_variant(w, entry, *profile, cache.text(path), cache.strict());
     cache.add_variant(profile);
   }
   const std::string fingerprint_base = cache.text(path) + "\n---\n" + YAML::Dump(entry);
@@ -300,8 +301,8 @@ FleetConfig parse_root(const YAML::Node& root, const std::string& file, const Pr
 
 }  // namespace
 
-Profile load_any_profile(const std::string& path) {
-  return is_device_description(path) ? load_eds_profile(path) : load_profile(path);
+Profile load_any_profile(const std::string& path, bool strict) {
+  return is_device_description(path) ? load_eds_profile(path, strict) : load_profile(path, strict);
 }
 
 const InterfaceConfig* FleetConfig::interface(const std::string& name) const {
@@ -428,7 +429,7 @@ FleetConfig single_node_fleet(const std::string& profile_ref, const std::string&
   if (path.empty()) throw ConfigError(profile_ref + ": profile not found (expected a file or a profile name)");
   FleetConfig out;
   out.file = path;
-  auto profile = std::make_shared<Profile>(load_any_profile(path));
+  auto profile = std::make_shared<Profile>(load_any_profile(path, search.strict));
   out.profiles.push_back(profile);
   InterfaceConfig ic;
   ic.name = interface;

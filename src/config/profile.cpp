@@ -8,6 +8,8 @@
 #include "config/vendor_settings.hpp"
 #include "personalities/catalog.hpp"
 
+#include "config/strict_mode.hpp"
+
 namespace cansim::config {
 
 namespace {
@@ -218,7 +220,7 @@ void parse_options(const Where& w, const YAML::Node& map, NodeOptions& out) {
       else if constexpr (std::is_same_v<T, std::int64_t>) field = get_int(wk, v, INT64_MIN, INT64_MAX);
       else field = get_string(wk, v);
     };
-#define CANSIM_PARSE_OPTION(type, name, def, help) \
+#define CANSIM_PARSE_OPTION(type, name, def, kind, help) \
   if (key == #name) {                               \
     set(out.name, kv.second);                       \
     known = true;                                   \
@@ -234,12 +236,12 @@ void parse_options(const Where& w, const YAML::Node& map, NodeOptions& out) {
     fail(w.child("lss_bit_rates"), map["lss_bit_rates"], "expected ranges like '0-4,6-8'");
 }
 
-Profile parse_profile(const YAML::Node& root, const std::string& file) {
+Profile parse_profile(const YAML::Node& root, const std::string& file, bool strict) {
   Where w{file, ""};
   if (!root.IsMap()) fail(w, root, "expected a profile mapping");
   check_keys(w, root,
              {"name", "description", "personality", "node_id", "bit_rate", "options", "objects", "vendor",
-              "physics", "sensor", "faults"});
+              "physics", "sensor", "faults", "strict", "quirks", "strict_objects"});
   Profile p;
   p.file = file;
   if (root["name"]) p.name = get_string(w.child("name"), root["name"]);
@@ -261,6 +263,7 @@ Profile parse_profile(const YAML::Node& root, const std::string& file) {
   if (!root["objects"]) fail(w.child("objects"), root, "missing the object dictionary ('objects:' list)");
   parse_objects(w.child("objects"), root["objects"], *p.layout);
   p.layout->finalize();
+  parse_strict_sections(w, root, p, strict);
   parse_personality(p, root, root["vendor"]);
   return p;
 }
@@ -296,24 +299,26 @@ void parse_personality(Profile& p, const YAML::Node& root, const YAML::Node& ven
     fail(Where{p.file, "personality"}, root["personality"],
          "unknown personality '" + p.personality + "' (expected: " + personalities::personality_names() + ")");
   const VendorParams v(p.file, vendor);
-  p.cia404 = parse_cia404(v.where("cia404"), v.node("cia404"), *p.layout);
+  const std::shared_ptr<model::Cia404Profile> chain = parse_cia404(v.where("cia404"), v.node("cia404"), *p.layout);
+  p.cia404 = chain;
   p.identity = parse_identity(v);
   p.physics = parse_physics_config(p.file, root);
   check_requirements(p, root, info->requirements());
   p.device = info->default_settings();
   parse_device_settings(v, p);
+  apply_setting_strictness(p, chain->settings, root);
 }
 
-Profile parse_profile(const std::string& text, const std::string& file) {
+Profile parse_profile(const std::string& text, const std::string& file, bool strict) {
   YAML::Node root;
   try {
     root = YAML::Load(text);
   } catch (const YAML::ParserException& e) {
     throw ConfigError(file + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg);
   }
-  return parse_profile(root, file);
+  return parse_profile(root, file, strict);
 }
 
-Profile load_profile(const std::string& path) { return parse_profile(load_yaml_file(path), path); }
+Profile load_profile(const std::string& path, bool strict) { return parse_profile(load_yaml_file(path), path, strict); }
 
 }  // namespace cansim::config

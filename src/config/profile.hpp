@@ -8,6 +8,8 @@
 
 #include <memory>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "config/yaml_util.hpp"
 #include "core/node_options.hpp"
@@ -19,10 +21,11 @@ namespace cansim::config {
 using Profile = model::Profile;
 
 // Loads a profile file. Throws ConfigError naming file, line and key.
-Profile load_profile(const std::string& path);
+// `strict`: in strict mode whatever the file says (`cansimd --strict`).
+Profile load_profile(const std::string& path, bool strict = false);
 // Parses a profile from text (tests); `file` is used in error messages.
-Profile parse_profile(const std::string& text, const std::string& file = "<string>");
-Profile parse_profile(const YAML::Node& root, const std::string& file);
+Profile parse_profile(const std::string& text, const std::string& file = "<string>", bool strict = false);
+Profile parse_profile(const YAML::Node& root, const std::string& file, bool strict = false);
 
 // The personality part of a profile: checks the personality's name and
 // what it needs (objects, channels), and parses `vendor` (the profile's

@@ -375,6 +375,9 @@ SdoAbort PdoEngine::check_cobid(const PdoConfig& cfg, bool tx, std::uint32_t& v)
   const NodeOptions& o = node_.options();
   if (tx && o.tpdo_cobid_no_rtr_forced) v |= kPdoCobNoRtr;
   if (v == cfg.cobid) return SdoAbort::kNone;
+  // Bit 30 = 0 says "RTR allowed" (§7.5.2.35): refused by a node without RTR.
+  if (tx && !(v & kPdoCobNoRtr) && !o.tpdo_rtr_supported && !o.tpdo_rtr_bit_unchecked)
+    return SdoAbort::kInvalidValue;
   const bool will_exist = !(v & kPdoCobInvalid);
   if (locked(cfg) && will_exist && ((v ^ cfg.cobid) & kChangeLockedBits)) return SdoAbort::kInvalidValue;
   if (v & kPdoCobFrame) {

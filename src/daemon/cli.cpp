@@ -17,7 +17,7 @@ bool parse_number(const std::string& text, std::int64_t& out) {
 std::string usage_text() {
   return "usage: cansimd --profile FILE|NAME [--interface IF] [--node-id N] [options]\n"
          "       cansimd --config FILE [options]\n"
-         "       cansimd --export-eds FILE|NAME [--node-id N] [--output FILE]\n"
+         "       cansimd --export-eds FILE|NAME [--node-id N] [--strict] [--output FILE]\n"
          "\n"
          "Simulates CANopen (CiA 301/305/404) sensor nodes on SocketCAN interfaces.\n"
          "\n"
@@ -29,6 +29,11 @@ std::string usage_text() {
          "                       that node at power-on) to --output FILE or stdout, and exit\n"
          "  --output FILE        where --export-eds writes\n"
          "  --check              validate the configuration and exit (0 valid, 1 invalid)\n"
+         "  --strict             every node in strict mode: each vendor deviation at its CiA value\n"
+         "                       (options a fleet entry sets still win; with --export-eds: the\n"
+         "                       strict device's EDS)\n"
+         "  --quirks             with --profile: list the profile's deviations from CiA (option,\n"
+         "                       manual reference, faithful and strict value) and exit\n"
          "  --state-dir DIR      stored parameters (default $STATE_DIRECTORY, else ./state)\n"
          "  --log-level LEVEL    trace, debug, info, warn, error, critical or off (default info)\n"
          "  --seed N             fleet random seed (default: the config's, else 1)\n"
@@ -81,6 +86,12 @@ CliResult parse_cli(const std::vector<std::string>& args, const char* state_dire
     } else if (arg == "--check") {
       if (!no_value()) return r;
       o.check = true;
+    } else if (arg == "--strict") {
+      if (!no_value()) return r;
+      o.strict = true;
+    } else if (arg == "--quirks") {
+      if (!no_value()) return r;
+      o.quirks = true;
     } else if (arg == "--profile") {
       if (!need_value()) return r;
       o.profile = value;
@@ -166,6 +177,10 @@ CliResult parse_cli(const std::vector<std::string>& args, const char* state_dire
   }
   if (o.profile.empty() == o.config.empty()) {
     r.error = o.profile.empty() ? "expected --profile or --config" : "--profile and --config exclude each other";
+    return r;
+  }
+  if (o.quirks && o.profile.empty()) {
+    r.error = "--quirks goes with --profile";
     return r;
   }
   if (!o.config.empty() && (have_interface || o.node_id)) {

@@ -17,6 +17,8 @@ struct CliOptions {
   std::string export_eds;              // --export-eds FILE|NAME: write the profile's EDS and exit
   std::string output;                  // --output FILE (with --export-eds; default stdout)
   bool check = false;                  // --check: validate and exit
+  bool strict = false;                 // --strict: every node CiA-strict (entry options still win)
+  bool quirks = false;                 // --quirks: print the profile's quirk inventory and exit
   std::string state_dir;               // --state-dir, $STATE_DIRECTORY, ./state
   std::string log_level = "info";      // --log-level
   std::optional<std::uint64_t> seed;   // --seed

@@ -523,7 +523,9 @@ const control::NodeHandle* Daemon::find(const std::string& key) const {
 std::vector<std::string> Daemon::add_nodes(const std::string& yaml) {
   const std::string label = "<AddNodes #" + std::to_string(++fragments_) + ">";
   config::FleetConfig running = combined();
-  config::FleetConfig extra = config::parse_fleet_fragment(yaml, label, profile_search(""), running);
+  config::ProfileSearch search = profile_search("");
+  search.strict = settings_.strict;
+  config::FleetConfig extra = config::parse_fleet_fragment(yaml, label, search, running);
   config::merge_fleet(running, extra);  // throws on a collision
   added_.push_back(extra);
   try {

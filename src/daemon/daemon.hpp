@@ -87,6 +87,7 @@ struct DaemonSettings {
   std::string config_file;                       // the fleet file or the single profile
   control::BusChoice bus = control::BusChoice::kAuto;
   std::string control_socket;                    // empty: the default path; "none": no socket
+  bool strict = false;                           // --strict: nodes added at run time too
 };
 
 class Daemon : public control::ControlHost {

@@ -12,6 +12,8 @@
 #include "daemon/cli.hpp"
 #include "daemon/daemon.hpp"
 #include "daemon/logging.hpp"
+#include "config/strict_mode.hpp"
+#include "personalities/registry.hpp"
 
 #ifndef CANSIM_VERSION
 #define CANSIM_VERSION "unknown"
@@ -23,8 +25,10 @@ namespace {
 
 config::FleetConfig load(const daemon::CliOptions& o) {
   const bool single = o.config.empty();
-  config::FleetConfig fleet = single ? config::single_node_fleet(o.profile, o.interface, o.node_id, daemon::profile_search(""))
-                                     : config::load_fleet(o.config, daemon::profile_search(o.config));
+  config::ProfileSearch search = daemon::profile_search(single ? "" : o.config);
+  search.strict = o.strict;
+  config::FleetConfig fleet = single ? config::single_node_fleet(o.profile, o.interface, o.node_id, search)
+                                     : config::load_fleet(o.config, search);
   config::apply_record_option(fleet, o.record, single);
   return fleet;
 }
@@ -35,7 +39,7 @@ int export_eds(const daemon::CliOptions& o) {
   try {
     const std::string path = config::find_profile(o.export_eds, ".", daemon::profile_search(""));
     if (path.empty()) throw config::ConfigError(o.export_eds + ": profile not found (expected a file or a profile name)");
-    const config::Profile profile = config::load_any_profile(path);
+    const config::Profile profile = config::load_any_profile(path, o.strict);
     std::string text;
     if (o.node_id) {
       text = config::write_default_dcf(profile, std::uint8_t(*o.node_id));
@@ -59,6 +63,22 @@ int export_eds(const daemon::CliOptions& o) {
   }
 }
 
+// `cansimd --profile P --quirks`: the deviations faithful mode has, as a
+// Markdown table (scripts/gen-quirk-docs pastes it into docs/devices).
+int print_quirks(const daemon::CliOptions& o) {
+  config::FleetConfig fleet = config::single_node_fleet(o.profile, o.interface, o.node_id, daemon::profile_search(""));
+  const config::Profile& profile = *fleet.profiles.front();
+  const std::vector<config::Quirk> rows = config::quirk_inventory(profile);
+  std::printf("%s: %zu deviation(s) from CiA 301 / 305 / 404 in faithful mode; strict mode sets the strict value.\n",
+              profile.name.c_str(), rows.size());
+  if (rows.empty()) return 0;
+  std::printf("\n| Quirk | Manual | Faithful | Strict |\n|---|---|---|---|\n");
+  for (const config::Quirk& q : rows)
+    std::printf("| `%s` | %s | `%s` | `%s` |\n", q.name.c_str(), q.reference.c_str(), q.faithful.c_str(),
+                q.strict.c_str());
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -80,6 +100,7 @@ int main(int argc, char** argv) {
   if (!o.export_eds.empty()) return export_eds(o);
   daemon::setup_logging(o.log_level);
   try {
+    if (o.quirks) return print_quirks(o);
     if (o.check) {
       config::FleetConfig fleet = load(o);
       std::vector<std::string> warnings;
@@ -96,6 +117,7 @@ int main(int argc, char** argv) {
     settings.seed = o.seed;
     settings.load = [o] { return load(o); };
     settings.config_file = o.config.empty() ? o.profile : o.config;
+    settings.strict = o.strict;
     settings.bus = o.bus == "system" ? control::BusChoice::kSystem
                    : o.bus == "user" ? control::BusChoice::kUser
                    : o.bus == "none" ? control::BusChoice::kNone
@@ -105,7 +127,7 @@ int main(int argc, char** argv) {
     daemon::Daemon d(std::move(settings));
     return d.run();
   } catch (const std::exception& e) {
-    if (o.check) std::fprintf(stderr, "%s\n", e.what());
+    if (o.check || o.quirks) std::fprintf(stderr, "%s\n", e.what());
     else spdlog::critical("{}", e.what());
     return 1;
   }

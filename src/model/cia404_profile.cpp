@@ -118,7 +118,7 @@ void Cia404Builder::choose_fixed_unit(ChannelConfig& c) {
     if (choice.code == code) c.fixed_unit = choice;
 }
 
-std::shared_ptr<const Cia404Profile> Cia404Builder::finish() {
+std::shared_ptr<Cia404Profile> Cia404Builder::finish() {
   Cia404Profile& out = *out_;
   out.by_slot_.assign(layout_.entries().size(), Cia404Profile::Binding{});
   for (std::size_t ch = 0; ch < out.channels.size(); ++ch) {
@@ -136,7 +136,7 @@ std::shared_ptr<const Cia404Profile> Cia404Builder::finish() {
   return std::move(out_);
 }
 
-std::shared_ptr<const Cia404Profile> Cia404Profile::discover(OdLayout& layout, const Cia404Settings& settings) {
+std::shared_ptr<Cia404Profile> Cia404Profile::discover(OdLayout& layout, const Cia404Settings& settings) {
   Cia404Builder b(layout);
   b.settings() = settings;
   for (std::uint8_t sub : b.discover_subs()) {

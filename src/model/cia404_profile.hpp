@@ -141,7 +141,7 @@ class Cia404Profile {
   // The chain with every channel the layout has (the sub-indices of the PV
   // and field-value objects), CiA 404 defaults: what a profile without
   // `vendor: cia404: channels:` or an EDS gets.
-  static std::shared_ptr<const Cia404Profile> discover(OdLayout& layout, const Cia404Settings& settings = {});
+  static std::shared_ptr<Cia404Profile> discover(OdLayout& layout, const Cia404Settings& settings = {});
 
  private:
   std::vector<Binding> by_slot_;
@@ -170,7 +170,7 @@ class Cia404Builder {
   static void choose_fixed_unit(ChannelConfig& c);
   void add(ChannelConfig c) { out_->channels.push_back(std::move(c)); }
   const std::vector<ChannelConfig>& channels() const { return out_->channels; }
-  std::shared_ptr<const Cia404Profile> finish();
+  std::shared_ptr<Cia404Profile> finish();
 
  private:
   OdLayout& layout_;

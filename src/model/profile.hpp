@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/node_options.hpp"
@@ -27,6 +28,14 @@ struct PhysicsConfig {
   std::vector<physics::FaultSpec> faults;
 };
 
+// One deviation of faithful mode from CiA (`cansimd --quirks`).
+struct Quirk {
+  std::string name;       // option, "object 0x1003:00", "cia404.bad_unit_abort"
+  std::string reference;  // the manual's page / table
+  std::string faithful;   // value in faithful mode
+  std::string strict;     // value in strict mode
+};
+
 struct Profile {
   std::string file;                     // where it was loaded from
   std::string name;
@@ -41,6 +50,16 @@ struct Profile {
   IdentitySettings identity;
   DeviceSettings device;
   PhysicsConfig physics;
+
+  // Strict mode (config/strict_mode.hpp): the profile as written, the
+  // entries strict mode replaces or adds, the manual reference per deviation.
+  bool strict = false;
+  std::shared_ptr<const NodeOptions> faithful_options;
+  std::shared_ptr<const OdLayout> faithful_layout;
+  std::vector<OdEntry> strict_objects;
+  std::vector<std::pair<std::string, std::string>> quirks;  // name -> manual reference
+  bool quirks_checked = false;     // has a `quirks:` map (checked against the deviations)
+  std::vector<Quirk> setting_quirks;  // chain / device settings strict mode changes
 };
 
 }  // namespace cansim::model

@@ -253,6 +253,7 @@ async function sdoReads(n) {
     const bad = [];
     const aborts = [];
     const refused = [];
+    const unsized = [];
     for (const o of n.objects) {
         if (o.access === 'wo')
             continue;
@@ -261,6 +262,9 @@ async function sdoReads(n) {
         if (r.code !== null) {
             // reading past 0x1003:00 is "no data available" in CiA 301
             if (o.index === 0x1003 && o.sub > 0 && r.code === 0x08000024) { ok++; continue; }
+            // CiA 301 7.2.4.3.5 allows a segmented upload without size (s = 0); this
+            // master aborts it with 0x06070010 itself (sdo_client.js, size 0 != received)
+            if (o.long && !n.options.size_indicated && r.code === 0x06070010) { unsized.push(where); continue; }
             // documented: no segmented upload, objects > 4 bytes are refused
             if (o.long && n.options.long_upload_abort !== null && r.code === n.options.long_upload_abort) {
                 refused.push(where);
@@ -287,6 +291,8 @@ async function sdoReads(n) {
         + (refused.length ? `; ${refused.length} long objects refused with ${hex(n.options.long_upload_abort, 8)} as documented (expedited only, ${n.doc}): ${refused.join(', ')}` : '')
         + (aborts.length ? `; aborts: ${aborts.join(', ')}` : '') + (bad.length ? `; wrong sizes: ${bad.join(', ')}` : '');
     check(P, 'sdo-read-all', aborts.length || bad.length ? 'FAIL' : 'PASS', saw);
+    if (unsized.length)
+        check(P, 'sdo-upload-unsized', 'DISAGREE', `segmented uploads without size indication (CiA 301 allows s = 0) aborted by the master with 0x06070010: ${unsized.join(', ')}`);
     if (n.expect_segmented && seg === 0)
         check(P, 'sdo-segmented-upload', 'FAIL', 'no segmented upload answer seen for the long objects');
     else if (n.expect_segmented)

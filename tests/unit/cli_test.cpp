@@ -29,6 +29,17 @@ TEST(Cli, FleetWithEveryOptionInBothSpellings) {
   EXPECT_EQ(r.options.seed, 16u);
 }
 
+TEST(Cli, StrictAndQuirks) {
+  CliResult r = parse({"--config", "f.yaml", "--strict"});
+  EXPECT_EQ(r.error, "");
+  EXPECT_TRUE(r.options.strict);
+  r = parse({"--profile", "dps", "--quirks"});
+  EXPECT_EQ(r.error, "");
+  EXPECT_TRUE(r.options.quirks);
+  EXPECT_EQ(parse({"--config", "f.yaml", "--quirks"}).error, "--quirks goes with --profile");
+  EXPECT_EQ(parse({"--profile", "dps", "--strict=yes"}).error, "option --strict takes no value");
+}
+
 TEST(Cli, NodeIdAcceptsHexAndUnconfigured) {
   EXPECT_EQ(parse({"--profile", "p", "--node-id", "0x7F", "--interface", "can1"}).options.node_id, 127);
   EXPECT_EQ(parse({"--profile", "p", "--node-id", "255"}).options.node_id, 255);

@@ -168,7 +168,7 @@ TEST_F(FleetTest, ErrorsNameFileLineKeyAndExpectation) {
        "got '3'"},
       {std::string(kIfaces) + n + ", nodeid: 3}\n",
        "D/fleet.yaml:5:46: nodes[0].nodeid: unknown key (expected one of: profile, interface, node_id, count, name, "
-       "serial, bit_rate, record, options, vendor, physics, sensor, faults), got 'nodeid'"},
+       "serial, bit_rate, record, options, vendor, physics, sensor, faults, strict), got 'nodeid'"},
       {std::string(kIfaces) + n + ", name: 'a b'}\n",
        "D/fleet.yaml:5:52: nodes[0].name: expected a name of letters, digits, '-', '_' or '.', got 'a b'"},
       {std::string(kIfaces) + n + ", options: {no_such: 1}}\n",
