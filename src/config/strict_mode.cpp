@@ -55,7 +55,9 @@ void check_quirks(const Where& w, const YAML::Node& map, const Profile& p) {
   auto listed = [&](const std::string& name) {
     return std::any_of(p.quirks.begin(), p.quirks.end(), [&](const auto& q) { return q.first == name; });
   };
-  for (const auto& [name, ref] : p.quirks) {
+  for (const auto& quirk : p.quirks) {
+    const std::string& name = quirk.first;  // not a structured binding: the lambda below captures it
+    const std::string& ref = quirk.second;
     const YAML::Node at = map[name];
     if (ref.empty()) fail(w.child(name), at, "expected the manual's page or table that documents the quirk");
     if (is_setting_key(name)) continue;
