@@ -78,21 +78,27 @@ std::vector<model::Quirk> strict_changes(const Cia404Settings& faithful) {
   return rows;
 }
 
-std::vector<model::Quirk> strict_changes(const dps::Settings& faithful) {
-  dps::Settings strict = faithful;
+namespace {
+
+// The one flag strict mode changes in a device's settings.
+template <class Settings>
+std::vector<model::Quirk> flag_change(const Settings& faithful, const char* name, bool Settings::*flag) {
+  Settings strict = faithful;
   make_strict(strict);
   std::vector<model::Quirk> rows;
-  add_if_changed(rows, "vendor.autozero_shifts_span", faithful.autozero_shifts_span, strict.autozero_shifts_span);
+  add_if_changed(rows, name, faithful.*flag, strict.*flag);
   return rows;
 }
 
+}  // namespace
+
+std::vector<model::Quirk> strict_changes(const dps::Settings& faithful) {
+  return flag_change(faithful, "vendor.autozero_shifts_span", &dps::Settings::autozero_shifts_span);
+}
+
 std::vector<model::Quirk> strict_changes(const smc::Settings& faithful) {
-  smc::Settings strict = faithful;
-  make_strict(strict);
-  std::vector<model::Quirk> rows;
-  add_if_changed(rows, "vendor.reset_node_clears_error_register", faithful.reset_node_clears_error_register,
-                 strict.reset_node_clears_error_register);
-  return rows;
+  return flag_change(faithful, "vendor.reset_node_clears_error_register",
+                     &smc::Settings::reset_node_clears_error_register);
 }
 
 }  // namespace cansim::personalities
