@@ -5,7 +5,6 @@ namespace cansim::io {
 void DeadlineHeap::reserve_slots(std::size_t n) {
   if (pos_.size() >= n) return;
   pos_.resize(n, kAbsent);
-  key_.resize(n, kNever);
   heap_.reserve(n);
 }
 
@@ -14,55 +13,52 @@ void DeadlineHeap::set(std::uint32_t slot, TimeUs t) {
     erase(slot);
     return;
   }
-  std::uint32_t i = pos_[slot];
+  const std::uint32_t i = pos_[slot];
   if (i == kAbsent) {
-    key_[slot] = t;
-    heap_.push_back(slot);  // capacity reserved by reserve_slots()
-    pos_[slot] = std::uint32_t(heap_.size() - 1);
-    sift_up(heap_.size() - 1);
+    heap_.push_back({t, slot});  // capacity reserved by reserve_slots()
+    sift_up(heap_.size() - 1, {t, slot});
     return;
   }
-  TimeUs old = key_[slot];
-  key_[slot] = t;
-  if (t < old) sift_up(i);
-  else if (t > old) sift_down(i);
+  const TimeUs old = heap_[i].key;
+  if (t < old) sift_up(i, {t, slot});
+  else if (t > old) sift_down(i, {t, slot});
 }
 
 void DeadlineHeap::erase(std::uint32_t slot) {
-  std::uint32_t i = pos_[slot];
+  const std::uint32_t i = pos_[slot];
   if (i == kAbsent) return;
   pos_[slot] = kAbsent;
-  std::uint32_t last = heap_.back();
+  const Entry last = heap_.back();
   heap_.pop_back();
   if (i == heap_.size()) return;
-  place(i, last);
-  sift_up(i);
-  sift_down(pos_[last]);
+  if (i > 0 && less(last, heap_[(i - 1) / kArity])) sift_up(i, last);
+  else sift_down(i, last);
 }
 
-void DeadlineHeap::sift_up(std::size_t i) {
-  std::uint32_t slot = heap_[i];
+void DeadlineHeap::sift_up(std::size_t i, Entry e) {
   while (i > 0) {
-    std::size_t parent = (i - 1) / 2;
-    if (!less(slot, heap_[parent])) break;
+    const std::size_t parent = (i - 1) / kArity;
+    if (!less(e, heap_[parent])) break;
     place(i, heap_[parent]);
     i = parent;
   }
-  place(i, slot);
+  place(i, e);
 }
 
-void DeadlineHeap::sift_down(std::size_t i) {
-  std::uint32_t slot = heap_[i];
+void DeadlineHeap::sift_down(std::size_t i, Entry e) {
   const std::size_t n = heap_.size();
   for (;;) {
-    std::size_t child = 2 * i + 1;
-    if (child >= n) break;
-    if (child + 1 < n && less(heap_[child + 1], heap_[child])) ++child;
-    if (!less(heap_[child], slot)) break;
-    place(i, heap_[child]);
-    i = child;
+    const std::size_t first = kArity * i + 1;
+    if (first >= n) break;
+    const std::size_t end = first + kArity < n ? first + kArity : n;
+    std::size_t best = first;
+    for (std::size_t c = first + 1; c < end; ++c)
+      if (less(heap_[c], heap_[best])) best = c;
+    if (!less(heap_[best], e)) break;
+    place(i, heap_[best]);
+    i = best;
   }
-  place(i, slot);
+  place(i, e);
 }
 
 }  // namespace cansim::io

@@ -7,7 +7,7 @@
 //                         (key, counter). Used for per-sample noise so that a
 //                         lazily evaluated sensor that "catches up" missed
 //                         samples regenerates exactly the same values.
-//  * normal_from_bits() - standard normal deviate via Box-Muller from 64 bits.
+//  * normal_from_bits() - standard normal deviate from 64 bits (ziggurat).
 //
 // Seeds: derive_seed(fleet_seed, node_key) gives the node seed; derive_seed(node_seed,
 // stream_tag) gives independent streams (process terms, channel noise, faults...).
@@ -64,24 +64,29 @@ constexpr double uniform01(std::uint64_t bits) noexcept {
   return static_cast<double>(bits >> 11) * 0x1.0p-53;
 }
 
-/// Standard normal deviate from 64 random bits (Box-Muller, cosine branch).
-/// u1 in (0, 1] from the upper 32 bits, u2 in [0, 1) from the lower 32 bits;
-/// the largest magnitude is sqrt(-2 ln 2^-32) ~ 6.66 sigma.
-inline double normal_from_bits(std::uint64_t bits) noexcept {
-  constexpr double kTwoPi = 6.283185307179586476925286766559;
-  const double u1 = (static_cast<double>(bits >> 32) + 1.0) * 0x1.0p-32;         // (0, 1]
-  const double u2 = static_cast<double>(bits & 0xFFFFFFFFULL) * 0x1.0p-32;       // [0, 1)
-  return std::sqrt(-2.0 * std::log(u1)) * std::cos(kTwoPi * u2);
-}
+/// The 128-layer ziggurat of the standard normal density (Marsaglia and Tsang,
+/// "The Ziggurat Method for Generating Random Variables", 2000): x[1] = r is
+/// where the tail starts, x[128] = 0; every layer has the same area.
+struct ZigguratTables {
+  static constexpr int kLayers = 128;
+  double x[kLayers + 1];   ///< layer edges, x[0] = v / f(r) (the base layer and its tail)
+  double ratio[kLayers];   ///< x[i + 1] / x[i]: |u| below it lies under the curve
+};
+const ZigguratTables& ziggurat_tables() noexcept;
 
-/// Both Box-Muller outputs (two independent standard normal deviates) from 64 bits.
-inline void normal_pair_from_bits(std::uint64_t bits, double& z_cos, double& z_sin) noexcept {
-  constexpr double kTwoPi = 6.283185307179586476925286766559;
-  const double u1 = (static_cast<double>(bits >> 32) + 1.0) * 0x1.0p-32;
-  const double u2 = static_cast<double>(bits & 0xFFFFFFFFULL) * 0x1.0p-32;
-  const double r = std::sqrt(-2.0 * std::log(u1));
-  z_cos = r * std::cos(kTwoPi * u2);
-  z_sin = r * std::sin(kTwoPi * u2);
+/// The rare cases of normal_from_bits(): the edge of a layer and the tail.
+double normal_from_bits_slow(std::uint64_t bits) noexcept;
+
+/// Standard normal deviate, a pure function of 64 random bits (ziggurat).
+/// 97.2 % of the draws take the first branch: no exp, log or trigonometry.
+/// The others draw again from bits that mix64 derives from these, so the
+/// result still depends on `bits` alone.
+inline double normal_from_bits(std::uint64_t bits) noexcept {
+  const ZigguratTables& z = ziggurat_tables();
+  const unsigned layer = unsigned(bits & (ZigguratTables::kLayers - 1));
+  const double u = double(std::int64_t(bits) >> 11) * 0x1.0p-52;  // [-1, 1) from the upper 53 bits
+  if (std::abs(u) < z.ratio[layer]) return u * z.x[layer];
+  return normal_from_bits_slow(bits);
 }
 
 /// Standard normal deviate, pure function of (key, counter).

@@ -237,19 +237,8 @@ struct Sensor::ChannelState {
     }
     return c;
   }
-  // Standard normal for sample n: a pure function of (noise_key, n). Samples 2m and 2m+1 use
-  // the two outputs of one Box-Muller pair, computed once when processed in sequence.
-  std::int64_t pair_index = -1;
-  double pair_sin = 0.0;
-  double noise_normal(std::int64_t n) noexcept {
-    const std::int64_t m = n >> 1;
-    if ((n & 1) && m == pair_index) return pair_sin;
-    double zc, zs;
-    normal_pair_from_bits(counter_hash(noise_key, static_cast<std::uint64_t>(m)), zc, zs);
-    pair_index = m;
-    pair_sin = zs;
-    return (n & 1) ? zs : zc;
-  }
+  // Standard normal for sample n: a pure function of (noise_key, n).
+  double noise_normal(std::int64_t n) const noexcept { return counter_normal(noise_key, static_cast<std::uint64_t>(n)); }
 
   void step(std::int64_t n, const Quantity& q, const MeasurementFaults& mf, TimeUs t_us) noexcept {
     const bool is_p = which == Channel::Pressure;

@@ -1,6 +1,7 @@
 // Units, quantisation helpers and the deterministic random generators.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <set>
@@ -124,6 +125,50 @@ TEST(PhysicsRandom, SequentialAndCounterGeneratorsAreDeterministic) {
   std::set<std::uint64_t> distinct;
   for (std::uint64_t k = 0; k < 1000; ++k) distinct.insert(derive_seed(99, k));
   EXPECT_EQ(distinct.size(), 1000u);
+}
+
+// The ziggurat's layers: equal areas v, edges falling from r to 0.
+TEST(PhysicsRandom, ZigguratLayersHaveEqualAreas) {
+  const ZigguratTables& z = ziggurat_tables();
+  const auto f = [](double x) { return std::exp(-0.5 * x * x); };
+  const double v = z.x[0] * f(z.x[1]);
+  const double base = z.x[1] * f(z.x[1]) + std::sqrt(M_PI / 2) * std::erfc(z.x[1] / std::sqrt(2.0));
+  EXPECT_NEAR(base, v, 1e-12);
+  for (int i = 1; i < ZigguratTables::kLayers; ++i) {
+    EXPECT_GT(z.x[i], z.x[i + 1]) << i;
+    EXPECT_NEAR(z.x[i] * (f(z.x[i + 1]) - f(z.x[i])), v, 1e-9) << "layer " << i;
+  }
+  EXPECT_EQ(z.x[ZigguratTables::kLayers], 0.0);
+}
+
+// Kolmogorov-Smirnov against the normal CDF, the tails, and the rare paths
+// (wedges, tail) taken with about their expected frequency.
+TEST(PhysicsRandom, CounterNormalFollowsTheNormalDistribution) {
+  const int n = 400000;
+  std::vector<double> z(n);
+  int beyond3 = 0, beyond4 = 0, fast = 0;
+  const ZigguratTables& t = ziggurat_tables();
+  for (int i = 0; i < n; ++i) {
+    const std::uint64_t bits = counter_hash(5, std::uint64_t(i));
+    z[i] = normal_from_bits(bits);
+    const double u = double(std::int64_t(bits) >> 11) * 0x1.0p-52;
+    fast += std::abs(u) < t.ratio[bits & 127];
+    beyond3 += std::abs(z[i]) > 3;
+    beyond4 += std::abs(z[i]) > 4;
+  }
+  std::sort(z.begin(), z.end());
+  double d = 0;
+  for (int i = 0; i < n; ++i) {
+    const double cdf = 0.5 * std::erfc(-z[i] / std::sqrt(2.0));
+    d = std::max({d, std::abs(cdf - double(i) / n), std::abs(cdf - double(i + 1) / n)});
+  }
+  EXPECT_LT(d, 1.63 / std::sqrt(double(n)));  // KS at 1 %
+  EXPECT_NEAR(beyond3 / double(n), 0.0026998, 0.0005);
+  EXPECT_NEAR(beyond4 / double(n), 6.334e-5, 4e-5);
+  double expected_fast = 0;
+  for (int i = 0; i < ZigguratTables::kLayers; ++i) expected_fast += t.ratio[i] / ZigguratTables::kLayers;
+  EXPECT_NEAR(expected_fast, 0.9724, 0.0001);
+  EXPECT_NEAR(fast / double(n), expected_fast, 0.002);
 }
 
 TEST(PhysicsRandom, UniformAndNormalMoments) {
