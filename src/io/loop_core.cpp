@@ -68,7 +68,7 @@ void LoopCore::remove_node(NodeRef ref) {
   heap_.set(ref, kNever);
   // Frames it already sent still reach the others (they were on the wire).
   for (std::size_t i = 0; i < ring_size_; ++i) {
-    Pending& p = ring_[(ring_head_ + i) % ring_.size()];
+    Pending& p = ring_[(ring_head_ + i) & (ring_.size() - 1)];
     if (p.from == ref) p.from = kNoNode;
   }
   std::erase(dirty_, ref);
@@ -131,11 +131,11 @@ void LoopCore::push_pending(const Pending& p) {
   if (ring_size_ == ring_.size()) {
     // Rare: a burst larger than the ring. Grow (allocates once per doubling).
     std::vector<Pending> bigger(ring_.size() * 2);
-    for (std::size_t i = 0; i < ring_size_; ++i) bigger[i] = ring_[(ring_head_ + i) % ring_.size()];
+    for (std::size_t i = 0; i < ring_size_; ++i) bigger[i] = ring_[(ring_head_ + i) & (ring_.size() - 1)];
     ring_.swap(bigger);
     ring_head_ = 0;
   }
-  ring_[(ring_head_ + ring_size_) % ring_.size()] = p;
+  ring_[(ring_head_ + ring_size_) & (ring_.size() - 1)] = p;
   ++ring_size_;
 }
 
@@ -175,7 +175,7 @@ void LoopCore::flush(TimeUs now) {
   flushing_ = true;
   while (ring_size_ > 0) {
     Pending p = ring_[ring_head_];
-    ring_head_ = (ring_head_ + 1) % ring_.size();
+    ring_head_ = (ring_head_ + 1) & (ring_.size() - 1);
     --ring_size_;
     ++stats_.local_deliveries;
     deliver(p.bus, p.from, p.frame, now);

@@ -152,7 +152,8 @@ class LoopCore {
   std::vector<NodeRef> free_;
   std::vector<NodeRef> dirty_;
   std::vector<std::uint32_t> scratch_ids_;
-  // Ring of frames sent by local nodes, waiting to reach the other local nodes.
+  // Ring of frames sent by local nodes, waiting to reach the other local nodes
+  // (its size is a power of two).
   std::vector<Pending> ring_;
   std::size_t ring_head_ = 0;
   std::size_t ring_size_ = 0;

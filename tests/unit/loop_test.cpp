@@ -86,18 +86,36 @@ class LoopTest : public ::testing::Test {
   BusId bus;
 };
 
-TEST(DeadlineHeap, MatchesABruteForceMinimumUnderRandomUpdates) {
+// Against a brute-force minimum, in three regimes: random deadlines (mostly
+// the heap), a rotating fleet where the node that ran gets a later deadline
+// (mostly the run, with its dead entries), a mix, and a run whose first node
+// never runs (dead entries pile up behind it until the ring is compacted).
+void check_deadline_heap(int regime) {
   DeadlineHeap h;
-  h.reserve_slots(50);
+  const std::uint32_t slots = 50;
+  h.reserve_slots(slots);
   std::map<std::uint32_t, TimeUs> ref;
-  std::mt19937 rng(7);
-  for (int step = 0; step < 5000; ++step) {
-    std::uint32_t slot = rng() % 50;
-    TimeUs t = (rng() % 10 == 0) ? kNever : TimeUs(rng() % 1000);
+  std::mt19937 rng(7 + regime);
+  TimeUs now = 0;
+  for (int step = 0; step < 20000; ++step) {
+    std::uint32_t slot = rng() % slots;
+    TimeUs t = TimeUs(rng() % 1000) + now;
+    if (regime == 3) {
+      // Slot 0 stays first; the others are rescheduled later and later,
+      // leaving dead entries behind it until the ring is compacted.
+      slot = step == 0 ? 0 : 1 + rng() % (slots - 1);
+      t = step;
+    } else if (regime >= 1 && !ref.empty() && rng() % 4 != 0) {
+      slot = h.top();  // the node that ran
+      now = h.top_time();
+      t = now + (regime == 1 ? 100 : TimeUs(rng() % 3) * 50);
+    }
+    if (rng() % 10 == 0 && slot != 0) t = kNever;
     h.set(slot, t);
     if (t == kNever) ref.erase(slot);
     else ref[slot] = t;
-    ASSERT_EQ(h.size(), ref.size());
+    ASSERT_EQ(h.size(), ref.size()) << "step " << step;
+    ASSERT_EQ(h.deadline(slot), t);
     if (ref.empty()) continue;
     auto best = ref.begin();
     for (auto it = ref.begin(); it != ref.end(); ++it)
@@ -106,6 +124,11 @@ TEST(DeadlineHeap, MatchesABruteForceMinimumUnderRandomUpdates) {
     ASSERT_EQ(h.top_time(), best->second);
   }
 }
+
+TEST(DeadlineHeap, MatchesABruteForceMinimumUnderRandomUpdates) { check_deadline_heap(0); }
+TEST(DeadlineHeap, MatchesABruteForceMinimumInARotatingFleet) { check_deadline_heap(1); }
+TEST(DeadlineHeap, MatchesABruteForceMinimumInAMixedFleet) { check_deadline_heap(2); }
+TEST(DeadlineHeap, MatchesABruteForceMinimumBehindANodeThatNeverRuns) { check_deadline_heap(3); }
 
 TEST_F(LoopTest, BootUpFramesAtPowerOnAndNothingBeforeTheFirstDeadline) {
   NodeRef a = add(1), b = add(2);
