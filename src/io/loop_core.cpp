@@ -124,7 +124,10 @@ void LoopCore::on_send(NodeRef from, const CanFrame& frame) {
   BusId bus = slots_[from]->bus;
   ++stats_.frames_out;
   buses_[bus]->transport->transmit(frame);
-  if (buses_[bus]->nodes > 1) push_pending({bus, from, frame});
+  // Other local nodes receive it in the flush, as they listen now (a frame
+  // nobody here listens to, as most PDOs and heartbeats, costs no more).
+  Bus& b = *buses_[bus];
+  if (b.nodes > 1 && !b.dispatch.lookup(frame).empty()) push_pending({bus, from, frame});
 }
 
 void LoopCore::push_pending(const Pending& p) {

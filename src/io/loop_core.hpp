@@ -44,7 +44,7 @@ class LoopObserver {
 struct LoopStats {
   std::uint64_t frames_in = 0;      // frames received from transports
   std::uint64_t frames_out = 0;     // frames nodes sent
-  std::uint64_t local_deliveries = 0;
+  std::uint64_t local_deliveries = 0;  // frames delivered to listening local nodes
   std::uint64_t wakeups = 0;        // advance() calls
 };
 
