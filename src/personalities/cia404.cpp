@@ -105,6 +105,22 @@ const UnitChoice* Cia404Application::find_unit(const ChannelConfig& c, std::uint
   return nullptr;
 }
 
+const Cia404Application::ChannelParams& Cia404Application::params(const Node& node, std::size_t ch) {
+  ChannelParams& p = state_[ch].params;
+  if (p.epoch == config_epoch_) return p;
+  const ChannelConfig& c = profile_->channels[ch];
+  p.epoch = config_epoch_;
+  p.digits = digits(node, ch);
+  const auto value = [&](Role r) { return param_value(node, c.param(r), p.digits); };
+  p.offset = value(Role::kOffset);
+  p.span_start = value(Role::kSpanStart);
+  p.span_end = value(Role::kSpanEnd);
+  p.delta = value(Role::kDelta);
+  p.upper = value(Role::kUpperLimit);
+  p.lower = value(Role::kLowerLimit);
+  return p;
+}
+
 Cia404Application::Measurement Cia404Application::measure(Node& node, std::size_t ch, TimeUs now) {
   ChannelState& st = state_[ch];
   if (st.measured_at != now || st.measured_epoch != config_epoch_) {
@@ -119,7 +135,7 @@ Cia404Application::Measurement Cia404Application::measure(Node& node, std::size_
   st.rendered = true;
   const Measurement& m = st.measured;
   const ChannelConfig& c = profile_->channels[ch];
-  store_param(node, c.param(Role::kPv), m.pv, digits(node, ch));
+  store_param(node, c.param(Role::kPv), m.pv, params(node, ch).digits);
   const Param& fv = c.param(Role::kFieldValue);
   for (int i = 0; i < fv.count; ++i) node.values().set_i(*fv.views[i], m.raw);  // raw counts, not scaled
   if (const OdEntry* e = c.param(Role::kStatus).views[0]) node.values().set_u(*e, m.status);
@@ -130,34 +146,34 @@ Cia404Application::Measurement Cia404Application::evaluate(const Node& node, std
   const ChannelConfig& c = profile_->channels[ch];
   const ChannelState& st = state_[ch];
   const MeasurementSource::Sample s = source_->sample(c.source, now);
-  const double offset = get(node, ch, Role::kOffset);
+  const ChannelParams& p = params(node, ch);
   Measurement m;
   m.raw = s.raw;
   if (const std::optional<double>& reported = override_si_[std::size_t(c.source)]) {
     // Reported as it is: the input is what gives that PV with the offset.
     m.pv = st.unit.scale.from_si(*reported);
-    m.input = m.pv - offset;
-    m.status = status_bits(node, ch, m, 0);
+    m.input = m.pv - p.offset;
+    m.status = status_bits(ch, p, m, 0);
   } else {
     m.input = input_value(c, s, st.unit.scale) + st.unit.scale.delta_from_si(st.zero_si);
-    m.pv = m.input + offset;
-    m.status = status_bits(node, ch, m, s.status);
+    m.pv = m.input + p.offset;
+    m.status = status_bits(ch, p, m, s.status);
   }
   return m;
 }
 
 // 0x6150: bit 0 from the sensor; overload against the span objects when
 // the profile has them, else the sensor's own range check.
-std::uint8_t Cia404Application::status_bits(const Node& node, std::size_t ch, const Measurement& m,
+std::uint8_t Cia404Application::status_bits(std::size_t ch, const ChannelParams& p, const Measurement& m,
                                             std::uint8_t sensor_status) const {
   const ChannelConfig& c = profile_->channels[ch];
   std::uint8_t status = sensor_status & physics::kStatusInvalid;
-  const Param& start = c.param(Role::kSpanStart);
-  const Param& end = c.param(Role::kSpanEnd);
-  if (start.present() || end.present()) {
+  const bool start = c.param(Role::kSpanStart).present();
+  const bool end = c.param(Role::kSpanEnd).present();
+  if (start || end) {
     const double x = profile_->settings.span_compares_input ? m.input : m.pv;
-    if (end.present() && x > get(node, ch, Role::kSpanEnd)) status |= physics::kStatusPositiveOverload;
-    if (start.present() && x < get(node, ch, Role::kSpanStart)) status |= physics::kStatusNegativeOverload;
+    if (end && x > p.span_end) status |= physics::kStatusPositiveOverload;
+    if (start && x < p.span_start) status |= physics::kStatusNegativeOverload;
   } else {
     status |= sensor_status & (physics::kStatusPositiveOverload | physics::kStatusNegativeOverload);
   }
@@ -415,9 +431,10 @@ bool Cia404Application::check_events(Node& node, std::size_t ch, TimeUs now) {
   const ChannelConfig& c = profile_->channels[ch];
   ChannelState& st = state_[ch];
   const double pv = measure(node, ch, now).pv;
+  const ChannelParams& p = params(node, ch);
   unsigned events = (change_channels_ >> ch) & 1 && changed(node, ch) ? kEventChange : 0u;
   // Delta: |PV - PV at the last event| > delta (delta 0 = off).
-  const double delta = get(node, ch, Role::kDelta);
+  const double delta = p.delta;
   if (c.param(Role::kDelta).present() && delta > 0) {
     if (!st.have_ref) {
       st.delta_ref = pv;
@@ -430,7 +447,7 @@ bool Cia404Application::check_events(Node& node, std::size_t ch, TimeUs now) {
   const double hyst = limit_hysteresis(node, ch);
   const bool level = profile_->settings.limit_level;
   if (c.param(Role::kUpperLimit).present()) {
-    const double upper = get(node, ch, Role::kUpperLimit);
+    const double upper = p.upper;
     if (pv > upper && (st.upper_armed || level)) {
       events |= kEventUpperUp;
       st.upper_armed = false;
@@ -440,7 +457,7 @@ bool Cia404Application::check_events(Node& node, std::size_t ch, TimeUs now) {
     }
   }
   if (c.param(Role::kLowerLimit).present()) {
-    const double lower = get(node, ch, Role::kLowerLimit);
+    const double lower = p.lower;
     if (pv < lower && (st.lower_armed || level)) {
       events |= kEventLowerDown;
       st.lower_armed = false;

@@ -197,8 +197,16 @@ class Cia404Application : public Application {
   int digits(const Node& node, std::size_t ch) const;
 
  private:
+  // The chain's parameters as the OD holds them, read again only after a
+  // change of the configuration epoch (every hooked write bumps it).
+  struct ChannelParams {
+    std::uint32_t epoch = 0;
+    int digits = 0;
+    double offset = 0, span_start = 0, span_end = 0, delta = 0, upper = 0, lower = 0;
+  };
   struct ChannelState {
     UnitChoice unit;
+    ChannelParams params;
     double zero_si = 0.0;  // autozero correction (SI difference), added to the input
     double delta_ref = 0.0;
     bool have_ref = false;
@@ -228,8 +236,9 @@ class Cia404Application : public Application {
   bool check_events(Node& node, std::size_t ch, TimeUs now);
   TimeUs check_period(std::size_t ch) const;
   TimeUs check_events_due(Node& node, TimeUs now);
+  const ChannelParams& params(const Node& node, std::size_t ch);
   Measurement evaluate(const Node& node, std::size_t ch, TimeUs now);
-  std::uint8_t status_bits(const Node& node, std::size_t ch, const Measurement& m, std::uint8_t sensor_status) const;
+  std::uint8_t status_bits(std::size_t ch, const ChannelParams& p, const Measurement& m, std::uint8_t sensor_status) const;
   void fault_schedule_changed(Node& node, TimeUs now);
   void control_changed(Node& node, TimeUs now);
 
