@@ -13,7 +13,7 @@ DecimalResult to_decimal(double v, int digits, std::int64_t lo, std::int64_t hi)
   if (std::isnan(v)) return {0, true};
   // Multiply (or divide, for negative digits, to keep exactness of 10^k).
   const double scaled = digits >= 0 ? v * pow10(digits) : v / pow10(-digits);
-  const double r = std::round(scaled);
+  const double r = round_half_away(scaled);
   if (r < static_cast<double>(lo)) return {lo, true};
   if (r > static_cast<double>(hi)) return {hi, true};
   return {static_cast<std::int64_t>(r), false};

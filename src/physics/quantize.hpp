@@ -13,11 +13,18 @@
 
 namespace cansim::physics {
 
-/// Round half away from zero (std::round semantics), as a double.
-inline double round_half_away(double v) noexcept { return std::round(v); }
-
 /// 10^digits for digits in [-18, 18] (exact for 0..22 as doubles).
 double pow10(int digits) noexcept;
+
+/// Round half away from zero (std::round), inline: without SSE4.1 the compiler
+/// calls libm for it, on every sample. Exact: below 2^52, x minus its
+/// truncation is representable; from 2^52 on (and NaN, inf) x is returned.
+inline double round_half_away(double x) noexcept {
+  if (!(std::fabs(x) < 0x1p52)) return x;
+  const double t = double(std::int64_t(x));
+  const double f = x - t;
+  return f >= 0.5 ? t + 1.0 : f <= -0.5 ? t - 1.0 : t;
+}
 
 struct DecimalResult {
   std::int64_t value;  ///< rounded, saturated integer

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "physics/quantize.hpp"
 #include "physics/random.hpp"
 
 namespace cansim::physics {
@@ -278,7 +279,7 @@ struct Sensor::ChannelState {
     }
     // ADC.
     const double code_f = c0 + (x - spec.range_min) * code_per_unit;
-    double code_r = std::round(code_f);
+    double code_r = round_half_away(code_f);
     std::uint8_t flags = 0;
     std::int32_t counts;
     if (!(code_r > spec.adc.code_min)) {
@@ -307,7 +308,7 @@ struct Sensor::ChannelState {
     }
     if (spec.output_steps > 0) {
       const double steps = spec.output_steps;
-      fc = c0 + std::round((fc - c0) / (c1 - c0) * steps) / steps * (c1 - c0);
+      fc = c0 + round_half_away((fc - c0) / (c1 - c0) * steps) / steps * (c1 - c0);
     }
     double value = spec.range_min + (fc - c0) / code_per_unit;
 

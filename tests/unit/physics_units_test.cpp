@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <set>
 #include <vector>
 
@@ -125,6 +126,22 @@ TEST(PhysicsRandom, SequentialAndCounterGeneratorsAreDeterministic) {
   std::set<std::uint64_t> distinct;
   for (std::uint64_t k = 0; k < 1000; ++k) distinct.insert(derive_seed(99, k));
   EXPECT_EQ(distinct.size(), 1000u);
+}
+
+TEST(PhysicsQuantize, RoundHalfAwayMatchesStdRound) {
+  const double edge[] = {0.0, 0.5, -0.5, 1.5, -1.5, 2.5, -2.5, 0.49999999999999994, -0.49999999999999994,
+                         0x1p52 - 0.5, -(0x1p52 - 0.5), 0x1p52, 0x1p52 + 1, 0x1p53 + 2, -0x1p63, 1e300, -1e300,
+                         std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(),
+                         std::numeric_limits<double>::denorm_min()};
+  for (double x : edge) EXPECT_EQ(round_half_away(x), std::round(x)) << x;
+  EXPECT_TRUE(std::isnan(round_half_away(std::nan(""))));
+  Xoshiro256ss r(3);
+  for (int i = 0; i < 200000; ++i) {
+    const double x = std::ldexp(r.uniform(-1, 1), int(r.next() % 70) - 10);
+    ASSERT_EQ(round_half_away(x), std::round(x)) << x;
+    const double h = std::floor(x) + 0.5;  // ties
+    ASSERT_EQ(round_half_away(h), std::round(h)) << h;
+  }
 }
 
 // The ziggurat's layers: equal areas v, edges falling from r to 0.
