@@ -124,10 +124,13 @@ void LoopCore::on_send(NodeRef from, const CanFrame& frame) {
   BusId bus = slots_[from]->bus;
   ++stats_.frames_out;
   buses_[bus]->transport->transmit(frame);
-  // Other local nodes receive it in the flush, as they listen now (a frame
-  // nobody here listens to, as most PDOs and heartbeats, costs no more).
+  // Other local nodes receive it in the flush, as they listen now. A frame
+  // only its sender listens to (a TPDO: for remote requests) or nobody, as
+  // most PDOs and heartbeats, is not queued.
   Bus& b = *buses_[bus];
-  if (b.nodes > 1 && !b.dispatch.lookup(frame).empty()) push_pending({bus, from, frame});
+  if (b.nodes < 2) return;
+  for (NodeRef ref : b.dispatch.lookup(frame))
+    if (ref != from) return push_pending({bus, from, frame});
 }
 
 void LoopCore::push_pending(const Pending& p) {
