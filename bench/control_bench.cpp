@@ -51,6 +51,7 @@
 
 #include "control/endpoints.hpp"
 #include "control/service.hpp"
+#include "io/can_interface.hpp"
 #include "io/event_loop.hpp"
 #include "support/control_fleet.hpp"
 
@@ -137,7 +138,9 @@ struct Shared {
   int phase() const { return block >= 0 && block < int(blocks.size()) ? block % 2 : -1; }
   std::uint64_t frames = 0;
   std::vector<TimeUs> last_beat;     // per bus * 128 + node-ID: flush time of the last heartbeat
-  std::vector<std::uint32_t> beats;  // heartbeats of this pass, waiting for the flush
+  std::vector<std::vector<std::uint32_t>> beats;  // per bus: heartbeats waiting for the flush
+  std::vector<std::uint32_t> queued;             // per bus: frames waiting for the flush
+  TimeUs pass_start = 0;
   bool probe_seen = false;           // a matching TPDO1 in this pass
   bool node0_sent = false;           // a TPDO1 of node 0 in this pass
   float node0_value = 0;
@@ -147,15 +150,18 @@ struct Shared {
   std::vector<Block> blocks;
 };
 
+void flush_bus(Shared& s, std::uint32_t bus, TimeUs mono, TimeUs pass_start);
+
 // The wire of one bus: counts frames, notes heartbeats and node 0's TPDO1
 // (bus 0) for the flush. Runs on the loop thread, inside the core's pass.
+// As CanInterface does, a full sendmmsg batch leaves at once.
 class CountingTransport : public io::Transport {
  public:
   CountingTransport(Shared& s, std::uint32_t bus) : s_(s), bus_(bus) {}
   void transmit(const CanFrame& f) override {
     ++s_.frames;
     if ((f.id & ~0x7Fu) == 0x700 && f.dlc == 1 && f.data[0] != 0x00) {  // heartbeat, not boot-up
-      s_.beats.push_back(bus_ * 128 + (f.id & 0x7F));  // capacity reserved: no allocation
+      s_.beats[bus_].push_back(bus_ * 128 + (f.id & 0x7F));  // capacity reserved: no allocation
     } else if (bus_ == 0 && f.id == s_.probe_cob && f.dlc >= 4) {
       float v;
       std::memcpy(&v, f.data, 4);  // REAL32 little-endian (x86)
@@ -163,6 +169,7 @@ class CountingTransport : public io::Transport {
       std::lock_guard lock(s_.probe.mutex);
       s_.probe_seen |= s_.probe.armed && s_.probe.pdo_time == 0 && std::fabs(v - s_.probe.target) < 0.1f;
     }
+    if (++s_.queued[bus_] >= io::CanInterface::kBatch) flush_bus(s_, bus_, io::monotonic_now(), s_.pass_start);
   }
 
  private:
@@ -170,10 +177,11 @@ class CountingTransport : public io::Transport {
   std::uint32_t bus_;
 };
 
-// The daemon's flush: what the pass produced leaves now.
-void flush(Shared& s, TimeUs mono, TimeUs pass_start) {
+// sendmmsg of what waits for one bus: its frames leave now.
+void flush_bus(Shared& s, std::uint32_t bus, TimeUs mono, TimeUs pass_start) {
+  s.queued[bus] = 0;
   const int phase = s.phase();
-  for (std::uint32_t slot : s.beats) {
+  for (std::uint32_t slot : s.beats[bus]) {
     TimeUs& last = s.last_beat[slot];
     if (last && phase >= 0 && s.block < int(s.blocks.size())) {
       const TimeUs err = std::llabs(mono - last - kHeartbeatUs);
@@ -183,13 +191,18 @@ void flush(Shared& s, TimeUs mono, TimeUs pass_start) {
     }
     last = mono;
   }
-  s.beats.clear();
-  if (s.node0_sent) {
+  s.beats[bus].clear();
+  if (bus == 0 && s.node0_sent) {
     std::lock_guard lock(s.probe.mutex);
     if (s.probe_seen && s.probe.armed && s.probe.pdo_time == 0) s.probe.pdo_time = mono, s.probe.pdo_pass = pass_start;
     s.probe.last_value = s.node0_value, s.probe.last_time = mono;
     s.probe_seen = s.node0_sent = false;
   }
+}
+
+// The daemon's flush: what the pass produced leaves now.
+void flush(Shared& s, TimeUs mono, TimeUs pass_start) {
+  for (std::uint32_t bus = 0; bus < s.queued.size(); ++bus) flush_bus(s, bus, mono, pass_start);
 }
 
 std::string fleet_yaml(int nodes) {
@@ -393,6 +406,7 @@ void run_loop(test::ControlFleet& fleet, io::EventLoop& loop, control::ControlEn
     const bool measuring = s.block >= 0 && s.block < sch.blocks();
     if (measuring) ++s.phases[s.block % 2].passes;
     const TimeUs cpu0 = measuring ? thread_cpu_us() : 0;
+    s.pass_start = mono;
     fleet.run_due(mono - epoch);
     const TimeUs cpu1 = measuring ? thread_cpu_us() : 0;
     // What the nodes sent leaves before the control calls are served, and
@@ -487,7 +501,9 @@ int main(int argc, char** argv) {
   Shared s;
   const int buses = (cfg.nodes + kNodesPerBus - 1) / kNodesPerBus;
   s.last_beat.assign(std::size_t(buses) * 128, 0);
-  s.beats.reserve(std::size_t(buses) * 128);
+  s.beats.resize(std::size_t(buses));
+  for (auto& b : s.beats) b.reserve(128);
+  s.queued.assign(std::size_t(buses), 0);
 
   std::printf("building %d generic-404 nodes on %d buses...\n", cfg.nodes, buses);
   std::fflush(stdout);

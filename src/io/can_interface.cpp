@@ -81,6 +81,7 @@ void CanInterface::close() {
   stats_.tx_offline += queued_;
   queued_ = 0;
   head_ = 0;
+  kernel_full_ = false;
 }
 
 void CanInterface::enqueue(const CanFrame& frame) {
@@ -120,6 +121,9 @@ void CanInterface::transmit(const CanFrame& frame) {
     if (queued_ == queue_.size()) drain();  // a burst larger than the queue
     if (queued_ < queue_.size()) {
       queue_[(head_ + queued_++) % queue_.size()] = frame;
+      // A full sendmmsg batch leaves at once: in a long pass the first
+      // nodes' frames do not wait for the last nodes' (the same syscalls).
+      if (queued_ >= kBatch && !kernel_full_) drain();
       return;
     }
   }
@@ -148,13 +152,15 @@ bool CanInterface::drain() {
     }
     int sent = ::sendmmsg(fd_, msgs, unsigned(n), MSG_DONTWAIT);
     if (sent < 0) {
-      if (errno == EAGAIN || errno == ENOBUFS) return true;  // wait for the next EPOLLOUT
-      return fail("sendmmsg", errno);
+      if (errno != EAGAIN && errno != ENOBUFS) return fail("sendmmsg", errno);
+      kernel_full_ = true;  // wait for the next EPOLLOUT (or the owner's retry)
+      return true;
     }
+    kernel_full_ = std::size_t(sent) < n;
     head_ = (head_ + std::size_t(sent)) % queue_.size();
     queued_ -= std::size_t(sent);
     stats_.tx += std::uint64_t(sent);
-    if (std::size_t(sent) < n) return true;
+    if (kernel_full_) return true;
   }
   if (queued_ == 0) interest_changed_ = true;
   return fd_ >= 0;

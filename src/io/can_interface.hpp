@@ -53,9 +53,9 @@ class CanInterface : public Transport {
   // Transport: sends now (or, deferred, at the next drain()), or queues
   // while the kernel is full, or drops (counted).
   void transmit(const CanFrame& frame) override;
-  // Deferred sending: frames collect in the queue and go out with drain(),
-  // batched into sendmmsg calls; the owner drains at the end of each loop
-  // iteration (what one instant produced leaves together, in order).
+  // Deferred sending: frames collect in the queue and go out in sendmmsg
+  // batches, in order: each full batch of kBatch at once, the rest when the
+  // owner drains at the end of each loop iteration.
   void set_deferred(bool deferred) { deferred_ = deferred; }
   // Reads up to kBatch frames (recvmmsg). Returns the count, 0 when nothing
   // is pending, -1 when the interface failed (is_open() is then false).
@@ -91,6 +91,7 @@ class CanInterface : public Transport {
   std::size_t queued_ = 0;
   bool interest_changed_ = false;
   bool deferred_ = false;
+  bool kernel_full_ = false;  // the last drain() met EAGAIN / ENOBUFS
   CanStats stats_;
   std::uint64_t drops_reported_ = 0;
 };
