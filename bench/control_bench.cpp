@@ -23,7 +23,11 @@
 // in the probe thread (negative when the event PDO left before the client
 // read the reply).
 //
-//   ./build/bench/control_bench [NODES=1000] [SECONDS=10] [RATE=1000] [CLIENTS=4]
+//   ./build/bench/control_bench [NODES=1000] [SECONDS=10] [RATE=1000] [CLIENTS=4] [pin]
+//
+// pin: the loop thread alone on the last CPU and the client threads on the
+// others, as a bench machine would run its simulator beside the test
+// program (CPUAffinity=); without it they share every CPU.
 //
 // Prints figures, asserts nothing. Loop CPU: CLOCK_THREAD_CPUTIME_ID of the
 // loop thread, as a share of wall time (read three times per pass for the
@@ -225,7 +229,20 @@ struct Config {
   int seconds = 10;
   int rate = 1000;
   int clients = 4;
+  bool pin = false;  // the loop thread alone on the last CPU, the clients on the others
 };
+
+// Pins the calling thread to CPU `cpu` (pin: cpu >= 0) or to every CPU but
+// `cpu` (pin: cpu < 0, meaning "not ~cpu").
+void pin_thread(int cpu) {
+  const long n = sysconf(_SC_NPROCESSORS_ONLN);
+  if (n < 2) return;
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  for (long c = 0; c < n; ++c)
+    if (cpu >= 0 ? c == cpu : c != ~cpu) CPU_SET(int(c), &set);
+  pthread_setaffinity_np(pthread_self(), sizeof set, &set);
+}
 
 // Monotonic µs bounds of every block: block j is [bounds[j], bounds[j + 1]).
 struct Schedule {
@@ -485,6 +502,7 @@ int main(int argc, char** argv) {
   if (argc > 2) cfg.seconds = std::atoi(argv[2]);
   if (argc > 3) cfg.rate = std::atoi(argv[3]);
   if (argc > 4) cfg.clients = std::atoi(argv[4]);
+  if (argc > 5) cfg.pin = std::string(argv[5]) == "pin";
   if (cfg.nodes < 2 || cfg.seconds < 1 || cfg.rate < 1 || cfg.clients < 1) {
     std::fprintf(stderr, "usage: control_bench [NODES>=2] [SECONDS>=1] [RATE>=1] [CLIENTS>=1]\n");
     return 2;
@@ -543,13 +561,23 @@ int main(int argc, char** argv) {
   std::fflush(stdout);
 
   std::atomic<bool> stop{false};
-  std::thread loop_thread([&] { run_loop(fleet, loop, endpoints, s, epoch, sch, stop); });
+  const int loop_cpu = int(sysconf(_SC_NPROCESSORS_ONLN)) - 1;
+  std::thread loop_thread([&] {
+    if (cfg.pin) pin_thread(loop_cpu);
+    run_loop(fleet, loop, endpoints, s, epoch, sch, stop);
+  });
   std::vector<CallStats> calls(std::size_t(cfg.clients));
   std::vector<std::thread> threads;
   for (int i = 0; i < cfg.clients; ++i)
-    threads.emplace_back([&, i] { client(i, cfg, sch, socket, paths, calls[std::size_t(i)]); });
+    threads.emplace_back([&, i] {
+      if (cfg.pin) pin_thread(~loop_cpu);
+      client(i, cfg, sch, socket, paths, calls[std::size_t(i)]);
+    });
   ProbeStats probe;
-  threads.emplace_back([&] { probe_client(sch, socket, paths[0], s, probe); });
+  threads.emplace_back([&] {
+    if (cfg.pin) pin_thread(~loop_cpu);
+    probe_client(sch, socket, paths[0], s, probe);
+  });
   for (std::thread& t : threads) t.join();
   sleep_until(sch.bounds.back() + 200'000);
   stop = true;
@@ -584,9 +612,10 @@ int main(int argc, char** argv) {
                 double(ph.in_run_due) / wall / 1000.0, double(ph.in_process) / wall / 1000.0,
                 double(ph.cpu - ph.in_run_due - ph.in_process) / wall / 1000.0);
     std::printf("  frames/s              %.0f\n", double(ph.frames) / wall);
-    std::printf("  loop passes           %.0f/s (timer re-armed %.0f/s, control asked for an immediate pass %.0f/s), "
-                "longest %.2f ms; timer wake-up lateness mean %.0f us, max %.2f ms\n",
-                double(ph.passes) / wall, double(ph.rearms) / wall, double(ph.control_due) / wall,
+    std::printf("  loop passes           %.0f/s (%.0f/s woken by the timer, timer re-armed %.0f/s, control asked for an "
+                "immediate pass %.0f/s), longest %.2f ms; timer wake-up lateness mean %.0f us, max %.2f ms\n",
+                double(ph.passes) / wall, double(ph.timer_wakeups) / wall, double(ph.rearms) / wall,
+                double(ph.control_due) / wall,
                 double(ph.pass_max) / 1000.0,
                 ph.timer_wakeups ? ph.lateness_sum / double(ph.timer_wakeups) : 0.0, double(ph.lateness_max) / 1000.0);
     std::printf("  heartbeats            %llu (%.0f/s), |period - 100 ms| mean %.0f us, p50 %s us, p99 %s us, "
