@@ -19,15 +19,13 @@ void DeadlineHeap::reserve_slots(std::size_t n) {
 }
 
 void DeadlineHeap::set(std::uint32_t slot, TimeUs t) {
-  if (t == kNever) {
-    remove(slot);
+  const Entry e{t, slot, 0};
+  if (t != kNever && append_to_run(e)) {  // takes the slot out of where it was
     drop_dead_front();
     return;
   }
-  const Entry e{t, slot, 0};
   const std::uint32_t w = where_[slot];
-  if (w != kAbsent && w != kInRun && !append_to_run(e)) {
-    // In the heap and staying there: update in place.
+  if (t != kNever && w != kAbsent && w != kInRun) {  // in the heap and staying there
     const TimeUs old = key_[slot];
     key_[slot] = t;
     if (t < old) sift_up(w, e);
@@ -35,12 +33,15 @@ void DeadlineHeap::set(std::uint32_t slot, TimeUs t) {
     return;
   }
   remove(slot);
-  key_[slot] = t;
-  if (!append_to_run(e)) heap_insert(e);
+  if (t != kNever) {
+    key_[slot] = t;
+    heap_insert(e);
+  }
   drop_dead_front();
 }
 
 bool DeadlineHeap::append_to_run(const Entry& e) {
+  if (run_.empty()) return false;  // no reserve_slots() yet
   if (run_size_ > 0 && less(e, run_[(run_head_ + run_size_ - 1) & (run_.size() - 1)])) return false;
   if (run_size_ == run_.size()) compact_run();  // at most half the entries are live
   if (where_[e.slot] != kAbsent && where_[e.slot] != kInRun) heap_erase(where_[e.slot]);
