@@ -33,6 +33,13 @@
 // run alone (node_fuzz_test runs inputs A, B, A and compares every frame of
 // the two A runs). The code that builds the node runs once, before the first
 // input, so libFuzzer's `cov` no longer counts it.
+//
+// What an input costs (perf, README "Fuzzing"): its records, about 5 us each
+// with ASan, UBSan and compare tracing, and libFuzzer's bookkeeping per edge
+// it touched. libstdc++'s templates are left out of the coverage
+// (fuzz/coverage-ignore.txt): a fifth of the edges, nearly none of them ours.
+// 45 s from the seeds on the 2-core host: 4,300 -> 6,600 inputs/s on
+// average over four runs, short of the 20,000 issue #12 asked for.
 #include <cstddef>
 #include <cstdint>
 #include <span>
