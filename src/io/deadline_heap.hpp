@@ -55,7 +55,10 @@ class DeadlineHeap {
     return (a.key < b.key) | ((a.key == b.key) & (a.slot < b.slot));
   }
   bool run_first() const { return run_size_ > 0 && (heap_.empty() || less(run_[run_head_], heap_.front())); }
-  bool live(const Entry& e) const { return where_[e.slot] == kInRun && seq_[e.slot] == e.seq; }
+  // The key as well: a 32-bit sequence number wraps after ~10 h of a busy fleet.
+  bool live(const Entry& e) const {
+    return where_[e.slot] == kInRun && seq_[e.slot] == e.seq && key_[e.slot] == e.key;
+  }
 
   void remove(std::uint32_t slot);
   bool append_to_run(const Entry& e);
