@@ -34,6 +34,7 @@
 // split between the nodes, the control endpoints and the rest: that costs
 // about 1 µs per pass, so B, with more passes, pays a little more of it).
 #include <pthread.h>
+#include <sys/resource.h>
 #include <systemd/sd-bus.h>
 #include <unistd.h>
 
@@ -73,6 +74,14 @@ constexpr TimeUs kDisconnectUs = 30'000;   // clients leave this long before a B
 constexpr TimeUs kProbePeriodUs = 200'000;
 constexpr int kNodesPerBus = 127;
 constexpr int kHistogramUs = 50'000;  // period error histogram, 1 µs buckets
+
+// User-space CPU of the calling thread (the rest of its CPU is the kernel's,
+// which a VM inflates: timer and wake-up IPIs exit to the hypervisor).
+TimeUs thread_user_us() {
+  rusage ru;
+  getrusage(RUSAGE_THREAD, &ru);
+  return TimeUs(ru.ru_utime.tv_sec) * 1'000'000 + ru.ru_utime.tv_usec;
+}
 
 TimeUs thread_cpu_us() {
   timespec ts;
@@ -117,7 +126,7 @@ struct Block {
   double error_sum = 0;
 };
 struct LoopPhase {
-  TimeUs wall = 0, cpu = 0;
+  TimeUs wall = 0, cpu = 0, user = 0;
   std::uint64_t frames = 0, passes = 0, timer_wakeups = 0, rearms = 0, control_due = 0;
   double lateness_sum = 0;  // timer wake-up − armed deadline
   TimeUs lateness_max = 0;
@@ -405,20 +414,21 @@ void run_loop(test::ControlFleet& fleet, io::EventLoop& loop, control::ControlEn
               TimeUs epoch, const Schedule& sch, const std::atomic<bool>& stop) {
   pthread_setname_np(pthread_self(), "cansim-loop");  // for perf --comm
   io::LoopCore& core = fleet.core();
-  TimeUs block_wall = 0, block_cpu = 0;
+  TimeUs block_wall = 0, block_cpu = 0, block_user = 0;
   std::uint64_t block_frames = 0;
   while (!stop.load(std::memory_order_relaxed)) {
     const TimeUs mono = io::monotonic_now();
     while (s.block < sch.blocks() && mono >= sch.bounds[std::size_t(s.block + 1)]) {
-      const TimeUs cpu = thread_cpu_us();
+      const TimeUs cpu = thread_cpu_us(), user = thread_user_us();
       if (s.block >= 0) {
         LoopPhase& p = s.phases[s.phase()];
         p.wall += mono - block_wall, p.cpu += cpu - block_cpu, p.frames += s.frames - block_frames;
+        p.user += user - block_user;
         s.blocks[std::size_t(s.block)].wall = mono - block_wall;
         s.blocks[std::size_t(s.block)].cpu = cpu - block_cpu;
       }
       ++s.block;
-      block_wall = mono, block_cpu = cpu, block_frames = s.frames;
+      block_wall = mono, block_cpu = cpu, block_user = user, block_frames = s.frames;
     }
     const bool measuring = s.block >= 0 && s.block < sch.blocks();
     if (measuring) ++s.phases[s.block % 2].passes;
@@ -596,17 +606,20 @@ int main(int argc, char** argv) {
     if (first_error.empty()) first_error = c.first_error;
     if (c.slowest > slowest->slowest) slowest = &c;
   }
-  double cpu_pct[2], hb_mean[2];
+  double cpu_pct[2], user_pct[2], hb_mean[2];
   for (int p = 0; p < 2; ++p) {
     const LoopPhase& ph = s.phases[p];
     const double wall = double(ph.wall) / 1e6;
     cpu_pct[p] = 100.0 * double(ph.cpu) / double(ph.wall);
+    user_pct[p] = 100.0 * double(ph.user) / double(ph.wall);
     hb_mean[p] = ph.hb.mean();
     std::printf("\n%c: %s (%.1f s)\n", p ? 'B' : 'A', p ? "with clients" : "no clients", wall);
     std::printf("  loop thread CPU       %.2f %% of wall time (%.0f ms CPU, %.2f us per frame); per block:", cpu_pct[p],
                 double(ph.cpu) / 1000.0, double(ph.cpu) / double(ph.frames));
     for (std::size_t j = std::size_t(p); j < s.blocks.size(); j += 2)
       std::printf(" %.1f", 100.0 * double(s.blocks[j].cpu) / double(s.blocks[j].wall));
+    std::printf("\n  loop CPU in user space %.2f %% of wall time (the kernel's: %.2f %%)", 100.0 * double(ph.user) / (wall * 1e6),
+                100.0 * double(ph.cpu - ph.user) / (wall * 1e6));
     std::printf("\n  loop CPU split        run_due %.1f ms/s, control process() %.1f ms/s, the rest (wake-ups, "
                 "epoll, timer) %.1f ms/s\n",
                 double(ph.in_run_due) / wall / 1000.0, double(ph.in_process) / wall / 1000.0,
@@ -687,5 +700,8 @@ int main(int argc, char** argv) {
               "-> %.0f us, set->PDO max %.2f ms%s\n",
               cpu_delta, cpu_pct[0], cpu_pct[1], cpu_pct[1] - cpu_pct[0], hb_mean[0], hb_mean[1], lmax,
               probe.missing ? " (some steps had no PDO: see above)" : "");
+  std::printf("               in user space: %+.1f %% (%.2f -> %.2f %% of a core, %+.2f points)\n",
+              user_pct[0] > 0 ? 100.0 * (user_pct[1] - user_pct[0]) / user_pct[0] : 0.0, user_pct[0], user_pct[1],
+              user_pct[1] - user_pct[0]);
   return 0;
 }
