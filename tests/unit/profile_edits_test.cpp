@@ -110,10 +110,18 @@ TEST_P(ProfileEdits, EachObjectDeletedOrRetypedIsRejectedOrRuns) {
       lines_of(std::string(CANSIM_SOURCE_DIR) + "/profiles/" + GetParam() + ".yaml");
   static const std::regex object_line(R"(^\s*- \{index: .*)");
   static const std::regex type_field(R"(type: ([A-Z_0-9]+))");
+  // Under ASan/UBSan (the asan tier, one core beside the VM tiers) every
+  // third object line: the plain build edits them all, and profile_fuzz
+  // mutates profiles under the sanitizers as well.
+#ifdef CANSIM_SANITIZED
+  constexpr int kStride = 3;
+#else
+  constexpr int kStride = 1;
+#endif
   int objects = 0;
   for (std::size_t i = 0; i < lines.size(); ++i) {
     if (!std::regex_match(lines[i], object_line)) continue;
-    ++objects;
+    if (objects++ % kStride != 0) continue;
     std::vector<std::string> edited = lines;
     edited.erase(edited.begin() + std::ptrdiff_t(i));
     check("deleted line " + std::to_string(i + 1) + ": " + lines[i], edited);
