@@ -37,9 +37,6 @@ class DeadlineHeap {
   }
   TimeUs deadline(std::uint32_t slot) const { return where_[slot] == kAbsent ? kNever : key_[slot]; }
   std::size_t size() const { return heap_.size() + run_live_; }
-  // A guess at the slot after top(), for prefetching: the run's second
-  // entry (possibly dead), else kAbsent.
-  std::uint32_t second_guess() const { return run_size_ > 1 ? run_[(run_head_ + 1) & (run_.size() - 1)].slot : kAbsent; }
 
  private:
   static constexpr std::size_t kArity = 4;

@@ -98,21 +98,11 @@ void LoopCore::receive(BusId bus, const CanFrame& frame, TimeUs now) {
   flush(now_);
 }
 
-// The next node's first lines load while this one runs (a fleet larger than
-// the caches waits for memory at the start of every wake-up).
-void LoopCore::prefetch_node(NodeRef ref) const {
-  const Slot* s = slots_[ref].get();
-  if (!s || !s->node) return;
-  const char* p = reinterpret_cast<const char*>(s->node.get());
-  for (std::size_t off = 0; off < 1024; off += 64) __builtin_prefetch(p + off);
-}
-
 void LoopCore::run_due(TimeUs now) {
   now_ = std::max(now_, now);
   while (heap_.top_time() <= now_) {
     NodeRef ref = heap_.top();
     Node& n = *slots_[ref]->node;
-    if (const std::uint32_t next = heap_.second_guess(); next != DeadlineHeap::kAbsent) prefetch_node(next);
     ++stats_.wakeups;
     n.advance(now_);
     after(ref);

@@ -144,7 +144,6 @@ class LoopCore {
   void deliver(BusId bus, NodeRef from, const CanFrame& frame, TimeUs now);
   void after(NodeRef ref);
   void rebuild_dirty();
-  void prefetch_node(NodeRef ref) const;
   void flush(TimeUs now);
   void push_pending(const Pending& p);
 
