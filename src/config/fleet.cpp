@@ -342,25 +342,12 @@ std::string find_profile(const std::string& ref, const std::string& config_dir, 
 }
 
 FleetConfig parse_fleet(const std::string& text, const std::string& file, const ProfileSearch& search) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(text);
-  } catch (const YAML::ParserException& e) {
-    throw ConfigError(file + ":" + std::to_string(e.mark.line + 1) + ":" + std::to_string(e.mark.column + 1) +
-                      ": YAML syntax error: " + e.msg);
-  }
-  return parse_root(root, file, search);
+  return parse_root(load_yaml_text(text, file), file, search);
 }
 
 FleetConfig parse_fleet_fragment(const std::string& text, const std::string& file, const ProfileSearch& search,
                                  const FleetConfig& running) {
-  YAML::Node given;
-  try {
-    given = YAML::Load(text);
-  } catch (const YAML::ParserException& e) {
-    throw ConfigError(file + ":" + std::to_string(e.mark.line + 1) + ":" + std::to_string(e.mark.column + 1) +
-                      ": YAML syntax error: " + e.msg);
-  }
+  const YAML::Node given = load_yaml_text(text, file);
   // The fragment's own nodes keep their marks, so errors point into `text`.
   YAML::Node root(YAML::NodeType::Map);
   if (given.IsMap() && given["nodes"]) {

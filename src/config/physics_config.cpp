@@ -547,14 +547,7 @@ PhysicsConfig parse_physics_config(const std::string& file, const YAML::Node& do
 
 std::vector<physics::TermSpec> parse_channel_model_text(const std::string& source, const std::string& channel_name,
                                                         const std::string& text, physics::Channel channel) {
-  YAML::Node model;
-  try {
-    model = YAML::Load(text);
-  } catch (const YAML::ParserException& ex) {
-    throw ConfigError(source + ":" + std::to_string(ex.mark.line + 1) + ":" + std::to_string(ex.mark.column + 1) +
-                      ": YAML syntax error: " + ex.msg);
-  }
-  return parse_channel_model(Where{source, channel_name}, model, channel);
+  return parse_channel_model(Where{source, channel_name}, load_yaml_text(text, source), channel);
 }
 
 physics::FaultSpec parse_fault_text(const std::string& source, const std::string& kind,

@@ -310,13 +310,7 @@ void parse_personality(Profile& p, const YAML::Node& root, const YAML::Node& ven
 }
 
 Profile parse_profile(const std::string& text, const std::string& file, bool strict) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(text);
-  } catch (const YAML::ParserException& e) {
-    throw ConfigError(file + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg);
-  }
-  return parse_profile(root, file, strict);
+  return parse_profile(load_yaml_text(text, file), file, strict);
 }
 
 Profile load_profile(const std::string& path, bool strict) { return parse_profile(load_yaml_file(path), path, strict); }

@@ -20,17 +20,26 @@ void fail(const Where& w, const YAML::Node& n, const std::string& expected) {
   throw ConfigError(os.str());
 }
 
-YAML::Node load_yaml_file(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw ConfigError(path + ": cannot open file: " + std::strerror(errno));
+namespace {
+template <typename Source>
+YAML::Node load_yaml(Source& source, const std::string& file) {
   try {
-    return YAML::Load(in);
+    return YAML::Load(source);
   } catch (const YAML::ParserException& e) {
     std::ostringstream os;
-    os << path << ":" << e.mark.line + 1 << ":" << e.mark.column + 1 << ": YAML syntax error: " << e.msg;
+    os << file << ":" << e.mark.line + 1 << ":" << e.mark.column + 1 << ": YAML syntax error: " << e.msg;
     throw ConfigError(os.str());
   }
 }
+}  // namespace
+
+YAML::Node load_yaml_file(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw ConfigError(path + ": cannot open file: " + std::strerror(errno));
+  return load_yaml(in, path);
+}
+
+YAML::Node load_yaml_text(const std::string& text, const std::string& file) { return load_yaml(text, file); }
 
 bool parse_int_literal(const std::string& raw, std::int64_t& out) {
   std::string text;

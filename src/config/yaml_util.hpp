@@ -26,6 +26,8 @@ struct Where {
 [[noreturn]] void fail(const Where& w, const YAML::Node& n, const std::string& expected);
 
 YAML::Node load_yaml_file(const std::string& path);
+// `text` read as a YAML document; a syntax error names `file`, line and column.
+YAML::Node load_yaml_text(const std::string& text, const std::string& file);
 
 // Scalars. Integers accept decimal, 0x hex, 0b binary and '_' separators.
 std::int64_t get_int(const Where& w, const YAML::Node& n, std::int64_t lo, std::int64_t hi);

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "config/fleet.hpp"
+#include "config/profile.hpp"
 #include "daemon/daemon.hpp"
 #include "personalities/cia404.hpp"
 
@@ -312,3 +313,19 @@ TEST_F(FleetTest, ANodeRecordsItsReadingsAndCheckDoesNotTouchTheFile) {
 
 }  // namespace
 }  // namespace cansim::config
+
+// Profile text and fleet fragments report YAML syntax errors as fleet files do.
+TEST(YamlText, SyntaxErrorsNameFileLineAndColumn) {
+  const auto error_of = [](auto parse) -> std::string {
+    try {
+      parse();
+    } catch (const cansim::config::ConfigError& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  EXPECT_EQ(error_of([] { cansim::config::parse_profile("objects: [\n", "p.yaml"); }),
+            "p.yaml:2:1: YAML syntax error: end of sequence flow not found");
+  EXPECT_EQ(error_of([] { cansim::config::parse_fleet_fragment("nodes: [\n", "frag.yaml", {}, {}); }),
+            "frag.yaml:2:1: YAML syntax error: end of sequence flow not found");
+}
