@@ -1,5 +1,7 @@
 #include "daemon/cli.hpp"
 
+#include <algorithm>
+
 #include "config/yaml_util.hpp"
 
 namespace cansim::daemon {
@@ -77,21 +79,14 @@ CliResult parse_cli(const std::vector<std::string>& args, const char* state_dire
       if (has_inline) r.error = "option " + arg + " takes no value";
       return !has_inline;
     };
-    if (arg == "--help" || arg == "-h") {
+    // Flags: options without a value.
+    const std::pair<const char*, bool*> flags[] = {{"--help", &o.help},     {"-h", &o.help},
+                                                   {"--version", &o.version}, {"--check", &o.check},
+                                                   {"--strict", &o.strict}, {"--quirks", &o.quirks}};
+    const auto flag = std::find_if(std::begin(flags), std::end(flags), [&](const auto& f) { return arg == f.first; });
+    if (flag != std::end(flags)) {
       if (!no_value()) return r;
-      o.help = true;
-    } else if (arg == "--version") {
-      if (!no_value()) return r;
-      o.version = true;
-    } else if (arg == "--check") {
-      if (!no_value()) return r;
-      o.check = true;
-    } else if (arg == "--strict") {
-      if (!no_value()) return r;
-      o.strict = true;
-    } else if (arg == "--quirks") {
-      if (!no_value()) return r;
-      o.quirks = true;
+      *flag->second = true;
     } else if (arg == "--profile") {
       if (!need_value()) return r;
       o.profile = value;
