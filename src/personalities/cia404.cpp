@@ -534,7 +534,12 @@ TimeUs Cia404Application::check_events_due(Node& node, TimeUs now) {
     check_events(node, ch, now);
     period = std::min(period, check_period(ch));
   }
-  return period == kNever ? kNever : now + period;
+  if (period == kNever) return kNever;
+  // The checks run on the device's own measurement grid, from its reset: a
+  // wake-up between two grid points (a control call, an NMT command) checks
+  // at once but does not move the grid.
+  if (next_check_ <= now) next_check_ += ((now - next_check_) / period + 1) * period;
+  return next_check_;
 }
 
 // A channel that joins the event set starts with fresh references.

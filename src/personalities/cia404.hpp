@@ -254,7 +254,7 @@ class Cia404Application : public Application {
   std::uint32_t event_channels_ = 0;  // bit per channel mapped into an event TPDO
   std::uint32_t change_channels_ = 0;  // subset mapped into a change-event TPDO
   bool rescan_ = true;  // the event channels follow the TPDO configuration
-  TimeUs next_check_ = 0;
+  TimeUs next_check_ = 0;  // the next point of the event-check grid (anchored at reset)
   TimeUs next_supervision_ = 0;
 };
 

@@ -25,6 +25,10 @@ class Events : public ChainFixture {
       if (t >= at) v = bar;
     return v * 1e5;
   }
+  // The event checks run every 10 ms on the device's own grid, from its
+  // power-on at t = 0: the first check at or after t. Writes and NMT
+  // commands between two checks do not move the grid.
+  static TimeUs check_at(TimeUs t) { return (t + ms(10) - 1) / ms(10) * ms(10); }
   static CanFrame pdo(float bar, std::uint8_t status) {
     std::uint8_t b[4];
     encode_f(DataType::kReal32, bar, b);
@@ -40,13 +44,14 @@ TEST_F(Events, NoEventsWhileTheValueIsSteady) {
 TEST_F(Events, DeltaRaisesTpdoAtTheCheckAfterTheChange) {
   ASSERT_EQ(wf(0x6133, 1, 0.5f), SdoAbort::kNone);
   const TimeUs t0 = now();
+  ASSERT_NE(t0 % ms(10), 0);  // the write woke the chain between two checks
   steps = {{0, 5.0}, {t0 + ms(20), 5.4}, {t0 + ms(40), 5.6}, {t0 + ms(60), 6.0}, {t0 + ms(80), 6.2}};
   bus.run_for(ms(100));
   auto sent = bus.take();
   ASSERT_EQ(sent.size(), 2u) << to_string(sent);
-  EXPECT_EQ(sent[0].time, t0 + ms(40));  // |5.6 - 5.0| > 0.5
+  EXPECT_EQ(sent[0].time, check_at(t0 + ms(40)));  // |5.6 - 5.0| > 0.5
   EXPECT_EQ(sent[0].frame, pdo(5.6f, 0));
-  EXPECT_EQ(sent[1].time, t0 + ms(80));  // |6.2 - 5.6| > 0.5 (6.0 is not)
+  EXPECT_EQ(sent[1].time, check_at(t0 + ms(80)));  // |6.2 - 5.6| > 0.5 (6.0 is not)
   EXPECT_EQ(sent[1].frame, pdo(6.2f, 0));
 }
 
@@ -65,7 +70,7 @@ TEST_F(Events, EventChannelsFollowTheTpdoTypeAtOnce) {
   bus.run_for(ms(15));
   auto sent = bus.take();
   ASSERT_EQ(sent.size(), 1u) << to_string(sent);
-  EXPECT_EQ(sent[0].time, t0 + ms(10));  // the first 10 ms event check after the step
+  EXPECT_EQ(sent[0].time, check_at(t0 + ms(1)));  // the first event check after the step
   EXPECT_EQ(sent[0].frame, pdo(7.0f, 0));
 }
 
@@ -78,9 +83,9 @@ TEST_F(Events, UpperLimitFiresOncePerCrossingWithHysteresis) {
   bus.run_for(ms(60));
   auto sent = bus.take();
   ASSERT_EQ(sent.size(), 2u) << to_string(sent);
-  EXPECT_EQ(sent[0].time, t0 + ms(10));
+  EXPECT_EQ(sent[0].time, check_at(t0 + ms(10)));
   EXPECT_EQ(sent[0].frame, pdo(7.5f, 0));
-  EXPECT_EQ(sent[1].time, t0 + ms(50));  // re-armed only below 7.0 - 0.5
+  EXPECT_EQ(sent[1].time, check_at(t0 + ms(50)));  // re-armed only below 7.0 - 0.5
   EXPECT_EQ(sent[1].frame, pdo(7.2f, 0));
 }
 
@@ -91,7 +96,7 @@ TEST_F(Events, LowerLimitAndSpanStatusInThePdo) {
   bus.run_for(ms(20));
   auto sent = bus.take();
   ASSERT_EQ(sent.size(), 1u) << to_string(sent);
-  EXPECT_EQ(sent[0].time, t0 + ms(10));  // the first 10 ms event check after the step at 7 ms
+  EXPECT_EQ(sent[0].time, check_at(t0 + ms(7)));  // the first event check after the step
   EXPECT_EQ(sent[0].frame, pdo(-0.5f, 0x04));  // negative overload below span start 0
 }
 
