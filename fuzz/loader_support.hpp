@@ -110,11 +110,7 @@ inline void run_profile_node(const std::shared_ptr<config::Profile>& profile) {
   auto app = daemon::make_node_application(n, 1);
   CheckingSink sink;
   MemoryStorage storage;
-  NodeSetup setup;
-  setup.layout = profile->layout;
-  setup.options = profile->options;
-  setup.node_id = n.node_id;
-  setup.bit_rate_index = std::uint8_t(config::bit_rate_index(n.bit_rate_kbit));
+  const NodeSetup setup = daemon::node_setup(n);
   Node node(setup, sink, app.get(), &storage);
   node.set_bus_bit_rate(setup.bit_rate_index);
   run_node(node, ms(200));

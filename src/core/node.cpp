@@ -272,6 +272,11 @@ void Node::nmt_state_changed(NmtState old, TimeUs now) {
   if (app_) app_->on_nmt_state(*this, state(), now);
 }
 
+void Node::apply_serial_number() {
+  if (!setup_.serial_number) return;
+  if (const OdEntry* e = od().find(0x1018, 4)) values_.set_u(*e, *setup_.serial_number);
+}
+
 void Node::reset_values(ResetKind kind) {
   if (kind == ResetKind::kCommunication) {
     values_.reset(default_node_id(), 0x1000, 0x1FFF);

@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -31,6 +32,9 @@ struct NodeSetup {
   std::shared_ptr<const NodeOptions> options;        // shared by all nodes of a profile
   std::uint8_t node_id = 1;                          // 1..127, 0xFF = LSS-unconfigured
   std::uint8_t bit_rate_index = 3;                   // CiA 305 table index (3 = 250 kbit/s)
+  // 0x1018:04 after every reset, over the profile's default and what the
+  // application set (a fleet entry's `serial:`).
+  std::optional<std::uint32_t> serial_number;
 };
 
 // Services gated by NMT state (CiA 301 Table 82).
@@ -165,6 +169,7 @@ class Node {
   // `void prepare_reset(ResetKind, TimeUs)` run it (LSS: apply a pending node-ID).
   void prepare_reset(ResetKind kind, TimeUs now);
   void reset_values(ResetKind kind);    // defaults, then stored values
+  void apply_serial_number();           // NodeSetup::serial_number, after the application's on_reset
   // The entry of a node_id_object / bit_rate_object option (null when 0 / absent).
   const OdEntry* config_object(std::int64_t index) const;
   void reset_services(TimeUs now);      // services re-read their OD configuration

@@ -48,33 +48,15 @@ config::ProfileSearch profile_search(const std::string& config_file) {
   return config::default_search(config_file, CANSIM_PROFILE_DIR);
 }
 
-void SerialOverlay::apply(Node& node) {
-  if (const OdEntry* e = node.od().find(0x1018, 4)) node.values().set_u(*e, serial_);
+NodeSetup node_setup(const config::NodeConfig& node) {
+  NodeSetup setup;
+  setup.layout = node.profile->layout;
+  setup.options = node.profile->options;
+  setup.node_id = node.node_id;
+  setup.bit_rate_index = rate_index(node.bit_rate_kbit);
+  setup.serial_number = node.serial;
+  return setup;
 }
-void SerialOverlay::on_reset(Node& n, ResetKind k, TimeUs t) {
-  if (inner_) inner_->on_reset(n, k, t);
-  apply(n);
-}
-void SerialOverlay::on_nmt_state(Node& n, NmtState s, TimeUs t) {
-  if (inner_) inner_->on_nmt_state(n, s, t);
-}
-void SerialOverlay::refresh(Node& n, const OdEntry& e, TimeUs t) {
-  if (inner_) inner_->refresh(n, e, t);
-}
-SdoAbort SerialOverlay::check_write(Node& n, const OdEntry& e, std::span<const std::uint8_t> d, TimeUs t) {
-  return inner_ ? inner_->check_write(n, e, d, t) : SdoAbort::kNone;
-}
-void SerialOverlay::after_write(Node& n, const OdEntry& e, TimeUs t) {
-  if (inner_) inner_->after_write(n, e, t);
-}
-void SerialOverlay::on_sync(Node& n, std::uint8_t c, TimeUs t) {
-  if (inner_) inner_->on_sync(n, c, t);
-}
-void SerialOverlay::on_pdo_config(Node& n, TimeUs t) {
-  if (inner_) inner_->on_pdo_config(n, t);
-}
-TimeUs SerialOverlay::process(Node& n, TimeUs t) { return inner_ ? inner_->process(n, t) : kNever; }
-TimeUs SerialOverlay::environment(Node& n, TimeUs t) { return inner_ ? inner_->environment(n, t) : kNever; }
 
 std::unique_ptr<Application> make_node_application(const config::NodeConfig& node, std::uint64_t seed) {
   personalities::NodeContext ctx;
@@ -86,9 +68,7 @@ std::unique_ptr<Application> make_node_application(const config::NodeConfig& nod
     std::error_code ec;  // a failure shows when the file is opened
     std::filesystem::create_directories(std::filesystem::path(ctx.record_file).parent_path(), ec);
   }
-  auto app = personalities::make_application(*node.profile, ctx);
-  if (!node.serial) return app;
-  return std::make_unique<SerialOverlay>(std::move(app), *node.serial);
+  return personalities::make_application(*node.profile, ctx);
 }
 
 std::uint32_t effective_bit_rate(const config::InterfaceConfig& ic) { return resolve_bit_rate(ic); }
@@ -408,11 +388,7 @@ void Daemon::apply(config::FleetConfig cfg, TimeUs now) {
     Interface* iface = nullptr;
     for (auto& i : interfaces_)
       if (i->can.name() == n.interface) iface = i.get();
-    NodeSetup setup;
-    setup.layout = n.profile->layout;
-    setup.options = n.profile->options;
-    setup.node_id = n.node_id;
-    setup.bit_rate_index = rate_index(n.bit_rate_kbit);
+    const NodeSetup setup = node_setup(n);
     auto storage = std::make_unique<FileStorage>(settings_.state_dir, n.key);
     NodeEntry e;
     e.cfg = n;
@@ -428,7 +404,6 @@ void Daemon::apply(config::FleetConfig cfg, TimeUs now) {
     e.handle.interface = n.interface;
     e.handle.ref = e.ref;
     e.handle.app = core_.app(e.ref);
-    if (auto* overlay = dynamic_cast<SerialOverlay*>(e.handle.app)) e.handle.app = overlay->inner();
     fresh.push_back(e.ref);
     NodeEntry& stored = nodes_[n.key] = std::move(e);
     {
@@ -450,10 +425,7 @@ void Daemon::apply(config::FleetConfig cfg, TimeUs now) {
   now = clock_now();
   for (auto& i : interfaces_)
     if (i->configured && !i->can.is_open() && i->retry_at <= now) try_open(*i, now);
-  for (io::NodeRef ref : fresh) {
-    core_.power_on(ref, now);
-    if (auto* overlay = dynamic_cast<SerialOverlay*>(core_.app(ref))) overlay->apply(core_.node(ref));
-  }
+  for (io::NodeRef ref : fresh) core_.power_on(ref, now);
   spdlog::info("fleet: {} node(s) on {} interface(s); {} started, {} restarted, {} removed", nodes_.size(),
                cfg.interfaces.size(), fresh.size() - changed, changed, removed);
   for (const BitRateMismatch& m : mismatched) {

@@ -59,26 +59,9 @@ std::uint32_t effective_bit_rate(const config::InterfaceConfig& ic);
 // rate than their bus (describe()).
 std::string check_fleet(config::FleetConfig& fleet, std::vector<std::string>* warnings = nullptr);
 
-// Sets 0x1018:04 after every reset, then lets the personality run.
-class SerialOverlay : public Application {
- public:
-  SerialOverlay(std::unique_ptr<Application> inner, std::uint32_t serial) : inner_(std::move(inner)), serial_(serial) {}
-  void apply(Node& node);
-  void on_reset(Node& n, ResetKind k, TimeUs t) override;
-  void on_nmt_state(Node& n, NmtState s, TimeUs t) override;
-  void refresh(Node& n, const OdEntry& e, TimeUs t) override;
-  SdoAbort check_write(Node& n, const OdEntry& e, std::span<const std::uint8_t> d, TimeUs t) override;
-  void after_write(Node& n, const OdEntry& e, TimeUs t) override;
-  void on_sync(Node& n, std::uint8_t c, TimeUs t) override;
-  void on_pdo_config(Node& n, TimeUs t) override;
-  TimeUs process(Node& n, TimeUs t) override;
-  TimeUs environment(Node& n, TimeUs t) override;
-  Application* inner() { return inner_.get(); }
-
- private:
-  std::unique_ptr<Application> inner_;
-  std::uint32_t serial_;
-};
+// How the core builds the node of a fleet entry: its profile's layout and
+// options, node-ID, bit rate and `serial:`.
+NodeSetup node_setup(const config::NodeConfig& node);
 
 struct DaemonSettings {
   std::string state_dir = "state";

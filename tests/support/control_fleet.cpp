@@ -47,11 +47,7 @@ ControlFleet::Bus& ControlFleet::bus(const std::string& name) {
 void ControlFleet::add(const config::FleetConfig& cfg) {
   std::vector<io::NodeRef> fresh;
   for (const config::NodeConfig& n : cfg.nodes) {
-    NodeSetup setup;
-    setup.layout = n.profile->layout;
-    setup.options = n.profile->options;
-    setup.node_id = n.node_id;
-    setup.bit_rate_index = std::uint8_t(config::bit_rate_index(n.bit_rate_kbit));
+    const NodeSetup setup = daemon::node_setup(n);
     auto e = std::make_unique<Entry>();
     e->cfg = n;
     e->handle.key = n.key;
@@ -63,15 +59,11 @@ void ControlFleet::add(const config::FleetConfig& cfg) {
     e->handle.ref = core_.add_node(bus(n.interface).id, setup, daemon::make_node_application(n, cfg.seed),
                                    std::make_unique<MemoryStorage>());
     e->handle.app = core_.app(e->handle.ref);
-    if (auto* overlay = dynamic_cast<daemon::SerialOverlay*>(e->handle.app)) e->handle.app = overlay->inner();
     fresh.push_back(e->handle.ref);
     Entry& stored = *(entries_[n.key] = std::move(e));
     service_.node_added(stored.handle);
   }
-  for (io::NodeRef ref : fresh) {
-    core_.power_on(ref, now_);
-    if (auto* overlay = dynamic_cast<daemon::SerialOverlay*>(core_.app(ref))) overlay->apply(core_.node(ref));
-  }
+  for (io::NodeRef ref : fresh) core_.power_on(ref, now_);
 }
 
 std::vector<const control::NodeHandle*> ControlFleet::nodes() const {

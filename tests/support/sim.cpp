@@ -5,8 +5,9 @@
 
 namespace cansim::test {
 
-SimNode::SimNode(SimBus& bus, const config::Profile& profile, std::uint8_t node_id, Application* app)
-    : bus_(bus), profile_(profile), app_(app) {
+SimNode::SimNode(SimBus& bus, const config::Profile& profile, std::uint8_t node_id, Application* app,
+                 std::optional<std::uint32_t> serial_number)
+    : bus_(bus), profile_(profile), app_(app), serial_number_(serial_number) {
   replace(node_id);
 }
 
@@ -16,13 +17,15 @@ void SimNode::replace(std::uint8_t node_id) {
   setup.options = profile_.options;
   setup.node_id = node_id;
   setup.bit_rate_index = std::uint8_t(config::bit_rate_index(profile_.bit_rate_kbit));
+  setup.serial_number = serial_number_;
   node_ = std::make_unique<Node>(setup, *this, app_, &storage);
 }
 
 void SimNode::send(const CanFrame& frame) { bus_.deliver(this, frame); }
 
-SimNode& SimBus::add(const config::Profile& profile, std::uint8_t node_id, Application* app) {
-  nodes_.push_back(std::make_unique<SimNode>(*this, profile, node_id, app));
+SimNode& SimBus::add(const config::Profile& profile, std::uint8_t node_id, Application* app,
+                     std::optional<std::uint32_t> serial_number) {
+  nodes_.push_back(std::make_unique<SimNode>(*this, profile, node_id, app, serial_number));
   return *nodes_.back();
 }
 

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <deque>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -41,7 +42,8 @@ class SimBus;
 // One node with its sink, storage and (optional) application.
 class SimNode : public FrameSink {
  public:
-  SimNode(SimBus& bus, const config::Profile& profile, std::uint8_t node_id, Application* app = nullptr);
+  SimNode(SimBus& bus, const config::Profile& profile, std::uint8_t node_id, Application* app = nullptr,
+          std::optional<std::uint32_t> serial_number = std::nullopt);
   void send(const CanFrame& frame) override;
   Node& node() { return *node_; }
   Node* operator->() { return node_.get(); }
@@ -53,6 +55,7 @@ class SimNode : public FrameSink {
   SimBus& bus_;
   const config::Profile& profile_;
   Application* app_;
+  std::optional<std::uint32_t> serial_number_;
   std::unique_ptr<Node> node_;
 };
 
@@ -60,7 +63,9 @@ class SimBus {
  public:
   SimBus() = default;
   // Adds a node built from a profile; the bus keeps the profile alive.
-  SimNode& add(const config::Profile& profile, std::uint8_t node_id, Application* app = nullptr);
+  // serial_number: NodeSetup::serial_number (a fleet entry's `serial:`).
+  SimNode& add(const config::Profile& profile, std::uint8_t node_id, Application* app = nullptr,
+               std::optional<std::uint32_t> serial_number = std::nullopt);
 
   TimeUs now() const { return now_; }
   // Frames a test tool (the "master") puts on the bus: delivered to every node.

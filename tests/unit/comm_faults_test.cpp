@@ -20,8 +20,7 @@ namespace {
 // One node of profiles/<name>.yaml with its real application and the given faults.
 class FaultNode {
  public:
-  // serial: build the application as the daemon does for a node with `serial:`
-  // (the serial-number overlay around the personality).
+  // serial: the node of a fleet entry with `serial:` (NodeSetup::serial_number).
   FaultNode(const std::string& name, const std::string& faults, std::uint8_t node_id = 0,
             std::optional<std::uint32_t> serial = std::nullopt) {
     const std::string path = std::string(CANSIM_SOURCE_DIR) + "/profiles/" + name + ".yaml";
@@ -30,17 +29,9 @@ class FaultNode {
     profile = config::parse_profile(root, path);
     personalities::NodeContext ctx;
     ctx.key = "vcan0/" + name;
-    if (serial) {
-      config::NodeConfig nc;
-      nc.key = ctx.key;
-      nc.serial = serial;
-      nc.profile = std::make_shared<config::Profile>(profile);
-      app = daemon::make_node_application(nc, 1);
-    } else {
-      app = personalities::make_application(profile, ctx);
-    }
+    app = personalities::make_application(profile, ctx);
     id = node_id ? node_id : profile.node_id;
-    node = &bus.add(profile, id, app.get());
+    node = &bus.add(profile, id, app.get(), serial);
     bus.power_on_all();
   }
 
@@ -83,13 +74,19 @@ TEST(CommFaults, SilentNodeSendsNothingButStillHears) {
   EXPECT_FALSE(n.sent(ms(5500), ms(6000), kTpdo1).empty());
 }
 
-TEST(CommFaults, DaemonSerialOverlayPassesFaultsThrough) {
+TEST(CommFaults, AFleetSerialNumberKeepsFaultsAndOutlivesResets) {
   FaultNode n("generic-404", "[{kind: silent, at: 0.5 s, duration: 1 s}]", 0, 4711);
   n.bus.run_until(ms(3100));
   EXPECT_EQ(n.times(0, ms(3100), kHb), (std::vector<TimeUs>{0, ms(2000), ms(3000)}));
   std::span<const std::uint8_t> out;
   ASSERT_EQ(n.node->node().read(0x1018, 4, ms(3100), out), SdoAbort::kNone);
   EXPECT_EQ(decode_u(DataType::kUnsigned32, out.data()), 4711u);
+  for (std::uint8_t reset : {0x82, 0x81}) {  // reset communication, reset node: 0x1018 back to its defaults
+    n.nmt(reset);
+    n.bus.run_for(ms(10));
+    ASSERT_EQ(n.node->node().read(0x1018, 4, n.bus.now(), out), SdoAbort::kNone);
+    EXPECT_EQ(decode_u(DataType::kUnsigned32, out.data()), 4711u) << "after NMT 0x" << std::hex << int(reset);
+  }
 }
 
 TEST(CommFaults, PowerCycleBootsAgainWithStoredValuesAndLosesVolatileOnes) {
