@@ -39,11 +39,7 @@ struct Fleet {
   Fleet(config::Profile& profile, int count, bool with_app = true) {
     for (int i = 0; i < count; ++i) {
       if (i % 127 == 0) buses.push_back(core.add_bus("null" + std::to_string(i / 127), tx, 3));
-      NodeSetup s;
-      s.layout = profile.layout;
-      s.options = profile.options;
-      s.node_id = std::uint8_t(1 + i % 127);
-      s.bit_rate_index = 3;
+      NodeSetup s = config::node_setup(profile, std::uint8_t(1 + i % 127));
       personalities::NodeContext ctx;
       ctx.index = std::uint32_t(i);
       ctx.key = "null/bench/" + std::to_string(i);

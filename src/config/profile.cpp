@@ -128,6 +128,19 @@ int bit_rate_index(std::uint32_t kbit) {
   return -1;
 }
 std::uint32_t bit_rate_kbit(int index) { return index >= 0 && index < 9 ? kBitRates[index] : 0; }
+std::uint8_t bit_rate_selector(std::uint32_t kbit) {
+  const int i = bit_rate_index(kbit);
+  return i < 0 ? 0xFF : std::uint8_t(i);
+}
+
+NodeSetup node_setup(const Profile& profile, std::optional<std::uint8_t> node_id) {
+  NodeSetup setup;
+  setup.layout = profile.layout;
+  setup.options = profile.options;
+  setup.node_id = node_id.value_or(profile.node_id);
+  setup.bit_rate_index = bit_rate_selector(profile.bit_rate_kbit);
+  return setup;
+}
 
 void parse_objects(const Where& w, const YAML::Node& list, OdLayout& out) {
   if (!list.IsSequence()) fail(w, list, "expected a list of object dictionary entries");

@@ -6,12 +6,15 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "config/yaml_util.hpp"
+#include "core/node.hpp"
 #include "core/node_options.hpp"
 #include "core/od.hpp"
 #include "model/profile.hpp"
@@ -43,5 +46,11 @@ void parse_options(const Where& w, const YAML::Node& map, NodeOptions& out);
 // CiA 305 bit-timing table (selector 0): kbit/s <-> index. -1 when not in the table.
 int bit_rate_index(std::uint32_t kbit);
 std::uint32_t bit_rate_kbit(int index);
+// The index as a node holds it: 0xFF for a rate outside the table.
+std::uint8_t bit_rate_selector(std::uint32_t kbit);
+
+// What the core needs to build a node of `profile`: its layout, options and
+// bit rate, and its node-ID unless `node_id` says another.
+NodeSetup node_setup(const Profile& profile, std::optional<std::uint8_t> node_id = std::nullopt);
 
 }  // namespace cansim::config

@@ -28,11 +28,6 @@ constexpr TimeUs kStatusPeriod = 5'000'000;     // STATUS= and drop reports
 constexpr TimeUs kDownReminder = 30'000'000;    // repeat "still down" warnings
 constexpr int kReadBatchesPerWake = 16;         // fairness between interfaces
 
-std::uint8_t rate_index(std::uint32_t kbit) {
-  int i = config::bit_rate_index(kbit);
-  return i < 0 ? 0xFF : std::uint8_t(i);
-}
-
 // The configured rate, else the kernel's (real CAN), else 250 kbit/s.
 std::uint32_t resolve_bit_rate(const config::InterfaceConfig& ic, bool* from_kernel = nullptr) {
   if (ic.bit_rate_kbit) return ic.bit_rate_kbit;
@@ -49,11 +44,8 @@ config::ProfileSearch profile_search(const std::string& config_file) {
 }
 
 NodeSetup node_setup(const config::NodeConfig& node) {
-  NodeSetup setup;
-  setup.layout = node.profile->layout;
-  setup.options = node.profile->options;
-  setup.node_id = node.node_id;
-  setup.bit_rate_index = rate_index(node.bit_rate_kbit);
+  NodeSetup setup = config::node_setup(*node.profile, node.node_id);
+  setup.bit_rate_index = config::bit_rate_selector(node.bit_rate_kbit);
   setup.serial_number = node.serial;
   return setup;
 }
@@ -96,7 +88,8 @@ std::vector<BitRateMismatch> bit_rate_mismatches(const config::FleetConfig& flee
   for (const auto& ic : fleet.interfaces) rates[ic.name] = bus_kbit(ic);
   for (const auto& n : fleet.nodes) {
     auto rate = rates.find(n.interface);
-    if (rate != rates.end() && rate_index(n.bit_rate_kbit) != rate_index(rate->second))
+    if (rate != rates.end() && config::bit_rate_selector(n.bit_rate_kbit) !=
+                                     config::bit_rate_selector(rate->second))
       add_mismatch(out, n, rate->second);
   }
   return out;
@@ -172,7 +165,7 @@ Daemon::Interface& Daemon::ensure_interface(const config::InterfaceConfig& ic) {
   if (config::bit_rate_index(kbit) < 0)
     spdlog::warn("{}: {} kbit/s is not in the CiA 305 table: every node will stay silent", ic.name, kbit);
   iface->bit_rate_kbit = kbit;
-  core_.set_bus_bit_rate(iface->bus, rate_index(kbit));
+  core_.set_bus_bit_rate(iface->bus, config::bit_rate_selector(kbit));
   iface->configured = true;
   return *iface;
 }
@@ -351,7 +344,7 @@ void Daemon::remove_node(NodeEntry& e) {
 
 void Daemon::apply(config::FleetConfig cfg, TimeUs now) {
   const std::uint64_t seed = settings_.seed.value_or(cfg.seed);
-  auto bus_rate = [&](const std::string& iface) { return rate_index(resolve_bit_rate(*cfg.interface(iface))); };
+  auto bus_rate = [&](const std::string& iface) { return config::bit_rate_selector(resolve_bit_rate(*cfg.interface(iface))); };
   // Phase 1 (may throw): decide what changes and build the new applications,
   // so an invalid reload leaves the running fleet untouched.
   std::vector<Pending> to_add;
@@ -393,7 +386,7 @@ void Daemon::apply(config::FleetConfig cfg, TimeUs now) {
     NodeEntry e;
     e.cfg = n;
     e.seed = seed;
-    e.bus_rate = rate_index(iface->bit_rate_kbit);
+    e.bus_rate = config::bit_rate_selector(iface->bit_rate_kbit);
     e.ref = core_.add_node(iface->bus, setup, std::move(p.app), std::move(storage));
     if (setup.bit_rate_index != e.bus_rate) add_mismatch(mismatched, n, iface->bit_rate_kbit);
     e.handle.key = n.key;

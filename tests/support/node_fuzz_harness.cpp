@@ -64,12 +64,7 @@ NodeFuzzHarness::NodeFuzzHarness(const config::Profile& profile)
       cia404_(personalities::as_cia404(app_.get())) {
   sink_.clock = &now_;
   sink_.recording = &recording_;
-  NodeSetup setup;
-  setup.layout = profile.layout;
-  setup.options = profile.options;
-  setup.node_id = profile.node_id;
-  setup.bit_rate_index = std::uint8_t(config::bit_rate_index(profile.bit_rate_kbit));
-  node_.emplace(setup, sink_, app_.get(), &storage_);
+  node_.emplace(config::node_setup(profile), sink_, app_.get(), &storage_);
   node_->power_on(0);
   node_at_power_on_.emplace(node_->snapshot());
   storage_at_power_on_ = storage_.blob;

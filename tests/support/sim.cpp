@@ -12,11 +12,7 @@ SimNode::SimNode(SimBus& bus, const config::Profile& profile, std::uint8_t node_
 }
 
 void SimNode::replace(std::uint8_t node_id) {
-  NodeSetup setup;
-  setup.layout = profile_.layout;
-  setup.options = profile_.options;
-  setup.node_id = node_id;
-  setup.bit_rate_index = std::uint8_t(config::bit_rate_index(profile_.bit_rate_kbit));
+  NodeSetup setup = config::node_setup(profile_, node_id);
   setup.serial_number = serial_number_;
   node_ = std::make_unique<Node>(setup, *this, app_, &storage);
 }

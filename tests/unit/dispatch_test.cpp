@@ -60,12 +60,7 @@ class DispatchLoopTest : public ::testing::Test {
     bus = core.add_bus("vcan0", tx, 3);
   }
   NodeRef add(std::uint8_t id) {
-    NodeSetup s;
-    s.layout = profile.layout;
-    s.options = profile.options;
-    s.node_id = id;
-    s.bit_rate_index = 3;
-    NodeRef r = core.add_node(bus, s);
+    NodeRef r = core.add_node(bus, config::node_setup(profile, id));
     core.power_on(r, core.now());
     return r;
   }

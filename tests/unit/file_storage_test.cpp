@@ -103,11 +103,7 @@ TEST_F(FileStorageTest, FailedSaveKeepsTheOldFileAndCache) {
 TEST_F(FileStorageTest, StoredHeartbeatSurvivesARestart) {
   using test::F;
   auto profile = test::load_repo_profile("generic-404");
-  NodeSetup setup;
-  setup.layout = profile.layout;
-  setup.options = profile.options;
-  setup.node_id = 0x10;
-  setup.bit_rate_index = 3;
+  NodeSetup setup = config::node_setup(profile);
   {
     io::LoopCore core;
     io::MemoryTransport tx(&core.now());

@@ -65,12 +65,7 @@ class LoopTest : public ::testing::Test {
     bus = core.add_bus("vcan0", tx, 3);
   }
   NodeRef add(std::uint8_t id, std::unique_ptr<Application> app = nullptr) {
-    NodeSetup s;
-    s.layout = profile.layout;
-    s.options = profile.options;
-    s.node_id = id;
-    s.bit_rate_index = 3;
-    return core.add_node(bus, s, std::move(app));
+    return core.add_node(bus, config::node_setup(profile, id), std::move(app));
   }
   // Expedited SDO download of a u16 from the master.
   void write_u16(std::uint8_t id, std::uint16_t index, std::uint8_t sub, std::uint16_t v, TimeUs at) {
@@ -256,11 +251,7 @@ TEST_F(LoopTest, NodesOnAnotherBusDoNotHearIt) {
   MemoryTransport tx2(&core.now());
   BusId bus2 = core.add_bus("vcan1", tx2, 3);
   NodeRef a = add(1);
-  NodeSetup s;
-  s.layout = profile.layout;
-  s.options = profile.options;
-  s.node_id = 1;  // same node-ID, other bus: no collision
-  NodeRef b = core.add_node(bus2, s);
+  NodeRef b = core.add_node(bus2, config::node_setup(profile, 1));  // same node-ID, other bus: no collision
   core.power_on(a, 0);
   core.power_on(b, 0);
   core.receive(bus, F(0x000, {0x01, 0x00}), ms(1));

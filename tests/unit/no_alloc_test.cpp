@@ -201,13 +201,8 @@ void mixed_traffic(Driver& d) {
 
 void check_no_allocations(const config::Profile& profile, Application* app) {
   RingSink sink;
-  NodeSetup setup;
-  setup.layout = profile.layout;
-  setup.options = profile.options;
-  setup.node_id = 0x10;
-  setup.bit_rate_index = 3;
   test::MemoryStorage storage;
-  Node node(setup, sink, app, &storage);
+  Node node(config::node_setup(profile, 0x10), sink, app, &storage);
   Driver d(node, sink);
   node.power_on(0);
   d.run_until(ms(10));  // boot-up done: start-up allocations end here

@@ -410,12 +410,7 @@ class LoopObserverTest : public ::testing::Test {
     bus = core.add_bus("vcan0", tx, 3);
   }
   io::NodeRef add(std::uint8_t id) {
-    NodeSetup s;
-    s.layout = profile.layout;
-    s.options = profile.options;
-    s.node_id = id;
-    s.bit_rate_index = 3;
-    return core.add_node(bus, s);
+    return core.add_node(bus, config::node_setup(profile, id));
   }
   std::string on(io::NodeRef r, TimeUs t, const std::string& what) { return std::to_string(r) + " " + at(t, what); }
   std::string boot(io::NodeRef r, TimeUs t) {

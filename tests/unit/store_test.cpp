@@ -101,11 +101,7 @@ TEST_F(Store, NoStorageIsAHardwareError) {
     void send(const CanFrame&) override {}
   } null;
   sink = &null;
-  NodeSetup setup;
-  setup.layout = p.layout;
-  setup.options = p.options;
-  setup.node_id = 5;
-  Node node(setup, *sink);
+  Node node(config::node_setup(p, 5), *sink);
   node.power_on(0);
   std::uint8_t save[4] = {0x73, 0x61, 0x76, 0x65};
   EXPECT_EQ(node.write(0x1010, 1, save, 0), SdoAbort::kHardware);
