@@ -3,14 +3,15 @@
 #include <algorithm>
 #include <cstring>
 
+#include "core/cob_id.hpp"
 #include "core/node.hpp"
 
 namespace cansim {
 
 namespace {
-constexpr std::uint32_t kInvalid = 1u << 31;
+using cob::kFrame29Bit;
+using cob::kInvalid;
 constexpr std::uint32_t kReserved30 = 1u << 30;
-constexpr std::uint32_t kFrame29Bit = 1u << 29;
 constexpr std::uint16_t kErrorReset = 0x0000;
 constexpr std::uint8_t kGenericBit = 0x01;
 constexpr std::uint8_t kNoMfr[5] = {};
@@ -48,7 +49,7 @@ void Emcy::reset(TimeUs) {
 
 void Emcy::read_config() {
   const OdEntry* c = node_.od().find(0x1014, 0);
-  std::uint32_t v = c ? std::uint32_t(node_.values().get_u(*c)) : 0x80u + node_.node_id();
+  std::uint32_t v = c ? std::uint32_t(node_.values().get_u(*c)) : cob::kEmcyBase + node_.node_id();
   valid_ = !(v & kInvalid);
   extended_ = v & kFrame29Bit;
   can_id_ = v & (extended_ ? 0x1FFFFFFFu : 0x7FFu);

@@ -1,12 +1,11 @@
 #include "core/guarding.hpp"
 
+#include "core/cob_id.hpp"
 #include "core/node.hpp"
 
 namespace cansim {
 
-namespace {
-constexpr std::uint32_t kErrorControlBase = 0x700;
-}
+using cob::kErrorControlBase;
 
 void NodeGuarding::reset(TimeUs) {
   supported_ = node_.od().find(0x100C, 0) != nullptr;

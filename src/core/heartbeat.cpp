@@ -2,12 +2,13 @@
 
 #include <algorithm>
 
+#include "core/cob_id.hpp"
 #include "core/node.hpp"
 
 namespace cansim {
 
 namespace {
-constexpr std::uint32_t kErrorControlBase = 0x700;
+using cob::kErrorControlBase;
 constexpr std::uint8_t kBootUpState = 0x00;
 
 std::uint8_t producer_of(std::uint32_t v) { return std::uint8_t(v >> 16); }

@@ -16,6 +16,7 @@
 
 #include "core/application.hpp"
 #include "core/can_frame.hpp"
+#include "core/cob_id.hpp"
 #include "core/node_options.hpp"
 #include "core/node_service.hpp"
 #include "core/od.hpp"
@@ -27,8 +28,8 @@ class Node;
 
 class LssSlave : private NodeService {
  public:
-  static constexpr std::uint32_t kRequestId = 0x7E5;  // master -> slave
-  static constexpr std::uint32_t kReplyId = 0x7E4;    // slave -> master
+  static constexpr std::uint32_t kRequestId = cob::kLssFromMaster;
+  static constexpr std::uint32_t kReplyId = cob::kLssToMaster;
   static constexpr std::uint8_t kUnconfigured = 0xFF;
 
   enum class State : std::uint8_t { kWaiting = 0, kConfiguration = 1 };

@@ -1,5 +1,6 @@
 #include "core/nmt.hpp"
 
+#include "core/cob_id.hpp"
 #include "core/node.hpp"
 
 #include <algorithm>
@@ -7,8 +8,7 @@
 namespace cansim {
 
 namespace {
-constexpr std::uint32_t kNmtCobId = 0x000;
-constexpr std::uint32_t kErrorControlBase = 0x700;
+using cob::kErrorControlBase;
 constexpr std::uint8_t kUnconfigured = 0xFF;  // CiA 305 LSS node-ID
 }  // namespace
 
@@ -73,7 +73,7 @@ void NmtSlave::send_boot_up(TimeUs now) {
 // (it does not hear its own frame).
 void NmtSlave::send_start_all(TimeUs now) {
   start_all_at_ = kNever;
-  node_.send(CanFrame::make(kNmtCobId, {kNmtStart, 0x00}));
+  node_.send(CanFrame::make(cob::kNmt, {kNmtStart, 0x00}));
   command(kNmtStart, now);
 }
 
@@ -142,14 +142,14 @@ void NmtSlave::react(std::int64_t reaction, TimeUs now) {
 // Frames of any other length are ignored (CiA 301 §7.2.8.3.1); so is
 // everything while INITIALISING.
 bool NmtSlave::on_frame(const CanFrame& f, TimeUs now) {
-  if (f.id != kNmtCobId || f.rtr() || f.extended()) return false;
+  if (f.id != cob::kNmt || f.rtr() || f.extended()) return false;
   if (f.dlc != 2 || state_ == NmtState::kInitialising) return true;
   std::uint8_t target = f.data[1];
   if (target == 0 || target == node_.node_id()) command(f.data[0], now);
   return true;
 }
 
-void NmtSlave::collect_rx_ids(std::vector<std::uint32_t>& out) const { out.push_back(kNmtCobId); }
+void NmtSlave::collect_rx_ids(std::vector<std::uint32_t>& out) const { out.push_back(cob::kNmt); }
 
 bool NmtSlave::owns(std::uint16_t index) const { return index == 0x1F80 || index == 0x1029; }
 

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "core/can_frame.hpp"
+#include "core/cob_id.hpp"
 #include "core/node_options.hpp"
 #include "core/node_service.hpp"
 #include "core/od.hpp"
@@ -27,11 +28,10 @@ class Node;
 enum class NmtState : std::uint8_t;
 
 // COB-ID bits of 0x14xx:01 / 0x18xx:01 (CiA 301 Table 71 / 73).
-constexpr std::uint32_t kPdoCobInvalid = 0x80000000u;  // bit 31: PDO does not exist
-constexpr std::uint32_t kPdoCobNoRtr = 0x40000000u;    // bit 30: no RTR allowed (TPDO)
-constexpr std::uint32_t kPdoCobFrame = 0x20000000u;    // bit 29: 29-bit CAN-ID
-// Flag on collect_rx_ids() entries for 29-bit identifiers (as SocketCAN's CAN_EFF_FLAG).
-constexpr std::uint32_t kRxIdExtended = 0x80000000u;
+constexpr std::uint32_t kPdoCobInvalid = cob::kInvalid;     // bit 31: PDO does not exist
+constexpr std::uint32_t kPdoCobNoRtr = 1u << 30;              // bit 30: no RTR allowed (TPDO)
+constexpr std::uint32_t kPdoCobFrame = cob::kFrame29Bit;      // bit 29: 29-bit CAN-ID
+using cob::kRxIdExtended;
 
 // A PDO mapping entry as written to 0x16xx / 0x1Axx (CiA 301 §7.4.8.2):
 // index in bits 31-16, sub-index in bits 15-8, length in bits in bits 7-0.

@@ -28,8 +28,6 @@ constexpr std::uint8_t kBlockCrc = 0x04;    // cc / sc bit of a block initiate
 constexpr std::uint8_t kBlockSize = 0x02;   // s bit of a block initiate
 constexpr std::uint8_t kLastSeg = 0x80;     // c bit of a block segment
 constexpr std::uint8_t kMaxBlkSize = 127;   // CiA 301: 0 < blksize < 128
-constexpr std::uint32_t kCobInvalid = 0x80000000u;
-constexpr std::uint32_t kCobExtended = 0x20000000u;
 
 const char* skip_spaces(const char* p) {
   while (*p == ' ' || *p == ',' || *p == '\t') ++p;
@@ -116,13 +114,13 @@ void SdoServer::load_cob_ids() {
   std::uint8_t id = node_.node_id();
   valid_ = id >= 1 && id <= 127;
   if (!valid_) return;
-  std::uint32_t rx = 0x600u + id;
-  std::uint32_t tx = 0x580u + id;
+  std::uint32_t rx = cob::kSdoRxBase + id;
+  std::uint32_t tx = cob::kSdoTxBase + id;
   if (const OdEntry* e = node_.od().find(0x1200, 1)) rx = std::uint32_t(node_.values().get_u(*e));
   if (const OdEntry* e = node_.od().find(0x1200, 2)) tx = std::uint32_t(node_.values().get_u(*e));
-  valid_ = !(rx & kCobInvalid) && !(tx & kCobInvalid);
-  rx_ext_ = rx & kCobExtended;
-  tx_ext_ = tx & kCobExtended;
+  valid_ = !(rx & cob::kInvalid) && !(tx & cob::kInvalid);
+  rx_ext_ = rx & cob::kFrame29Bit;
+  tx_ext_ = tx & cob::kFrame29Bit;
   rx_id_ = rx & (rx_ext_ ? 0x1FFFFFFFu : 0x7FFu);
   tx_id_ = tx & (tx_ext_ ? 0x1FFFFFFFu : 0x7FFu);
 }
@@ -140,9 +138,9 @@ SdoAbort SdoServer::write(const OdEntry& e, std::span<const std::uint8_t> data, 
   if (e.sub == 1 || e.sub == 2) {
     std::uint32_t v = get_u32(data.data());
     std::uint32_t old = std::uint32_t(node_.values().get_u(e));
-    bool ext = v & kCobExtended;
+    bool ext = v & cob::kFrame29Bit;
     if (!ext && (v & 0x1FFFF800u)) return SdoAbort::kInvalidValue;
-    bool both_valid = !(v & kCobInvalid) && !(old & kCobInvalid);
+    bool both_valid = !(v & cob::kInvalid) && !(old & cob::kInvalid);
     if (both_valid && (v & 0x3FFFFFFFu) != (old & 0x3FFFFFFFu)) return SdoAbort::kInvalidValue;
     node_.values().set_bytes(e, data);
     reload_pending_ = true;  // applied after the confirmation went out

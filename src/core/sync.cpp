@@ -1,14 +1,14 @@
 #include "core/sync.hpp"
 
+#include "core/cob_id.hpp"
 #include "core/node.hpp"
 
 namespace cansim {
 
 namespace {
-constexpr std::uint32_t kFrame29Bit = 1u << 29;
+using cob::kFrame29Bit;
 constexpr std::uint32_t kGenerate = 1u << 30;
 constexpr std::uint16_t kEmcySyncLength = 0x8240;
-constexpr std::uint32_t kRxExtendedFlag = 0x80000000u;  // as CAN_EFF_FLAG in collect_rx_ids()
 
 // Validates the frame-format bits of a COB-ID (CiA 301 Table 50): with bit 29
 // clear, bits 11..28 must be 0.
@@ -58,7 +58,7 @@ bool SyncConsumer::on_frame(const CanFrame& f, TimeUs now) {
 void SyncConsumer::process(TimeUs) { next_ = kNever; }
 
 void SyncConsumer::collect_rx_ids(std::vector<std::uint32_t>& out) const {
-  if (present_) out.push_back(cob_id_ | (extended_ ? kRxExtendedFlag : 0));
+  if (present_) out.push_back(cob_id_ | (extended_ ? cob::kRxIdExtended : 0));
 }
 
 bool SyncConsumer::owns(std::uint16_t index) const {
