@@ -16,7 +16,6 @@ namespace cansim::control {
 namespace {
 
 using NodeContext = ControlService::NodeContext;
-NodeContext& ctx(void* userdata) { return *static_cast<NodeContext*>(userdata); }
 
 std::string abort_text(SdoAbort a) {
   char buf[16];
@@ -45,19 +44,19 @@ const OdEntry* find_entry(NodeContext& n, std::uint16_t index, std::uint8_t sub,
 #define CANSIM_GETTER(fn) \
   int fn(sd_bus*, const char*, const char*, const char*, sd_bus_message* reply, void* userdata, sd_bus_error*)
 
-CANSIM_GETTER(get_key) { return sd_bus_message_append(reply, "s", ctx(userdata).handle->key.c_str()); }
-CANSIM_GETTER(get_name) { return sd_bus_message_append(reply, "s", ctx(userdata).handle->name.c_str()); }
-CANSIM_GETTER(get_index) { return sd_bus_message_append(reply, "u", ctx(userdata).handle->index); }
-CANSIM_GETTER(get_profile) { return sd_bus_message_append(reply, "s", ctx(userdata).handle->profile.c_str()); }
-CANSIM_GETTER(get_personality) { return sd_bus_message_append(reply, "s", ctx(userdata).handle->personality.c_str()); }
-CANSIM_GETTER(get_interface) { return sd_bus_message_append(reply, "s", ctx(userdata).handle->interface.c_str()); }
-CANSIM_GETTER(get_node_id) { return sd_bus_message_append(reply, "y", ctx(userdata).node().node_id()); }
-CANSIM_GETTER(get_nmt_state) { return sd_bus_message_append(reply, "s", nmt_state_name(ctx(userdata).node().state())); }
-CANSIM_GETTER(get_powered) { return sd_bus_message_append(reply, "b", int(ctx(userdata).node().powered())); }
-CANSIM_GETTER(get_on_bus) { return sd_bus_message_append(reply, "b", int(ctx(userdata).node().on_bus())); }
-CANSIM_GETTER(get_emcy_count) { return sd_bus_message_append(reply, "u", ctx(userdata).node().emcy().sent_count()); }
+CANSIM_GETTER(get_key) { return sd_bus_message_append(reply, "s", NodeContext::of(userdata).handle->key.c_str()); }
+CANSIM_GETTER(get_name) { return sd_bus_message_append(reply, "s", NodeContext::of(userdata).handle->name.c_str()); }
+CANSIM_GETTER(get_index) { return sd_bus_message_append(reply, "u", NodeContext::of(userdata).handle->index); }
+CANSIM_GETTER(get_profile) { return sd_bus_message_append(reply, "s", NodeContext::of(userdata).handle->profile.c_str()); }
+CANSIM_GETTER(get_personality) { return sd_bus_message_append(reply, "s", NodeContext::of(userdata).handle->personality.c_str()); }
+CANSIM_GETTER(get_interface) { return sd_bus_message_append(reply, "s", NodeContext::of(userdata).handle->interface.c_str()); }
+CANSIM_GETTER(get_node_id) { return sd_bus_message_append(reply, "y", NodeContext::of(userdata).node().node_id()); }
+CANSIM_GETTER(get_nmt_state) { return sd_bus_message_append(reply, "s", nmt_state_name(NodeContext::of(userdata).node().state())); }
+CANSIM_GETTER(get_powered) { return sd_bus_message_append(reply, "b", int(NodeContext::of(userdata).node().powered())); }
+CANSIM_GETTER(get_on_bus) { return sd_bus_message_append(reply, "b", int(NodeContext::of(userdata).node().on_bus())); }
+CANSIM_GETTER(get_emcy_count) { return sd_bus_message_append(reply, "u", NodeContext::of(userdata).node().emcy().sent_count()); }
 CANSIM_GETTER(get_last_emcy) {
-  const Emcy::Sent& last = ctx(userdata).node().emcy().last_emcy();
+  const Emcy::Sent& last = NodeContext::of(userdata).node().emcy().last_emcy();
   int r = sd_bus_message_open_container(reply, 'r', "xqyay");
   if (r >= 0) r = sd_bus_message_append(reply, "xqy", std::int64_t(last.time == kNever ? -1 : last.time), last.code, last.reg);
   if (r >= 0) r = sd_bus_message_append_array(reply, 'y', last.vendor, 5);
@@ -67,7 +66,7 @@ CANSIM_GETTER(get_last_emcy) {
 // ---- methods
 
 int power_cycle(sd_bus_message* m, void* userdata, sd_bus_error* e) {
-  NodeContext& n = ctx(userdata);
+  NodeContext& n = NodeContext::of(userdata);
   double off = 0;
   int r = sd_bus_message_read(m, "d", &off);
   if (r < 0) return r;
@@ -80,7 +79,7 @@ int power_cycle(sd_bus_message* m, void* userdata, sd_bus_error* e) {
 }
 
 int nmt(sd_bus_message* m, void* userdata, sd_bus_error* e) {
-  NodeContext& n = ctx(userdata);
+  NodeContext& n = NodeContext::of(userdata);
   const char* command = nullptr;
   int r = sd_bus_message_read(m, "s", &command);
   if (r < 0) return r;
@@ -116,8 +115,8 @@ int store_or_restore(sd_bus_message* m, NodeContext& n, bool store, sd_bus_error
   return sd_bus_reply_method_return(m, "");
 }
 
-int store(sd_bus_message* m, void* userdata, sd_bus_error* e) { return store_or_restore(m, ctx(userdata), true, e); }
-int restore(sd_bus_message* m, void* userdata, sd_bus_error* e) { return store_or_restore(m, ctx(userdata), false, e); }
+int store(sd_bus_message* m, void* userdata, sd_bus_error* e) { return store_or_restore(m, NodeContext::of(userdata), true, e); }
+int restore(sd_bus_message* m, void* userdata, sd_bus_error* e) { return store_or_restore(m, NodeContext::of(userdata), false, e); }
 
 // Reads the (q index, y sub) arguments and finds the entry.
 const OdEntry* entry_argument(sd_bus_message* m, NodeContext& n, sd_bus_error* e, int* r) {
@@ -128,7 +127,7 @@ const OdEntry* entry_argument(sd_bus_message* m, NodeContext& n, sd_bus_error* e
 }
 
 int read_object(sd_bus_message* m, void* userdata, sd_bus_error* e) {
-  NodeContext& n = ctx(userdata);
+  NodeContext& n = NodeContext::of(userdata);
   int r = 0;
   const OdEntry* entry = entry_argument(m, n, e, &r);
   if (!entry) return r;
@@ -140,7 +139,7 @@ int read_object(sd_bus_message* m, void* userdata, sd_bus_error* e) {
 }
 
 int write_object(sd_bus_message* m, void* userdata, sd_bus_error* e) {
-  NodeContext& n = ctx(userdata);
+  NodeContext& n = NodeContext::of(userdata);
   int r = 0;
   const OdEntry* entry = entry_argument(m, n, e, &r);
   if (!entry) return r;
@@ -176,7 +175,7 @@ std::string valid_utf8(std::string text) {
 // CiA 306 DCF of the node now: its EDS, [DeviceComissioning] and the value
 // each entry answers (a refused read: the stored value).
 int get_dcf(sd_bus_message* m, void* userdata, sd_bus_error*) {
-  NodeContext& n = ctx(userdata);
+  NodeContext& n = NodeContext::of(userdata);
   Node& node = n.node();
   const TimeUs t = n.act_now();
   config::EdsIdentity id;

@@ -14,7 +14,6 @@ namespace {
 
 using NodeContext = ControlService::NodeContext;
 using physics::Channel;
-NodeContext& ctx(void* userdata) { return *static_cast<NodeContext*>(userdata); }
 
 // The node's chain, or an error when it has none / not this channel.
 personalities::Cia404Application* chain(NodeContext& n, const char* channel, Channel* ch, sd_bus_error* e, int* r) {
@@ -90,7 +89,7 @@ bool read_value_args(sd_bus_message* m, NodeContext& n, ValueArgs& a, sd_bus_err
 }  // namespace
 
 int node_hold(sd_bus_message* m, void* userdata, sd_bus_error* e) {
-  NodeContext& n = ctx(userdata);
+  NodeContext& n = NodeContext::of(userdata);
   const char* channel = nullptr;
   int r = sd_bus_message_read(m, "s", &channel);
   Channel ch;
@@ -99,7 +98,7 @@ int node_hold(sd_bus_message* m, void* userdata, sd_bus_error* e) {
 }
 
 int node_step(sd_bus_message* m, void* userdata, sd_bus_error* e) {
-  NodeContext& n = ctx(userdata);
+  NodeContext& n = NodeContext::of(userdata);
   ValueArgs a;
   int r = 0;
   if (!read_value_args(m, n, a, e, &r)) return r;
@@ -107,7 +106,7 @@ int node_step(sd_bus_message* m, void* userdata, sd_bus_error* e) {
 }
 
 int node_ramp(sd_bus_message* m, void* userdata, sd_bus_error* e) {
-  NodeContext& n = ctx(userdata);
+  NodeContext& n = NodeContext::of(userdata);
   ValueArgs a;
   int r = 0;
   if (!read_value_args(m, n, a, e, &r)) return r;
@@ -118,7 +117,7 @@ int node_ramp(sd_bus_message* m, void* userdata, sd_bus_error* e) {
 }
 
 int node_set_model(sd_bus_message* m, void* userdata, sd_bus_error* e) {
-  NodeContext& n = ctx(userdata);
+  NodeContext& n = NodeContext::of(userdata);
   const char *channel = nullptr, *yaml = nullptr;
   int r = sd_bus_message_read(m, "ss", &channel, &yaml);
   Channel ch;
@@ -133,7 +132,7 @@ int node_set_model(sd_bus_message* m, void* userdata, sd_bus_error* e) {
 }
 
 int node_restore_model(sd_bus_message* m, void* userdata, sd_bus_error* e) {
-  NodeContext& n = ctx(userdata);
+  NodeContext& n = NodeContext::of(userdata);
   const char* channel = nullptr;
   int r = sd_bus_message_read(m, "s", &channel);
   Channel ch;
@@ -142,7 +141,7 @@ int node_restore_model(sd_bus_message* m, void* userdata, sd_bus_error* e) {
 }
 
 int node_override(sd_bus_message* m, void* userdata, sd_bus_error* e) {
-  NodeContext& n = ctx(userdata);
+  NodeContext& n = NodeContext::of(userdata);
   ValueArgs a;
   int r = 0;
   if (!read_value_args(m, n, a, e, &r)) return r;
@@ -152,7 +151,7 @@ int node_override(sd_bus_message* m, void* userdata, sd_bus_error* e) {
 }
 
 int node_clear_override(sd_bus_message* m, void* userdata, sd_bus_error* e) {
-  NodeContext& n = ctx(userdata);
+  NodeContext& n = NodeContext::of(userdata);
   const char* channel = nullptr;
   int r = sd_bus_message_read(m, "s", &channel);
   Channel ch;
@@ -163,7 +162,7 @@ int node_clear_override(sd_bus_message* m, void* userdata, sd_bus_error* e) {
 }
 
 int node_arm_fault(sd_bus_message* m, void* userdata, sd_bus_error* e) {
-  NodeContext& n = ctx(userdata);
+  NodeContext& n = NodeContext::of(userdata);
   const char* kind = nullptr;
   int r = sd_bus_message_read(m, "s", &kind);
   if (r < 0) return r;
@@ -193,7 +192,7 @@ int node_arm_fault(sd_bus_message* m, void* userdata, sd_bus_error* e) {
 }
 
 int node_cancel_fault(sd_bus_message* m, void* userdata, sd_bus_error* e) {
-  NodeContext& n = ctx(userdata);
+  NodeContext& n = NodeContext::of(userdata);
   std::uint32_t id = 0;
   int r = sd_bus_message_read(m, "u", &id);
   if (r < 0) return r;
@@ -210,7 +209,7 @@ int node_cancel_fault(sd_bus_message* m, void* userdata, sd_bus_error* e) {
 }
 
 int node_list_faults(sd_bus_message* m, void* userdata, sd_bus_error*) {
-  NodeContext& n = ctx(userdata);
+  NodeContext& n = NodeContext::of(userdata);
   const TimeUs t = n.act_now();
   return reply_with(m, [&](sd_bus_message* reply) {
     int r = sd_bus_message_open_container(reply, 'a', "(ussbxxxu)");
@@ -226,7 +225,7 @@ int node_list_faults(sd_bus_message* m, void* userdata, sd_bus_error*) {
 }
 
 int node_start_recording(sd_bus_message* m, void* userdata, sd_bus_error* e) {
-  NodeContext& n = ctx(userdata);
+  NodeContext& n = NodeContext::of(userdata);
   const char* path = nullptr;
   int r = sd_bus_message_read(m, "s", &path);
   if (r < 0) return r;
@@ -238,7 +237,7 @@ int node_start_recording(sd_bus_message* m, void* userdata, sd_bus_error* e) {
 }
 
 int node_stop_recording(sd_bus_message* m, void* userdata, sd_bus_error* e) {
-  NodeContext& n = ctx(userdata);
+  NodeContext& n = NodeContext::of(userdata);
   if (!n.sensor) return fail(e, kErrorNotSupported, n.handle->key + " has no measurement channels");
   n.sensor->stop_recording();
   return sd_bus_reply_method_return(m, "");
@@ -246,7 +245,7 @@ int node_stop_recording(sd_bus_message* m, void* userdata, sd_bus_error* e) {
 
 int node_get_channel(sd_bus*, const char*, const char*, const char* property, sd_bus_message* reply, void* userdata,
                      sd_bus_error*) {
-  NodeContext& n = ctx(userdata);
+  NodeContext& n = NodeContext::of(userdata);
   const Channel ch = std::string_view(property) == "Pressure" ? Channel::Pressure : Channel::Temperature;
   if (!n.sensor || !n.sensor->has_channel(ch))
     return sd_bus_message_append(reply, "(ddsy)", std::nan(""), std::nan(""), "", std::uint8_t(0));
@@ -257,7 +256,7 @@ int node_get_channel(sd_bus*, const char*, const char*, const char* property, sd
 
 int node_get_overrides(sd_bus*, const char*, const char*, const char*, sd_bus_message* reply, void* userdata,
                        sd_bus_error*) {
-  NodeContext& n = ctx(userdata);
+  NodeContext& n = NodeContext::of(userdata);
   int r = sd_bus_message_open_container(reply, 'a', "(sds)");
   if (n.sensor)
     for (const auto& o : n.sensor->overrides())
@@ -269,7 +268,7 @@ int node_get_overrides(sd_bus*, const char*, const char*, const char*, sd_bus_me
 
 int node_get_faults(sd_bus*, const char*, const char*, const char*, sd_bus_message* reply, void* userdata,
                     sd_bus_error*) {
-  NodeContext& n = ctx(userdata);
+  NodeContext& n = NodeContext::of(userdata);
   int r = sd_bus_message_open_container(reply, 'a', "(usb)");
   if (n.sensor)
     for (const physics::FaultInfo& f : n.sensor->faults(n.service->host().now()))
@@ -280,7 +279,7 @@ int node_get_faults(sd_bus*, const char*, const char*, const char*, sd_bus_messa
 
 int node_get_recording(sd_bus*, const char*, const char*, const char*, sd_bus_message* reply, void* userdata,
                        sd_bus_error*) {
-  NodeContext& n = ctx(userdata);
+  NodeContext& n = NodeContext::of(userdata);
   return sd_bus_message_append(reply, "s", n.sensor ? n.sensor->recording().c_str() : "");
 }
 

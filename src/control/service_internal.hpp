@@ -26,6 +26,8 @@ struct ControlService::NodeContext {
     core.run_due(service->host().now());
     return core.now();
   }
+  // The context a node's vtable entries get as userdata.
+  static NodeContext& of(void* userdata) { return *static_cast<NodeContext*>(userdata); }
 };
 
 struct ControlService::Connection {

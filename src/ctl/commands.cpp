@@ -18,10 +18,6 @@ namespace cansim::ctl {
 
 namespace {
 
-void expect(int r, const char* what) {
-  if (r < 0) throw Failure(std::string(what) + ": " + std::strerror(-r));
-}
-
 std::string read_text_file(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Failure("cannot read " + path + ": " + std::strerror(errno));

@@ -11,16 +11,16 @@
 
 namespace cansim::ctl {
 
+void expect(int r, const char* what) {
+  if (r < 0) throw Failure(std::string(what) + ": " + std::strerror(-r));
+}
+
 namespace {
 
 struct BusError {
   sd_bus_error error = SD_BUS_ERROR_NULL;
   ~BusError() { sd_bus_error_free(&error); }
 };
-
-void expect(int r, const char* what) {
-  if (r < 0) throw Failure(std::string(what) + ": " + std::strerror(-r));
-}
 
 void append_value(sd_bus_message* m, const Value& value) {
   std::visit([m](const auto& v) {

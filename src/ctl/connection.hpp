@@ -22,6 +22,9 @@ class Failure : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// r of an sd-bus call: below 0 throws Failure("what: strerror").
+void expect(int r, const char* what);
+
 struct MessageUnref {
   void operator()(sd_bus_message* m) const { sd_bus_message_unref(m); }
 };
