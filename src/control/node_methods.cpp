@@ -41,21 +41,27 @@ const OdEntry* find_entry(NodeContext& n, std::uint16_t index, std::uint8_t sub,
 
 // ---- properties
 
-#define CANSIM_GETTER(fn) \
-  int fn(sd_bus*, const char*, const char*, const char*, sd_bus_message* reply, void* userdata, sd_bus_error*)
+// A property that is one value of the node: `n` is its context.
+#define CANSIM_GETTER(fn, type, value)                                                                           \
+  int fn(sd_bus*, const char*, const char*, const char*, sd_bus_message* reply, void* userdata, sd_bus_error*) { \
+    const NodeContext& n = NodeContext::of(userdata);                                                            \
+    return sd_bus_message_append(reply, type, value);                                                            \
+  }
 
-CANSIM_GETTER(get_key) { return sd_bus_message_append(reply, "s", NodeContext::of(userdata).handle->key.c_str()); }
-CANSIM_GETTER(get_name) { return sd_bus_message_append(reply, "s", NodeContext::of(userdata).handle->name.c_str()); }
-CANSIM_GETTER(get_index) { return sd_bus_message_append(reply, "u", NodeContext::of(userdata).handle->index); }
-CANSIM_GETTER(get_profile) { return sd_bus_message_append(reply, "s", NodeContext::of(userdata).handle->profile.c_str()); }
-CANSIM_GETTER(get_personality) { return sd_bus_message_append(reply, "s", NodeContext::of(userdata).handle->personality.c_str()); }
-CANSIM_GETTER(get_interface) { return sd_bus_message_append(reply, "s", NodeContext::of(userdata).handle->interface.c_str()); }
-CANSIM_GETTER(get_node_id) { return sd_bus_message_append(reply, "y", NodeContext::of(userdata).node().node_id()); }
-CANSIM_GETTER(get_nmt_state) { return sd_bus_message_append(reply, "s", nmt_state_name(NodeContext::of(userdata).node().state())); }
-CANSIM_GETTER(get_powered) { return sd_bus_message_append(reply, "b", int(NodeContext::of(userdata).node().powered())); }
-CANSIM_GETTER(get_on_bus) { return sd_bus_message_append(reply, "b", int(NodeContext::of(userdata).node().on_bus())); }
-CANSIM_GETTER(get_emcy_count) { return sd_bus_message_append(reply, "u", NodeContext::of(userdata).node().emcy().sent_count()); }
-CANSIM_GETTER(get_last_emcy) {
+CANSIM_GETTER(get_key, "s", n.handle->key.c_str())
+CANSIM_GETTER(get_name, "s", n.handle->name.c_str())
+CANSIM_GETTER(get_index, "u", n.handle->index)
+CANSIM_GETTER(get_profile, "s", n.handle->profile.c_str())
+CANSIM_GETTER(get_personality, "s", n.handle->personality.c_str())
+CANSIM_GETTER(get_interface, "s", n.handle->interface.c_str())
+CANSIM_GETTER(get_node_id, "y", n.node().node_id())
+CANSIM_GETTER(get_nmt_state, "s", nmt_state_name(n.node().state()))
+CANSIM_GETTER(get_powered, "b", int(n.node().powered()))
+CANSIM_GETTER(get_on_bus, "b", int(n.node().on_bus()))
+CANSIM_GETTER(get_emcy_count, "u", n.node().emcy().sent_count())
+#undef CANSIM_GETTER
+int get_last_emcy(sd_bus*, const char*, const char*, const char*, sd_bus_message* reply, void* userdata,
+                  sd_bus_error*) {
   const Emcy::Sent& last = NodeContext::of(userdata).node().emcy().last_emcy();
   int r = sd_bus_message_open_container(reply, 'r', "xqyay");
   if (r >= 0) r = sd_bus_message_append(reply, "xqy", std::int64_t(last.time == kNever ? -1 : last.time), last.code, last.reg);
@@ -115,8 +121,12 @@ int store_or_restore(sd_bus_message* m, NodeContext& n, bool store, sd_bus_error
   return sd_bus_reply_method_return(m, "");
 }
 
-int store(sd_bus_message* m, void* userdata, sd_bus_error* e) { return store_or_restore(m, NodeContext::of(userdata), true, e); }
-int restore(sd_bus_message* m, void* userdata, sd_bus_error* e) { return store_or_restore(m, NodeContext::of(userdata), false, e); }
+int store(sd_bus_message* m, void* userdata, sd_bus_error* e) {
+  return store_or_restore(m, NodeContext::of(userdata), true, e);
+}
+int restore(sd_bus_message* m, void* userdata, sd_bus_error* e) {
+  return store_or_restore(m, NodeContext::of(userdata), false, e);
+}
 
 // Reads the (q index, y sub) arguments and finds the entry.
 const OdEntry* entry_argument(sd_bus_message* m, NodeContext& n, sd_bus_error* e, int* r) {

@@ -344,7 +344,9 @@ void Daemon::remove_node(NodeEntry& e) {
 
 void Daemon::apply(config::FleetConfig cfg, TimeUs now) {
   const std::uint64_t seed = settings_.seed.value_or(cfg.seed);
-  auto bus_rate = [&](const std::string& iface) { return config::bit_rate_selector(resolve_bit_rate(*cfg.interface(iface))); };
+  auto bus_rate = [&](const std::string& iface) {
+    return config::bit_rate_selector(resolve_bit_rate(*cfg.interface(iface)));
+  };
   // Phase 1 (may throw): decide what changes and build the new applications,
   // so an invalid reload leaves the running fleet untouched.
   std::vector<Pending> to_add;
