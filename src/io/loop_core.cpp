@@ -2,7 +2,17 @@
 
 #include <algorithm>
 
+#include "io/wire_bits.hpp"
+
 namespace cansim::io {
+
+namespace {
+// One bit at the CiA 305 bit-rate index, in ns (0: no such rate).
+std::int64_t bit_ns(std::uint8_t bit_rate_index) {
+  static constexpr std::int64_t kBitNs[] = {1000, 1250, 2000, 4000, 8000, 0, 20000, 50000, 100000};
+  return bit_rate_index < std::size(kBitNs) ? kBitNs[bit_rate_index] : 0;
+}
+}  // namespace
 
 LoopCore::LoopCore() : ring_(256) {}
 LoopCore::~LoopCore() = default;
@@ -12,17 +22,59 @@ BusId LoopCore::add_bus(std::string name, Transport& transport, std::uint8_t bit
   bus->name = std::move(name);
   bus->transport = &transport;
   bus->bit_rate_index = bit_rate_index;
+  bus->meter.reset(now_);
   buses_.push_back(std::move(bus));
   return BusId(buses_.size() - 1);
 }
 
 void LoopCore::set_bus_bit_rate(BusId bus, std::uint8_t bit_rate_index) {
   buses_[bus]->bit_rate_index = bit_rate_index;
+  if (buses_[bus]->timed) buses_[bus]->timed->set_bit_ns(bit_ns(bit_rate_index));
   for (auto& s : slots_)
     if (s && s->bus == bus) s->node->set_bus_bit_rate(bit_rate_index);
 }
 
 const std::string& LoopCore::bus_name(BusId bus) const { return buses_[bus]->name; }
+
+void LoopCore::set_bus_model(BusId bus, BusModel model, std::size_t queue_frames) {
+  Bus& b = *buses_[bus];
+  if ((model == BusModel::kTimed) == bool(b.timed)) return;
+  if (model == BusModel::kTimed) {
+    b.timed = std::make_unique<TimedBus>(bit_ns(b.bit_rate_index), queue_frames);
+    ++timed_buses_;
+  } else {
+    std::unique_ptr<TimedBus> timed = std::move(b.timed);
+    --timed_buses_;
+    timed->drain([&](const QueuedFrame& q) {
+      b.meter.carried(q.bits, now_);
+      put_on_wire(bus, q.from, q.frame);
+    });
+    flush(now_);
+  }
+  update_bus_next();
+}
+
+BusLoad LoopCore::bus_load(BusId bus) const {
+  const Bus& b = *buses_[bus];
+  const BusMeter::Figures f = b.meter.figures(now_);
+  const std::int64_t ns = bit_ns(b.bit_rate_index);
+  const double per_bit = ns ? double(ns) * 1e-9 : 0;  // load = bits/s x s/bit
+  BusLoad load;
+  load.model = bus_model(bus);
+  load.offered_1s = f.offered_1s * per_bit;
+  load.offered_10s = f.offered_10s * per_bit;
+  load.carried_1s = f.carried_1s * per_bit;
+  load.carried_10s = f.carried_10s * per_bit;
+  load.delay_p50 = f.delay_p50;
+  load.delay_p99 = f.delay_p99;
+  load.delay_max = f.delay_max;
+  if (b.timed) {
+    load.queued = b.timed->queued();
+    load.queue_capacity = b.timed->capacity();
+    load.dropped = b.timed->dropped();
+  }
+  return load;
+}
 
 NodeRef LoopCore::add_node(BusId bus, NodeSetup setup, std::unique_ptr<Application> app,
                            std::unique_ptr<NodeStorage> storage) {
@@ -54,10 +106,15 @@ NodeRef LoopCore::add_node(BusId bus, NodeSetup setup, std::unique_ptr<Applicati
 
 void LoopCore::power_on(NodeRef ref, TimeUs now) {
   now_ = std::max(now_, now);
+  if (timed_buses_) {
+    settle_buses(TimedBus::Phase::kBefore);
+    flush(now_);
+  }
   slots_[ref]->node->power_on(now_);
   after(ref);
   rebuild_dirty();
   flush(now_);
+  settle_buses(TimedBus::Phase::kAt);
 }
 
 void LoopCore::remove_node(NodeRef ref) {
@@ -71,6 +128,10 @@ void LoopCore::remove_node(NodeRef ref) {
     Pending& p = ring_[(ring_head_ + i) & (ring_.size() - 1)];
     if (p.from == ref) p.from = kNoNode;
   }
+  if (buses_[s.bus]->timed)
+    buses_[s.bus]->timed->for_each([ref](QueuedFrame& q) {
+      if (q.from == ref) q.from = kNoNode;
+    });
   std::erase(dirty_, ref);
   --buses_[s.bus]->nodes;
   --live_;
@@ -88,18 +149,34 @@ void LoopCore::refresh(NodeRef ref) {
   after(ref);
   rebuild_dirty();
   flush(now_);
+  settle_buses(TimedBus::Phase::kAt);
 }
 
 void LoopCore::receive(BusId bus, const CanFrame& frame, TimeUs now) {
   now_ = std::max(now_, now);
   ++stats_.frames_in;
+  Bus& b = *buses_[bus];
+  if (timed_buses_) {
+    // Our frames that were on the wire before this one come first.
+    settle_buses(TimedBus::Phase::kBefore);
+    flush(now_);
+  }
+  const int bits = b.timed ? wire_bits(frame) : unstuffed_wire_bits(frame);
+  b.meter.offered(bits, now_);
+  b.meter.carried(bits, now_);
+  if (b.timed) b.timed->occupy(bits, now_);
   deliver(bus, kNoNode, frame, now_);
   rebuild_dirty();
   flush(now_);
+  settle_buses(TimedBus::Phase::kAt);
 }
 
 void LoopCore::run_due(TimeUs now) {
   now_ = std::max(now_, now);
+  if (timed_buses_) {
+    settle_buses(TimedBus::Phase::kBefore);
+    flush(now_);
+  }
   while (heap_.top_time() <= now_) {
     NodeRef ref = heap_.top();
     Node& n = *slots_[ref]->node;
@@ -112,6 +189,7 @@ void LoopCore::run_due(TimeUs now) {
     rebuild_dirty();
     flush(now_);
   }
+  settle_buses(TimedBus::Phase::kAt);
 }
 
 TimeUs LoopCore::run_until(TimeUs t) {
@@ -121,16 +199,61 @@ TimeUs LoopCore::run_until(TimeUs t) {
 }
 
 void LoopCore::on_send(NodeRef from, const CanFrame& frame) {
-  BusId bus = slots_[from]->bus;
+  const BusId bus = slots_[from]->bus;
+  Bus& b = *buses_[bus];
   ++stats_.frames_out;
-  buses_[bus]->transport->transmit(frame);
+  // Ideal buses count frames without stuff bits: computing them costs a
+  // timed bus about a dozen table reads a frame (io/wire_bits.hpp).
+  const int bits = b.timed ? wire_bits(frame) : unstuffed_wire_bits(frame);
+  b.meter.offered(bits, now_);
+  if (b.timed) {
+    b.timed->submit({frame, now_, from, std::uint16_t(bits)}, now_);
+    return;
+  }
+  b.meter.carried(bits, now_);
+  put_on_wire(bus, from, frame);
+}
+
+void LoopCore::put_on_wire(BusId bus, NodeRef from, const CanFrame& frame) {
+  Bus& b = *buses_[bus];
+  b.transport->transmit(frame);
   // Other local nodes receive it in the flush, as they listen now. A frame
   // only its sender listens to (a TPDO: for remote requests) or nobody, as
   // most PDOs and heartbeats, is not queued.
-  Bus& b = *buses_[bus];
   if (b.nodes < 2) return;
   for (NodeRef ref : b.dispatch.lookup(frame))
     if (ref != from) return push_pending({bus, from, frame});
+}
+
+void LoopCore::settle_bus(BusId bus, TimedBus::Phase phase) {
+  Bus& b = *buses_[bus];
+  QueuedFrame done;
+  std::int64_t started_ns = 0;
+  while (b.timed->settle(now_, phase, done, started_ns)) {
+    b.meter.carried(done.bits, now_);
+    b.meter.delay((started_ns - done.queued_at * 1000) / 1000, now_);
+    put_on_wire(bus, done.from, done.frame);
+  }
+}
+
+// Before now: every bus once (their frames' deliveries wait for the caller's
+// flush, so what the receivers answer at now is not in an arbitration before
+// now). At now: until the deliveries of what ended cause nothing more.
+void LoopCore::settle_buses(TimedBus::Phase phase) {
+  if (timed_buses_ == 0) return;
+  for (;;) {
+    for (BusId bus = 0; bus < buses_.size(); ++bus)
+      if (buses_[bus]->timed) settle_bus(bus, phase);
+    if (phase == TimedBus::Phase::kBefore || ring_size_ == 0) break;
+    flush(now_);
+  }
+  update_bus_next();
+}
+
+void LoopCore::update_bus_next() {
+  bus_next_ = kNever;
+  for (const auto& b : buses_)
+    if (b->timed) bus_next_ = std::min(bus_next_, b->timed->next_event());
 }
 
 void LoopCore::push_pending(const Pending& p) {

@@ -10,9 +10,15 @@
 //
 // A frame a node sends goes to its bus's transport and, as on a real bus, to
 // the other local nodes of that bus (queued, never delivered re-entrantly; the
-// sender does not hear itself).
+// sender does not hear itself). On an ideal bus (the default) it does so the
+// instant the node sends it; on a timed bus (io/timed_bus.hpp) when the bus
+// has carried it, lowest identifier first, each frame for its length at the
+// bus's bit rate: then next_deadline() includes the end of the frame on the
+// wire, and a bus due at `now` leaves what its nodes send at `now` to
+// arbitration among themselves.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -20,7 +26,9 @@
 
 #include "core/node.hpp"
 #include "io/deadline_heap.hpp"
+#include "io/bus_meter.hpp"
 #include "io/dispatch.hpp"
+#include "io/timed_bus.hpp"
 #include "io/transport.hpp"
 
 namespace cansim::io {
@@ -41,6 +49,23 @@ class LoopObserver {
   virtual void on_power(NodeRef, bool /*powered*/, TimeUs) {}
 };
 
+enum class BusModel : std::uint8_t {
+  kIdeal,  // a frame is on the wire the instant its node sends it
+  kTimed,  // it waits for the bus: arbitration and frame length at the bit rate
+};
+
+// A bus's traffic now (LoopCore::bus_load). Loads are fractions of the bit
+// rate; offered counts what the local nodes wanted to send (dropped frames
+// too) plus frames from the wire, carried what went on the wire.
+struct BusLoad {
+  BusModel model = BusModel::kIdeal;
+  double offered_1s = 0, offered_10s = 0;
+  double carried_1s = 0, carried_10s = 0;
+  TimeUs delay_p50 = 0, delay_p99 = 0, delay_max = 0;  // µs from queued to start, last 10 s
+  std::size_t queued = 0, queue_capacity = 0;           // timed: frames waiting now, bound
+  std::uint64_t dropped = 0;                            // timed: frames lost to a full queue
+};
+
 struct LoopStats {
   std::uint64_t frames_in = 0;      // frames received from transports
   std::uint64_t frames_out = 0;     // frames nodes sent
@@ -59,6 +84,13 @@ class LoopCore {
   BusId add_bus(std::string name, Transport& transport, std::uint8_t bit_rate_index);
   void set_bus_bit_rate(BusId bus, std::uint8_t bit_rate_index);
   const std::string& bus_name(BusId bus) const;
+  // Ideal (the default) or timed. Switching a timed bus to ideal sends what
+  // waits for it at once. `queue_frames`: the timed bus's bound.
+  static constexpr std::size_t kDefaultBusQueue = 1024;
+  void set_bus_model(BusId bus, BusModel model, std::size_t queue_frames = kDefaultBusQueue);
+  BusModel bus_model(BusId bus) const { return buses_[bus]->timed ? BusModel::kTimed : BusModel::kIdeal; }
+  // The bus's traffic figures at now().
+  BusLoad bus_load(BusId bus) const;
   std::size_t bus_count() const { return buses_.size(); }
   // Builds a node (not powered yet). The core owns app and storage.
   NodeRef add_node(BusId bus, NodeSetup setup, std::unique_ptr<Application> app = nullptr,
@@ -85,8 +117,8 @@ class LoopCore {
   void receive(BusId bus, const CanFrame& frame, TimeUs now);
   // Advances every node whose deadline is at or before `now`.
   void run_due(TimeUs now);
-  // The earliest deadline of any node, or kNever.
-  TimeUs next_deadline() const { return heap_.top_time(); }
+  // The earliest deadline of any node or timed bus, or kNever.
+  TimeUs next_deadline() const { return std::min(heap_.top_time(), bus_next_); }
   // Deterministic stepping for tests and the benchmark: runs every deadline
   // up to `t` in order, each at its own time; returns `t`.
   TimeUs run_until(TimeUs t);
@@ -133,6 +165,8 @@ class LoopCore {
     std::uint8_t bit_rate_index = 3;
     std::size_t nodes = 0;
     RxDispatch dispatch;
+    std::unique_ptr<TimedBus> timed;  // null: ideal
+    BusMeter meter;
   };
   struct Pending {
     BusId bus;
@@ -141,6 +175,12 @@ class LoopCore {
   };
 
   void on_send(NodeRef from, const CanFrame& frame);
+  // A frame is on the wire: to the transport and the other local nodes.
+  void put_on_wire(BusId bus, NodeRef from, const CanFrame& frame);
+  // Timed buses: frames that ended by now_ leave (TimedBus::settle).
+  void settle_buses(TimedBus::Phase phase);
+  void settle_bus(BusId bus, TimedBus::Phase phase);
+  void update_bus_next();
   void deliver(BusId bus, NodeRef from, const CanFrame& frame, TimeUs now);
   void after(NodeRef ref);
   void rebuild_dirty();
@@ -158,6 +198,8 @@ class LoopCore {
   std::size_t ring_head_ = 0;
   std::size_t ring_size_ = 0;
   DeadlineHeap heap_;
+  std::size_t timed_buses_ = 0;
+  TimeUs bus_next_ = kNever;  // the earliest next_event() of the timed buses
   LoopObserver* observer_ = nullptr;
   std::size_t live_ = 0;
   TimeUs now_ = 0;

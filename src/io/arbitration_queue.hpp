@@ -1,0 +1,80 @@
+// The frames waiting for a timed bus, in the order CAN arbitration takes
+// them (ISO 11898-1 §10.8): the identifier bits MSB first, a dominant bit (0)
+// winning. Between an 11-bit and a 29-bit frame with the same first 11 bits,
+// the 11-bit data frame wins at RTR vs SRR and the 11-bit remote frame at IDE;
+// a data frame beats a remote frame of its identifier. Frames with the same
+// identifier (one node's SDO segments; two nodes misconfigured onto one
+// COB-ID) leave in the order they were queued.
+//
+// Bounded, allocated once: push, top and pop are O(1) for 11-bit frames (a
+// FIFO per identifier and RTR bit, found through a two-level bitmap); 29-bit
+// frames, rare in CANopen, sit in a small binary heap beside it.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/can_frame.hpp"
+
+namespace cansim::io {
+
+struct QueuedFrame {
+  CanFrame frame;
+  TimeUs queued_at = 0;   // when its node sent it
+  std::uint32_t from = 0;  // the sender's NodeRef
+  std::uint16_t bits = 0;  // wire_bits(frame)
+};
+
+class ArbitrationQueue {
+ public:
+  explicit ArbitrationQueue(std::size_t capacity = 1024);
+
+  // The arbitration field as one number: the lower wins.
+  static std::uint32_t key(const CanFrame& f);
+
+  // False when full (the caller counts the drop).
+  bool push(const QueuedFrame& q);
+  bool empty() const { return size_ == 0; }
+  std::size_t size() const { return size_; }
+  std::size_t capacity() const { return pool_.size(); }
+  // The frame that wins arbitration now. Only when !empty().
+  const QueuedFrame& top() const { return pool_[top_index()].q; }
+  void pop();
+  // Calls fn(QueuedFrame&) for every queued frame (any order).
+  template <typename Fn>
+  void for_each(Fn&& fn) {
+    for (Entry& e : pool_)
+      if (e.queued) fn(e.q);
+  }
+
+ private:
+  static constexpr std::uint32_t kNone = 0xFFFFFFFFu;
+  static constexpr std::size_t kBuckets = 4096;  // 11-bit identifier << 1 | RTR
+  struct Entry {
+    QueuedFrame q;
+    std::uint32_t next = kNone;  // FIFO of its bucket, or the free list
+    std::uint64_t seq = 0;       // 29-bit heap: queue order among equal keys
+    bool queued = false;
+  };
+  struct Fifo {
+    std::uint32_t head = kNone, tail = kNone;
+  };
+
+  std::uint32_t top_index() const;
+  bool standard_first() const;
+  std::uint32_t take_free();
+  void pop_standard();
+  void pop_extended();
+  bool extended_less(std::uint32_t a, std::uint32_t b) const;
+
+  std::vector<Entry> pool_;
+  std::uint32_t free_ = kNone;
+  std::size_t size_ = 0;
+  std::vector<Fifo> buckets_;
+  std::uint64_t summary_ = 0;            // bit w: words_[w] != 0
+  std::uint64_t words_[kBuckets / 64] = {};  // bit b of word w: bucket 64 w + b not empty
+  std::vector<std::uint32_t> extended_;  // binary heap of pool indices
+  std::uint64_t seq_ = 0;
+};
+
+}  // namespace cansim::io

@@ -1,0 +1,68 @@
+// What one bus carried, for the control API: the bits offered (frames local
+// nodes wanted to send, dropped ones included, and frames from the wire) and
+// carried (frames that went on the wire) in 100 ms bins over the last 10 s,
+// and the queueing delay of each frame (queued -> start of transmission) in
+// one histogram per second over the last 10 s. O(1) per frame, no allocation.
+//
+// Windows end now: the last 1 s (10 bins, the current one partial) and 10 s
+// (100 bins), shortened to the time since the meter started. Delays are kept
+// in buckets 1/8 octave wide (exact below 16 µs): a percentile is its
+// bucket's upper bound (at most 12.5 % high), never above the window's max.
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+#include "core/can_frame.hpp"
+
+namespace cansim::io {
+
+class BusMeter {
+ public:
+  static constexpr TimeUs kBin = 100'000;        // load bins: 100 ms
+  static constexpr std::size_t kBins = 101;      // 10 s + the current bin
+  static constexpr TimeUs kDelaySlot = 1'000'000;  // delay histograms: 1 s
+  static constexpr std::size_t kDelaySlots = 10;   // the current second and the 9 before
+  static constexpr std::size_t kDelayBuckets = 16 + 8 * 40;
+
+  struct Figures {
+    double offered_1s = 0, offered_10s = 0;  // bits per second
+    double carried_1s = 0, carried_10s = 0;
+    TimeUs delay_p50 = 0, delay_p99 = 0, delay_max = 0;  // µs, over 10 s
+    std::uint64_t delayed = 0;  // frames the delay figures count
+  };
+
+  // Forgets everything; windows start at `now`.
+  void reset(TimeUs now);
+  void offered(int bits, TimeUs now) {
+    roll(now);
+    offered_[bin_ % kBins] += std::uint32_t(bits);
+  }
+  void carried(int bits, TimeUs now) {
+    roll(now);
+    carried_[bin_ % kBins] += std::uint32_t(bits);
+  }
+  void delay(TimeUs d, TimeUs now);
+  Figures figures(TimeUs now) const;
+
+  static std::size_t delay_bucket(TimeUs d);
+  static TimeUs bucket_upper(std::size_t bucket);
+
+ private:
+  void roll(TimeUs now) {
+    if (now / kBin != bin_) roll_to(now / kBin);
+  }
+  void roll_to(std::int64_t bin);
+  void roll_delay(std::int64_t slot);
+  double bits_per_s(const std::array<std::uint32_t, kBins>& bins, TimeUs window, TimeUs now) const;
+
+  TimeUs start_ = 0;
+  std::int64_t bin_ = 0;
+  std::array<std::uint32_t, kBins> offered_{};
+  std::array<std::uint32_t, kBins> carried_{};
+  std::int64_t slot_ = 0;
+  std::array<std::array<std::uint32_t, kDelayBuckets>, kDelaySlots> delays_{};
+  std::array<TimeUs, kDelaySlots> delay_max_{};
+};
+
+}  // namespace cansim::io

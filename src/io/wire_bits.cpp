@@ -1,0 +1,118 @@
+#include "io/wire_bits.hpp"
+
+#include <array>
+
+namespace cansim::io {
+
+namespace {
+
+constexpr std::uint16_t kCrc15Generator = 0x4599;  // x^15 + x^14 + x^10 + x^8 + x^7 + x^4 + x^3 + 1
+
+// CRC register after shifting in 8 message bits (MSB first) from a register
+// whose top 8 bits were XORed with them: the usual byte-wise table.
+constexpr std::array<std::uint16_t, 256> make_crc_table() {
+  std::array<std::uint16_t, 256> t{};
+  for (unsigned i = 0; i < 256; ++i) {
+    unsigned r = i << 7;
+    for (int b = 0; b < 8; ++b) r = (r & 0x4000) ? ((r << 1) ^ kCrc15Generator) : (r << 1);
+    t[i] = std::uint16_t(r & 0x7FFF);
+  }
+  return t;
+}
+constexpr auto kCrcTable = make_crc_table();
+
+// Stuffing as a state machine over bytes. State: the last bit sent (stuff
+// bits included) and the length of its run, 1..4 (a run reaching 5 inserts a
+// stuff bit at once, which starts a run of 1 of the other value):
+// index = bit * 4 + run - 1. Entry for `width` input bits (MSB first): next
+// state | stuff bits inserted << 3.
+constexpr std::array<std::uint8_t, 8 * 256> make_stuff_table(int width) {
+  std::array<std::uint8_t, 8 * 256> t{};
+  for (unsigned s = 0; s < 8; ++s)
+    for (unsigned in = 0; in < (1u << width); ++in) {
+      unsigned last = s >> 2, run = (s & 3) + 1, inserted = 0;
+      for (int i = width - 1; i >= 0; --i) {
+        const unsigned bit = (in >> i) & 1;
+        if (bit != last) {
+          last = bit;
+          run = 1;
+        } else if (++run == 5) {
+          ++inserted;
+          last ^= 1;
+          run = 1;
+        }
+      }
+      t[s * 256 + in] = std::uint8_t((last * 4 + run - 1) | (inserted << 3));
+    }
+  return t;
+}
+constexpr auto kStuff8 = make_stuff_table(8);
+constexpr auto kStuff7 = make_stuff_table(7);  // the last 7 bits of the CRC
+
+int data_bytes(const CanFrame& f) { return f.rtr() ? 0 : (f.dlc > 8 ? 8 : f.dlc); }
+unsigned dlc_field(const CanFrame& f) { return f.dlc > 15 ? 15 : f.dlc; }
+
+// SOF to the end of the control field, behind a pad that makes it whole
+// bytes, as an integer. 11-bit: pad 10101, SOF ID RTR IDE=0 r0=0 DLC (5 + 19
+// = 24 bits); 29-bit: pad 1, SOF base-ID SRR=1 IDE=1 extension RTR r1=0 r0=0
+// DLC (1 + 39 = 40 bits). The pad alternates and ends in 1: it inserts no
+// stuff bit, and SOF (0) starts a fresh run as after the recessive idle bus.
+// For the CRC the pad bits are zeros (leading zeros do not change a CRC that
+// starts at 0).
+struct Header {
+  std::uint64_t crc_bits;    // zero pad
+  std::uint64_t stuff_bits;  // alternating pad
+  int bytes;
+};
+Header header(const CanFrame& f) {
+  const std::uint64_t rtr = f.rtr() ? 1 : 0;
+  if (!f.extended()) {
+    const std::uint64_t h = (std::uint64_t(f.id & 0x7FF) << 7) | (rtr << 6) | dlc_field(f);
+    return {h, (std::uint64_t(0b10101) << 19) | h, 3};
+  }
+  const std::uint64_t base = (f.id >> 18) & 0x7FF, extension = f.id & 0x3FFFF;
+  const std::uint64_t h = (base << 27) | (std::uint64_t(3) << 25) | (extension << 7) | (rtr << 6) | dlc_field(f);
+  return {h, (std::uint64_t(1) << 39) | h, 5};
+}
+
+unsigned crc_step(unsigned crc, unsigned byte) { return ((crc << 8) & 0x7FFF) ^ kCrcTable[((crc >> 7) ^ byte) & 0xFF]; }
+unsigned stuff_step(unsigned state, unsigned byte, int& inserted) {
+  const std::uint8_t e = kStuff8[state * 256 + byte];
+  inserted += e >> 3;
+  return e & 7;
+}
+
+// CRC and stuff bits in one pass: the two chains run side by side until the
+// CRC's own bits.
+struct Coded {
+  unsigned crc;
+  int stuff;
+};
+Coded code(const CanFrame& f) {
+  const Header h = header(f);
+  unsigned crc = 0, state = 0 * 4 + 0;  // as after a single dominant bit: the pad starts with 1
+  int inserted = 0;
+  for (int i = h.bytes - 1; i >= 0; --i) {
+    crc = crc_step(crc, unsigned(h.crc_bits >> (8 * i)) & 0xFF);
+    state = stuff_step(state, unsigned(h.stuff_bits >> (8 * i)) & 0xFF, inserted);
+  }
+  for (int i = 0, n = data_bytes(f); i < n; ++i) {
+    crc = crc_step(crc, f.data[i]);
+    state = stuff_step(state, f.data[i], inserted);
+  }
+  state = stuff_step(state, crc >> 7, inserted);
+  const std::uint8_t e = kStuff7[state * 256 + (crc & 0x7F)];
+  return {crc, inserted + (e >> 3)};
+}
+
+}  // namespace
+
+std::uint16_t crc15(const CanFrame& frame) { return std::uint16_t(code(frame).crc); }
+
+int stuff_bits(const CanFrame& frame) { return code(frame).stuff; }
+
+int wire_bits(const CanFrame& frame) {
+  return stuffable_bits(frame) + stuff_bits(frame) + kFrameTailBits + kIntermissionBits;
+}
+
+}  // namespace cansim::io
