@@ -56,7 +56,8 @@ double BusMeter::bits_per_s(const std::array<std::uint32_t, kBins>& bins, TimeUs
   if (now <= from) return 0;
   std::uint64_t bits = 0;
   // Bins the meter has not reached yet, or left behind, hold nothing for `now`.
-  for (std::int64_t b = std::max(first, bin_ - std::int64_t(kBins) + 1); b <= std::min(last, bin_); ++b)
+  const std::int64_t oldest = std::max({first, bin_ - std::int64_t(kBins) + 1, start_ / kBin});
+  for (std::int64_t b = oldest; b <= std::min(last, bin_); ++b)
     bits += bins[b % kBins];
   return double(bits) * 1e6 / double(now - from);
 }
@@ -69,8 +70,9 @@ BusMeter::Figures BusMeter::figures(TimeUs now) const {
   f.carried_10s = bits_per_s(carried_, 10'000'000, now);
   std::array<std::uint64_t, kDelayBuckets> sum{};
   const std::int64_t last = now / kDelaySlot;
-  for (std::int64_t s = std::max(last - std::int64_t(kDelaySlots) + 1, slot_ - std::int64_t(kDelaySlots) + 1);
-       s <= std::min(last, slot_); ++s) {
+  const std::int64_t oldest =
+      std::max({last - std::int64_t(kDelaySlots) + 1, slot_ - std::int64_t(kDelaySlots) + 1, start_ / kDelaySlot});
+  for (std::int64_t s = oldest; s <= std::min(last, slot_); ++s) {
     const std::size_t i = std::size_t(s % std::int64_t(kDelaySlots));
     for (std::size_t b = 0; b < kDelayBuckets; ++b) sum[b] += delays_[i][b];
     f.delay_max = std::max(f.delay_max, delay_max_[i]);

@@ -193,7 +193,7 @@ void LoopCore::run_due(TimeUs now) {
 }
 
 TimeUs LoopCore::run_until(TimeUs t) {
-  while (heap_.top_time() <= t) run_due(std::max(now_, heap_.top_time()));
+  while (next_deadline() <= t) run_due(std::max(now_, next_deadline()));
   now_ = std::max(now_, t);
   return now_;
 }
