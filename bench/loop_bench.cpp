@@ -3,6 +3,14 @@
 // TPDO and a 100 ms heartbeat per simulated second, and bytes per node.
 //
 //   ./build/bench/loop_bench [nodes=1000] [simulated_seconds=5]
+//
+// With `timed`: what the timed bus model costs against ideal buses (the full
+// chain, fake clock: 1 Mbit/s buses of 127 nodes with TPDO1 every 20 ms and a
+// 100 ms heartbeat, ~65 % load; best of 3 runs each, interleaved), then the
+// loop's wake-up lateness with a real timer (timerfd, absolute deadlines) on
+// that fleet for the same number of real seconds.
+//
+//   ./build/bench/loop_bench [nodes=127] [seconds=5] timed
 #include <malloc.h>
 
 #include <cstdio>
@@ -12,7 +20,10 @@
 #include <string>
 #include <vector>
 
+#include <algorithm>
+
 #include "config/fleet.hpp"
+#include "io/event_loop.hpp"
 #include "io/loop_core.hpp"
 #include "personalities/registry.hpp"
 
@@ -36,10 +47,16 @@ struct Fleet {
   std::vector<io::BusId> buses;
   std::vector<io::NodeRef> nodes;
 
-  Fleet(config::Profile& profile, int count, bool with_app = true) {
+  // rate: CiA 305 bit-rate index of the buses and nodes (3: 250 kbit/s).
+  Fleet(config::Profile& profile, int count, bool with_app = true, std::uint8_t rate = 3,
+        io::BusModel model = io::BusModel::kIdeal) {
     for (int i = 0; i < count; ++i) {
-      if (i % 127 == 0) buses.push_back(core.add_bus("null" + std::to_string(i / 127), tx, 3));
+      if (i % 127 == 0) {
+        buses.push_back(core.add_bus("null" + std::to_string(i / 127), tx, rate));
+        core.set_bus_model(buses.back(), model);
+      }
       NodeSetup s = config::node_setup(profile, std::uint8_t(1 + i % 127));
+      s.bit_rate_index = rate;
       personalities::NodeContext ctx;
       ctx.index = std::uint32_t(i);
       ctx.key = "null/bench/" + std::to_string(i);
@@ -108,12 +125,106 @@ void bench_fleet(config::Profile& profile, int count, int seconds, bool with_app
               f.core.node(f.nodes[0]).memory_bytes(), heap / std::size_t(count));
 }
 
+// Operational, TPDO1 every `tpdo_ms`, heartbeat every 100 ms.
+void start_fleet(Fleet& f, std::uint8_t tpdo_ms) {
+  std::uint8_t et[2] = {tpdo_ms, 0}, hb[2] = {100, 0};
+  for (io::NodeRef r : f.nodes) {
+    f.core.node(r).write(0x1800, 5, et, 0);
+    f.core.node(r).write(0x1017, 0, hb, 0);
+    f.core.refresh(r);
+  }
+  for (io::BusId b : f.buses) f.core.receive(b, frame(0x000, {0x01, 0x00}), 0);
+}
+
+struct CostRun {
+  double ns_per_frame;
+  double frames_per_s;
+  std::uint64_t wakeups;
+  io::BusLoad load;
+};
+
+CostRun run_cost(config::Profile& profile, int count, int seconds, io::BusModel model) {
+  Fleet f(profile, count, true, 0, model);
+  start_fleet(f, 20);
+  f.core.run_until(ms(1000));
+  std::uint64_t out0 = f.tx.frames, wake0 = f.core.stats().wakeups;
+  double t0 = cpu_seconds();
+  f.core.run_until(ms(1000) + ms(1000) * seconds);
+  double cpu = cpu_seconds() - t0;
+  double frames = double(f.tx.frames - out0);
+  return {cpu * 1e9 / frames, frames / seconds, f.core.stats().wakeups - wake0, f.core.bus_load(f.bus)};
+}
+
+// Timed against ideal, full chain, best of 3 each (runs interleaved: the
+// host's other work hits both alike).
+void bench_timed_cost(config::Profile& profile, int count, int seconds) {
+  CostRun best[2] = {{1e30, 0, 0, {}}, {1e30, 0, 0, {}}};
+  for (int round = 0; round < 3; ++round)
+    for (int m = 0; m < 2; ++m) {
+      CostRun r = run_cost(profile, count, seconds, m ? io::BusModel::kTimed : io::BusModel::kIdeal);
+      std::printf("  run %d %-5s: %.0f ns CPU per frame sent (%.0f frames/s simulated)\n", round + 1,
+                  m ? "timed" : "ideal", r.ns_per_frame, r.frames_per_s);
+      if (r.ns_per_frame < best[m].ns_per_frame) best[m] = r;
+    }
+  const io::BusLoad& l = best[1].load;
+  std::printf("%d nodes on %d bus(es) at 1 Mbit/s, TPDO1 20 ms + heartbeat 100 ms, full chain, best of 3:\n", count,
+              (count + 126) / 127);
+  std::printf("  ideal %.0f ns, timed %.0f ns CPU per frame sent: timed costs %+.1f %%\n", best[0].ns_per_frame,
+              best[1].ns_per_frame, (best[1].ns_per_frame / best[0].ns_per_frame - 1) * 100);
+  std::printf("  first bus, timed: carried %.1f %% of 1 Mbit/s over 1 s, queueing delay p50 %lld us, p99 %lld us, max "
+              "%lld us, %llu dropped\n",
+              l.carried_1s * 100, (long long)l.delay_p50, (long long)l.delay_p99, (long long)l.delay_max,
+              (unsigned long long)l.dropped);
+}
+
+// The daemon's loop shape on a real clock: one absolute timerfd armed at the
+// core's next deadline, run_due at each wake-up. Lateness: how long after
+// its deadline the loop was running again.
+void bench_wakeup_lateness(config::Profile& profile, int count, int seconds, io::BusModel model) {
+  Fleet f(profile, count, true, 0, model);
+  start_fleet(f, 20);
+  io::EventLoop loop;
+  const TimeUs epoch = io::monotonic_now();
+  std::vector<TimeUs> late;
+  late.reserve(std::size_t(seconds) * 200000);
+  const TimeUs end = TimeUs(seconds) * 1'000'000;
+  double cpu0 = cpu_seconds();
+  std::uint64_t out0 = f.tx.frames;
+  TimeUs armed = kNever;
+  for (;;) {
+    const TimeUs now = io::monotonic_now() - epoch;
+    if (armed != kNever && now >= armed) late.push_back(now - armed);
+    if (now >= end) break;
+    f.core.run_due(now);
+    armed = f.core.next_deadline();
+    loop.arm_timer(armed + epoch);
+    bool timer = false;
+    int signal = 0;
+    loop.wait(-1, timer, signal);
+  }
+  double cpu = cpu_seconds() - cpu0;
+  std::sort(late.begin(), late.end());
+  auto pct = [&](double p) { return late.empty() ? 0LL : (long long)late[std::size_t(p * double(late.size() - 1))]; };
+  std::printf("  %-5s %d nodes: %zu wake-ups/s, lateness p50 %lld us, p99 %lld us, max %lld us; %.0f frames/s, "
+              "%.1f %% of a core\n",
+              model == io::BusModel::kTimed ? "timed" : "ideal", count, late.size() / std::size_t(seconds), pct(0.5),
+              pct(0.99), late.empty() ? 0LL : (long long)late.back(), double(f.tx.frames - out0) / seconds,
+              cpu / seconds * 100);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   int count = argc > 1 ? std::atoi(argv[1]) : 1000;
   int seconds = argc > 2 ? std::atoi(argv[2]) : 5;
   config::Profile profile = load_profile();
+  if (argc > 3 && std::string(argv[3]) == "timed") {
+    bench_timed_cost(profile, count, seconds);
+    std::printf("wake-up lateness, real timer, %d s each:\n", seconds);
+    bench_wakeup_lateness(profile, count, seconds, io::BusModel::kIdeal);
+    bench_wakeup_lateness(profile, count, seconds, io::BusModel::kTimed);
+    return 0;
+  }
   bench_sdo(profile);
   bench_fleet(profile, count, seconds, false);
   bench_fleet(profile, count, seconds, true);

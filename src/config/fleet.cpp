@@ -88,12 +88,18 @@ void parse_interfaces(const Where& w, const YAML::Node& map, FleetConfig& out) {
       fail(wi, kv.first, "expected a network interface name (at most 15 characters)");
     const YAML::Node& v = kv.second;
     if (v.IsDefined() && !v.IsNull()) {
-      check_keys(wi, v, {"bit_rate"});
+      check_keys(wi, v, {"bit_rate", "bus_model"});
       if (v["bit_rate"]) {
         ic.bit_rate_kbit = std::uint32_t(get_int(wi.child("bit_rate"), v["bit_rate"], 1, 1000));
         if (bit_rate_index(ic.bit_rate_kbit) < 0)
           fail(wi.child("bit_rate"), v["bit_rate"],
                "expected a CiA bit rate in kbit/s: 1000, 800, 500, 250, 125, 50, 20 or 10");
+      }
+      if (const YAML::Node& m = v["bus_model"]) {
+        const std::string model = get_string(wi.child("bus_model"), m);
+        if (model == "timed") ic.bus_model = BusModelChoice::kTimed;
+        else if (model == "ideal") ic.bus_model = BusModelChoice::kIdeal;
+        else fail(wi.child("bus_model"), m, "expected timed or ideal");
       }
     }
     out.interfaces.push_back(ic);
@@ -372,7 +378,11 @@ FleetConfig parse_fleet_fragment(const std::string& text, const std::string& fil
       if (name.size() >= 16 || !valid_name(name))
         fail(wi.child("interface"), entry["interface"], "expected a network interface name (at most 15 characters)");
       YAML::Node setting(YAML::NodeType::Map);
-      if (const InterfaceConfig* ic = running.interface(name); ic && ic->bit_rate_kbit) setting["bit_rate"] = ic->bit_rate_kbit;
+      if (const InterfaceConfig* ic = running.interface(name)) {
+        if (ic->bit_rate_kbit) setting["bit_rate"] = ic->bit_rate_kbit;
+        if (ic->bus_model != BusModelChoice::kAuto)
+          setting["bus_model"] = ic->bus_model == BusModelChoice::kTimed ? "timed" : "ideal";
+      }
       ifaces[name] = setting;
     }
     root["interfaces"] = ifaces;

@@ -14,9 +14,17 @@
 
 namespace cansim::config {
 
+// `bus_model:` of an interface (README "The bus model").
+enum class BusModelChoice : std::uint8_t {
+  kAuto,   // not given: timed on a virtual bus (vcan), the controller's pacing on real CAN
+  kTimed,  // frames wait for the bus: arbitration and frame length at the bit rate
+  kIdeal,  // every frame is on the bus the instant its node sends it
+};
+
 struct InterfaceConfig {
   std::string name;                 // "vcan0", "can0"
   std::uint32_t bit_rate_kbit = 0;  // 0: ask the kernel, else 250
+  BusModelChoice bus_model = BusModelChoice::kAuto;
 };
 
 struct NodeConfig {

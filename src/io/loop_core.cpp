@@ -244,7 +244,8 @@ void LoopCore::settle_buses(TimedBus::Phase phase) {
   for (;;) {
     for (BusId bus = 0; bus < buses_.size(); ++bus)
       if (buses_[bus]->timed) settle_bus(bus, phase);
-    if (phase == TimedBus::Phase::kBefore || ring_size_ == 0) break;
+    if (phase == TimedBus::Phase::kBefore) return;  // kAt follows
+    if (ring_size_ == 0) break;
     flush(now_);
   }
   update_bus_next();

@@ -9,14 +9,18 @@ TimeUs ceil_us(std::int64_t ns) { return (ns + 999) / 1000; }
 }  // namespace
 
 bool TimedBus::submit(const QueuedFrame& q, TimeUs) {
-  if (queue_.push(q)) return true;
-  ++dropped_;
-  return false;
+  if (!queue_.push(q)) {
+    ++dropped_;
+    return false;
+  }
+  next_stale_ |= !busy_;
+  return true;
 }
 
 void TimedBus::occupy(int bits, TimeUs now) {
   const std::int64_t from = busy_ ? free_ns_ : std::max(free_ns_, now * 1000);
   free_ns_ = from + bits * bit_ns_;
+  next_stale_ |= !busy_;
 }
 
 bool TimedBus::settle(TimeUs now, Phase phase, QueuedFrame& done, std::int64_t& started_ns) {
@@ -25,6 +29,7 @@ bool TimedBus::settle(TimeUs now, Phase phase, QueuedFrame& done, std::int64_t& 
     if (busy_) {
       if (end_ns_ > now_ns) return false;
       busy_ = false;
+      next_stale_ = true;
       done = current_;
       started_ns = start_ns_;
       return true;
@@ -40,14 +45,21 @@ bool TimedBus::settle(TimeUs now, Phase phase, QueuedFrame& done, std::int64_t& 
     start_ns_ = std::max(free_ns_, current_.queued_at * 1000);
     end_ns_ = end_of(start_ns_, current_.bits);
     free_ns_ = start_ns_ + current_.bits * bit_ns_;
+    next_event_ = ceil_us(end_ns_);
+    next_stale_ = false;
   }
 }
 
-TimeUs TimedBus::next_event() const {
-  if (busy_) return ceil_us(end_ns_);
-  if (queue_.empty()) return kNever;
-  const QueuedFrame& next = queue_.top();
-  return ceil_us(end_of(std::max(free_ns_, next.queued_at * 1000), next.bits));
+void TimedBus::refresh_next_event() const {
+  next_stale_ = false;
+  if (busy_) {
+    next_event_ = ceil_us(end_ns_);
+  } else if (queue_.empty()) {
+    next_event_ = kNever;
+  } else {
+    const QueuedFrame& next = queue_.top();
+    next_event_ = ceil_us(end_of(std::max(free_ns_, next.queued_at * 1000), next.bits));
+  }
 }
 
 }  // namespace cansim::io

@@ -34,7 +34,10 @@ class TimedBus {
 
   TimedBus(std::int64_t bit_ns, std::size_t queue_frames) : bit_ns_(bit_ns), queue_(queue_frames) {}
 
-  void set_bit_ns(std::int64_t bit_ns) { bit_ns_ = bit_ns; }
+  void set_bit_ns(std::int64_t bit_ns) {
+    bit_ns_ = bit_ns;
+    next_stale_ = true;
+  }
   std::int64_t bit_ns() const { return bit_ns_; }
 
   // A local node's frame, sent at `now`. False when the queue is full (the
@@ -47,7 +50,10 @@ class TimedBus {
   bool settle(TimeUs now, Phase phase, QueuedFrame& done, std::int64_t& started_ns);
   // When the frame on the wire, or the one that will win next, ends (µs,
   // rounded up); kNever when nothing is queued.
-  TimeUs next_event() const;
+  TimeUs next_event() const {
+    if (next_stale_) refresh_next_event();
+    return next_event_;
+  }
 
   std::size_t queued() const { return queue_.size() + (busy_ ? 1 : 0); }
   std::size_t capacity() const { return queue_.capacity(); }
@@ -64,10 +70,12 @@ class TimedBus {
     if (busy_) fn(current_);
     busy_ = false;
     for (; !queue_.empty(); queue_.pop()) fn(queue_.top());
+    next_stale_ = true;
   }
 
  private:
   std::int64_t end_of(std::int64_t start_ns, int bits) const { return start_ns + (bits - kIntermissionBits) * bit_ns_; }
+  void refresh_next_event() const;
 
   std::int64_t bit_ns_;
   ArbitrationQueue queue_;
@@ -76,6 +84,8 @@ class TimedBus {
   QueuedFrame current_;
   std::int64_t start_ns_ = 0, end_ns_ = 0;  // of current_
   std::uint64_t dropped_ = 0;
+  mutable TimeUs next_event_ = kNever;
+  mutable bool next_stale_ = false;  // the queue's head may have changed
 };
 
 }  // namespace cansim::io

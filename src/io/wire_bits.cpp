@@ -8,18 +8,27 @@ namespace {
 
 constexpr std::uint16_t kCrc15Generator = 0x4599;  // x^15 + x^14 + x^10 + x^8 + x^7 + x^4 + x^3 + 1
 
-// CRC register after shifting in 8 message bits (MSB first) from a register
-// whose top 8 bits were XORed with them: the usual byte-wise table.
-constexpr std::array<std::uint16_t, 256> make_crc_table() {
-  std::array<std::uint16_t, 256> t{};
+// The CRC is linear in the message: the CRC of a message is the XOR, over
+// its bytes, of the CRC of that byte followed by as many zero bytes as follow
+// it. kCrcSlices[k][b] is that for byte b with k bytes after it (a 13-byte
+// message at most: a 29-bit header padded to 5 bytes and 8 data bytes), so
+// the reads are independent of each other (no chain through the register).
+constexpr int kMaxCrcBytes = 13;
+constexpr std::array<std::array<std::uint16_t, 256>, kMaxCrcBytes> make_crc_slices() {
+  std::array<std::array<std::uint16_t, 256>, kMaxCrcBytes> t{};
   for (unsigned i = 0; i < 256; ++i) {
-    unsigned r = i << 7;
+    unsigned r = i << 7;  // the byte through the register, MSB first
     for (int b = 0; b < 8; ++b) r = (r & 0x4000) ? ((r << 1) ^ kCrc15Generator) : (r << 1);
-    t[i] = std::uint16_t(r & 0x7FFF);
+    t[0][i] = std::uint16_t(r & 0x7FFF);
   }
+  for (int k = 1; k < kMaxCrcBytes; ++k)
+    for (unsigned i = 0; i < 256; ++i) {
+      const unsigned c = t[k - 1][i];  // then a zero byte
+      t[k][i] = std::uint16_t(((c << 8) & 0x7FFF) ^ t[0][(c >> 7) & 0xFF]);
+    }
   return t;
 }
-constexpr auto kCrcTable = make_crc_table();
+constexpr auto kCrcSlices = make_crc_slices();
 
 // Stuffing as a state machine over bytes. State: the last bit sent (stuff
 // bits included) and the length of its run, 1..4 (a run reaching 5 inserts a
@@ -75,29 +84,30 @@ Header header(const CanFrame& f) {
   return {h, (std::uint64_t(1) << 39) | h, 5};
 }
 
-unsigned crc_step(unsigned crc, unsigned byte) { return ((crc << 8) & 0x7FFF) ^ kCrcTable[((crc >> 7) ^ byte) & 0xFF]; }
 unsigned stuff_step(unsigned state, unsigned byte, int& inserted) {
   const std::uint8_t e = kStuff8[state * 256 + byte];
   inserted += e >> 3;
   return e & 7;
 }
 
-// CRC and stuff bits in one pass: the two chains run side by side until the
-// CRC's own bits.
+// CRC and stuff bits: the stuffing is a chain of table reads, byte after
+// byte; the CRC's reads run beside it and are ready for its last two bytes.
 struct Coded {
   unsigned crc;
   int stuff;
 };
 Coded code(const CanFrame& f) {
   const Header h = header(f);
+  const int n = data_bytes(f), length = h.bytes + n;
   unsigned crc = 0, state = 0 * 4 + 0;  // as after a single dominant bit: the pad starts with 1
   int inserted = 0;
-  for (int i = h.bytes - 1; i >= 0; --i) {
-    crc = crc_step(crc, unsigned(h.crc_bits >> (8 * i)) & 0xFF);
-    state = stuff_step(state, unsigned(h.stuff_bits >> (8 * i)) & 0xFF, inserted);
+  for (int i = 0; i < h.bytes; ++i) {
+    const int shift = 8 * (h.bytes - 1 - i);
+    crc ^= kCrcSlices[length - 1 - i][(h.crc_bits >> shift) & 0xFF];
+    state = stuff_step(state, unsigned(h.stuff_bits >> shift) & 0xFF, inserted);
   }
-  for (int i = 0, n = data_bytes(f); i < n; ++i) {
-    crc = crc_step(crc, f.data[i]);
+  for (int i = 0; i < n; ++i) {
+    crc ^= kCrcSlices[n - 1 - i][f.data[i]];
     state = stuff_step(state, f.data[i], inserted);
   }
   state = stuff_step(state, crc >> 7, inserted);

@@ -53,6 +53,7 @@ TEST_F(FleetTest, CountReplicatesOverConsecutiveNodeIdsWithDistinctSerialsAndKey
   ASSERT_EQ(f.interfaces.size(), 2u);
   EXPECT_EQ(f.interfaces[0].bit_rate_kbit, 250u);
   EXPECT_EQ(f.interfaces[1].bit_rate_kbit, 0u);  // ask the kernel
+  EXPECT_EQ(f.interfaces[0].bus_model, BusModelChoice::kAuto);
   ASSERT_EQ(f.nodes.size(), 4u);
   for (int i = 0; i < 3; ++i) {
     EXPECT_EQ(f.nodes[i].node_id, 0x10 + i);
@@ -139,6 +140,15 @@ TEST_F(FleetTest, ProfilesAreFoundByNameOrPath) {
   EXPECT_EQ(find_profile("nope", dir, search), "");
 }
 
+TEST_F(FleetTest, BusModelPerInterface) {
+  FleetConfig f = parse("interfaces:\n  vcan0: {bus_model: ideal}\n  vcan1: {bit_rate: 125, bus_model: timed}\n"
+                        "  vcan2:\nnodes: []\n");
+  ASSERT_EQ(f.interfaces.size(), 3u);
+  EXPECT_EQ(f.interfaces[0].bus_model, BusModelChoice::kIdeal);
+  EXPECT_EQ(f.interfaces[1].bus_model, BusModelChoice::kTimed);
+  EXPECT_EQ(f.interfaces[2].bus_model, BusModelChoice::kAuto);  // timed on vcan, the controller's on can
+}
+
 TEST_F(FleetTest, ErrorsNameFileLineKeyAndExpectation) {
   struct Case {
     std::string text;
@@ -150,7 +160,9 @@ TEST_F(FleetTest, ErrorsNameFileLineKeyAndExpectation) {
       {"nodes: []\n", "D/fleet.yaml:1:1: interfaces: missing required key 'interfaces'"},
       {std::string(kIfaces), "D/fleet.yaml:1:1: nodes: missing required key 'nodes'"},
       {"interfaces:\n  vcan0: {bitrate: 250}\nnodes: []\n",
-       "D/fleet.yaml:2:11: interfaces.vcan0.bitrate: unknown key (expected one of: bit_rate), got 'bitrate'"},
+       "D/fleet.yaml:2:11: interfaces.vcan0.bitrate: unknown key (expected one of: bit_rate, bus_model), got 'bitrate'"},
+      {"interfaces:\n  vcan0: {bit_rate: 125, bus_model: fast}\nnodes: []\n",
+       "D/fleet.yaml:2:37: interfaces.vcan0.bus_model: expected timed or ideal, got 'fast'"},
       {"interfaces:\n  vcan0: {bit_rate: 300}\nnodes: []\n",
        "D/fleet.yaml:2:21: interfaces.vcan0.bit_rate: expected a CiA bit rate in kbit/s: 1000, 800, 500, 250, 125, "
        "50, 20 or 10, got '300'"},
