@@ -35,6 +35,9 @@ struct BusStatistics {
   std::uint64_t offline = 0;  // frames not sent: interface down or missing
   double offered_load = 0;   // fraction of the bit rate, from the configuration
   double measured_load = 0;  // fraction of the bit rate, over the last status period
+  std::string model = "ideal";  // "timed", "ideal", or "controller" (a real CAN interface)
+  CanState state = CanState::kErrorActive;  // its controller's (vcan: always error-active)
+  io::BusLoad load;          // what the bus carried (io::LoopCore::bus_load)
 };
 
 class ControlHost {
@@ -53,6 +56,9 @@ class ControlHost {
   // Re-reads the configuration; throws config::ConfigError, changing nothing.
   virtual void reload() = 0;
   virtual std::vector<BusStatistics> bus_statistics() const = 0;
+  // The same without offered_load (the estimate from every node's OD): what
+  // the bus properties need, cheap enough for any call.
+  virtual std::vector<BusStatistics> buses() const { return bus_statistics(); }
   virtual std::string config_file() const = 0;
 };
 

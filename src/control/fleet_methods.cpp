@@ -4,6 +4,7 @@
 #include "config/profile.hpp"
 #include "control/node_names.hpp"
 #include "control/service_internal.hpp"
+#include "io/can_interface.hpp"
 
 #ifndef CANSIM_VERSION
 #define CANSIM_VERSION "unknown"
@@ -97,6 +98,30 @@ int bus_statistics(sd_bus_message* m, void* userdata, sd_bus_error*) {
   });
 }
 
+// BusLoad: per interface (name, model, offered 1 s, offered 10 s, carried
+// 1 s, carried 10 s, queueing delay p50 / p99 / max in µs, frames queued,
+// queue bound, frames dropped by the full queue).
+int get_bus_load(sd_bus*, const char*, const char*, const char*, sd_bus_message* reply, void* userdata, sd_bus_error*) {
+  int r = sd_bus_message_open_container(reply, 'a', "(ssddddxxxuut)");
+  for (const BusStatistics& b : service_of(userdata).host().buses()) {
+    const io::BusLoad& l = b.load;
+    if (r >= 0)
+      r = sd_bus_message_append(reply, "(ssddddxxxuut)", b.name.c_str(), b.model.c_str(), l.offered_1s, l.offered_10s,
+                                l.carried_1s, l.carried_10s, std::int64_t(l.delay_p50), std::int64_t(l.delay_p99),
+                                std::int64_t(l.delay_max), std::uint32_t(l.queued), std::uint32_t(l.queue_capacity),
+                                std::uint64_t(l.dropped));
+  }
+  return r < 0 ? r : sd_bus_message_close_container(reply);
+}
+
+int get_bus_states(sd_bus*, const char*, const char*, const char*, sd_bus_message* reply, void* userdata,
+                   sd_bus_error*) {
+  int r = sd_bus_message_open_container(reply, 'a', "{ss}");
+  for (const BusStatistics& b : service_of(userdata).host().buses())
+    if (r >= 0) r = sd_bus_message_append(reply, "{ss}", b.name.c_str(), io::can_state_name(b.state));
+  return r < 0 ? r : sd_bus_message_close_container(reply);
+}
+
 int subscribe(sd_bus_message* m, void* userdata, sd_bus_error*) {
   service_of(userdata).subscribe(m, true);
   return sd_bus_reply_method_return(m, "");
@@ -143,8 +168,12 @@ const sd_bus_vtable kFleetVtable[] = {
     SD_BUS_PROPERTY("SimulatedTime", "x", get_time, 0, 0),
     SD_BUS_PROPERTY("NodeCount", "u", get_node_count, 0, 0),
     SD_BUS_PROPERTY("ConfigFile", "s", get_config_file, 0, 0),
+    SD_BUS_PROPERTY("BusLoad", "a(ssddddxxxuut)", get_bus_load, 0, 0),
+    SD_BUS_PROPERTY("BusStates", "a{ss}", get_bus_states, 0, SD_BUS_VTABLE_PROPERTY_EMITS_CHANGE),
     SD_BUS_SIGNAL_WITH_NAMES("NodeAdded", "os", SD_BUS_PARAM(path) SD_BUS_PARAM(key), 0),
     SD_BUS_SIGNAL_WITH_NAMES("NodeRemoved", "os", SD_BUS_PARAM(path) SD_BUS_PARAM(key), 0),
+    SD_BUS_SIGNAL_WITH_NAMES("BusStateChanged", "xsss",
+                             SD_BUS_PARAM(t) SD_BUS_PARAM(interface) SD_BUS_PARAM(old) SD_BUS_PARAM(state), 0),
     SD_BUS_VTABLE_END,
 };
 

@@ -7,6 +7,7 @@
 
 #include "control/od_values.hpp"
 #include "control/service_internal.hpp"
+#include "io/can_interface.hpp"
 
 namespace cansim::control {
 
@@ -175,6 +176,14 @@ void ControlService::node_removed(const std::string& key) {
   emit(kRootPath, kFleetInterface, "NodeRemoved", [&](sd_bus_message* m) {
     return sd_bus_message_append(m, "os", path.c_str(), key.c_str());
   });
+}
+
+void ControlService::bus_state_changed(const std::string& interface, CanState old, CanState now, TimeUs t) {
+  emit(kRootPath, kFleetInterface, "BusStateChanged", [&](sd_bus_message* m) {
+    return sd_bus_message_append(m, "xsss", std::int64_t(t), interface.c_str(), io::can_state_name(old),
+                                 io::can_state_name(now));
+  });
+  emit_properties_changed(kRootPath, kFleetInterface, {"BusStates"});
 }
 
 void ControlService::touched(const NodeContext& n) { host_.core().refresh(n.handle->ref); }

@@ -41,6 +41,9 @@ class ControlService : public io::LoopObserver {
   // The host tells the service about fleet changes (initial nodes included).
   void node_added(const NodeHandle& h);
   void node_removed(const std::string& key);
+  // A real interface's CAN controller changed state: signal BusStateChanged
+  // and BusStates' PropertiesChanged to subscribers.
+  void bus_state_changed(const std::string& interface, CanState old, CanState now, TimeUs t);
 
   // io::LoopObserver: core events become signals.
   void on_nmt_state(io::NodeRef ref, NmtState old, NmtState now, TimeUs t) override;

@@ -49,6 +49,10 @@ struct CanFrame {
   }
 };
 
+// The error state of a CAN controller (ISO 11898-1 fault confinement; error
+// warning: a counter reached 96, as SocketCAN reports it).
+enum class CanState : std::uint8_t { kErrorActive, kErrorWarning, kErrorPassive, kBusOff };
+
 // Where a node's outgoing frames go (a socket, an in-memory bus, a test recorder).
 class FrameSink {
  public:

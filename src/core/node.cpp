@@ -79,9 +79,15 @@ void Node::power_cycle(TimeUs now, TimeUs off_for) {
 
 void Node::set_bus_off(bool off, TimeUs now) {
   if (off == bus_off_ || !powered_) return;
+  const bool was_off = off_bus();
   bus_off_ = off;
+  bus_off_changed(was_off, now);
+}
+
+void Node::bus_off_changed(bool was_off, TimeUs now) {
+  if (off_bus() == was_off) return;
   const NodeOptions& o = options();
-  if (off) {
+  if (!was_off) {
     if (o.bus_off_comm_error_reaction && nmt_.booted()) nmt_.communication_error(now);
     return;
   }
@@ -89,6 +95,27 @@ void Node::set_bus_off(bool off, TimeUs now) {
     emcy_.raise(code, std::uint8_t(o.bus_off_recovery_emcy_register), now);
     if (o.bus_off_recovery_emcy_clears) emcy_.clear(code, now);
   }
+}
+
+// A restart after bus-off leaves the controller error active: the passive
+// error ends first, then the recovery EMCY.
+void Node::set_can_state(CanState state, TimeUs now) {
+  if (state == can_state_) return;
+  const bool was_off = off_bus();
+  can_state_ = state;
+  if (!powered_) return;
+  const auto passive = std::uint16_t(options().error_passive_emcy);
+  if (passive && state == CanState::kErrorPassive && !emcy_.active(passive))
+    emcy_.raise(passive, std::uint8_t(options().error_passive_emcy_register), now);
+  if (passive && state < CanState::kErrorPassive && emcy_.active(passive)) emcy_.clear(passive, now);
+  bus_off_changed(was_off, now);
+}
+
+void Node::can_overrun(TimeUs now) {
+  const auto code = std::uint16_t(options().can_overrun_emcy);
+  if (!code || !powered_) return;
+  emcy_.raise(code, std::uint8_t(options().can_overrun_emcy_register), now);
+  emcy_.clear(code, now);
 }
 
 bool Node::allowed(Service s) const {
@@ -111,7 +138,7 @@ bool Node::send(const CanFrame& frame) {
 }
 
 void Node::on_frame(const CanFrame& frame, TimeUs now) {
-  if (!powered_ || bus_off_ || bit_rate_ != bus_bit_rate_) return;
+  if (!powered_ || off_bus() || bit_rate_ != bus_bit_rate_) return;
   // Every service sees the frame until one claims it; the order puts the
   // broadcast services (LSS, NMT) first.
   bool done = false;
@@ -317,6 +344,7 @@ NodeSnapshot::NodeSnapshot(const Node& node)
       silent_(node.silent_),
       muted_(node.muted_),
       bus_off_(node.bus_off_),
+      can_state_(node.can_state_),
       env_next_(node.env_next_),
       power_on_at_(node.power_on_at_),
       app_next_(node.app_next_),
@@ -340,6 +368,7 @@ bool Node::restore(const NodeSnapshot& s) {
   silent_ = s.silent_;
   muted_ = s.muted_;
   bus_off_ = s.bus_off_;
+  can_state_ = s.can_state_;
   env_next_ = s.env_next_;
   power_on_at_ = s.power_on_at_;
   app_next_ = s.app_next_;

@@ -55,6 +55,7 @@ class NodeSnapshot {
   OdValues values_;
   std::uint8_t node_id_, bit_rate_, bus_bit_rate_;
   bool powered_, silent_, muted_, bus_off_;
+  CanState can_state_;
   TimeUs env_next_, power_on_at_, app_next_;
   NmtSlave nmt_;
   LssSlave lss_;
@@ -94,7 +95,7 @@ class Node {
   void set_bus_bit_rate(std::uint8_t index) { bus_bit_rate_ = index; }
   std::uint8_t bit_rate_index() const { return bit_rate_; }
   void set_bit_rate_index(std::uint8_t index) { bit_rate_ = index; }
-  bool on_bus() const { return powered_ && !silent_ && !muted_ && !bus_off_ && bit_rate_ == bus_bit_rate_; }
+  bool on_bus() const { return powered_ && !silent_ && !muted_ && !off_bus() && bit_rate_ == bus_bit_rate_; }
   // Alive but sending nothing (LSS bit-timing switch delay); cleared at power-on.
   void set_silent(bool silent) { silent_ = silent; }
   // Alive but sending nothing (fault injection); kept over power cycles.
@@ -106,6 +107,16 @@ class Node {
   // starts with the controller error-active.
   void set_bus_off(bool off, TimeUs now);
   bool bus_off() const { return bus_off_; }
+  // The error state of the CAN controller of the real interface the node is
+  // on, from its error frames (io::LoopCore::controller_event; ISO 11898-1
+  // fault confinement). Error passive raises error_passive_emcy (CiA 301
+  // 0x8120) until the controller is error active again; bus-off and the
+  // controller's restart act as set_bus_off() does (0x1029:01 reaction,
+  // recovery EMCY). The state is the interface's: a power cycle keeps it.
+  void set_can_state(CanState state, TimeUs now);
+  CanState can_state() const { return can_state_; }
+  // The controller lost frames (rx / tx overflow): can_overrun_emcy.
+  void can_overrun(TimeUs now);
 
   // Sends a frame if the node is on the bus; true when it was handed to the sink.
   bool send(const CanFrame& frame);
@@ -224,6 +235,10 @@ class Node {
   bool hears(const PdoEngine&) const { return allowed(Service::kPdo); }
   template <typename S>
   bool hears(const S&) const { return true; }
+  bool off_bus() const { return bus_off_ || can_state_ == CanState::kBusOff; }
+  // After bus_off_ or can_state_ changed: the reaction to going off the bus,
+  // or the recovery EMCY.
+  void bus_off_changed(bool was_off, TimeUs now);
 
   friend class NodeSnapshot;
 
@@ -242,6 +257,7 @@ class Node {
   bool silent_ = false;
   bool muted_ = false;
   bool bus_off_ = false;
+  CanState can_state_ = CanState::kErrorActive;
   TimeUs env_next_ = kNever;
   TimeUs power_on_at_ = kNever;  // while unpowered: when power comes back
   std::uint32_t rx_epoch_ = 0;

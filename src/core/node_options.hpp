@@ -36,13 +36,19 @@ namespace cansim {
   X(std::string, nmt_startup_values, "", SETTING, "0x1F80 values accepted on write (ranges; empty: any)")     \
   X(int64_t, comm_error_reaction_without_1029, 1, SETTING,                                                    \
     "0x1029:01 behaviour assumed when the profile has no 0x1029 (0 pre-op, 1 none, 2 stopped)")               \
-  /* CAN controller (fault injection: bus-off) */                                                             \
+  /* CAN controller (bus-off fault; a real interface's error frames) */                                      \
   X(int64_t, bus_off_recovery_emcy, 0x8140, CIA(0x8140),                                                      \
     "EMCY code sent when the node is back from bus-off (CiA 301 0x8140; 0: none)")                            \
   X(int64_t, bus_off_recovery_emcy_register, 0, CIA(0), "0x1001 bits of that EMCY besides the class bits")    \
   X(bool, bus_off_recovery_emcy_clears, true, CIA(true),                                                      \
     "an error reset EMCY follows the recovery EMCY (the error is gone once the node is back)")                \
   X(bool, bus_off_comm_error_reaction, true, CIA(true), "bus-off runs the 0x1029:01 communication error reaction") \
+  X(int64_t, error_passive_emcy, 0x8120, CIA(0x8120),                                                         \
+    "EMCY code while the CAN controller is error passive, reset when it is error active again (CiA 301 0x8120; 0: none)") \
+  X(int64_t, error_passive_emcy_register, 0, CIA(0), "0x1001 bits of that EMCY besides the class bits")       \
+  X(int64_t, can_overrun_emcy, 0x8110, SETTING,                                                               \
+    "EMCY code when the CAN controller lost frames (overflow), then its reset (CiA 301 0x8110; 0: none)")     \
+  X(int64_t, can_overrun_emcy_register, 0, SETTING, "0x1001 bits of that EMCY besides the class bits")        \
   /* SDO server (CiA 301 §7.2.4) */                                                                           \
   X(bool, sdo_expedited_only, false, CIA(false), "refuse segmented and block transfers")                      \
   X(bool, sdo_block_transfer, true, SETTING, "support block upload / download")                               \

@@ -138,6 +138,9 @@ struct Daemon::Interface : io::FdHandler {
   bool reported_down = false;
   std::uint64_t last_frames = 0;  // rx + tx at the last status report
   double measured_load = 0;       // fraction of the bit rate over the last status period
+  config::BusModelChoice bus_model = config::BusModelChoice::kAuto;
+  bool real_can = false;          // the kernel says: a CAN controller (it paces the bus)
+  std::uint64_t bus_drops_reported = 0;
 };
 
 Daemon::Daemon(DaemonSettings settings) : settings_(std::move(settings)) {}
@@ -166,8 +169,24 @@ Daemon::Interface& Daemon::ensure_interface(const config::InterfaceConfig& ic) {
     spdlog::warn("{}: {} kbit/s is not in the CiA 305 table: every node will stay silent", ic.name, kbit);
   iface->bit_rate_kbit = kbit;
   core_.set_bus_bit_rate(iface->bus, config::bit_rate_selector(kbit));
+  iface->bus_model = ic.bus_model;
+  apply_bus_model(*iface, io::kernel_link(ic.name));
   iface->configured = true;
   return *iface;
+}
+
+// Timed on a virtual bus unless `bus_model: ideal`; a real CAN controller
+// paces its own bus (README "The bus model"). A missing interface counts as
+// virtual until it appears.
+void Daemon::apply_bus_model(Interface& iface, const io::KernelLink& link) {
+  iface.real_can = link.real_can();
+  const bool timed = !iface.real_can && iface.bus_model != config::BusModelChoice::kIdeal;
+  const io::BusModel model = timed ? io::BusModel::kTimed : io::BusModel::kIdeal;
+  if (core_.bus_model(iface.bus) == model) return;
+  core_.set_bus_model(iface.bus, model);
+  const auto subject = LogSubject::interface(iface.can.name());
+  if (iface.real_can && iface.bus_model == config::BusModelChoice::kTimed)
+    spdlog::info("{}: a real CAN controller paces this bus itself: bus_model: timed has no effect", iface.can.name());
 }
 
 void Daemon::on_can_events(Interface& iface, std::uint32_t events) {
@@ -180,11 +199,42 @@ void Daemon::on_can_events(Interface& iface, std::uint32_t events) {
     for (int b = 0; b < kReadBatchesPerWake; ++b) {
       int n = iface.can.read_batch(frames, io::CanInterface::kBatch);
       for (int i = 0; i < n; ++i) core_.receive(iface.bus, frames[i], now);
+      take_controller_reports(iface, now);
       if (n < int(io::CanInterface::kBatch)) break;
     }
   }
   if (events & EPOLLOUT) drain(iface, now);
   flush(now);  // the answers to what was just read
+}
+
+// A real controller's error frames: its nodes react as their devices do, the
+// journal and the control API's subscribers hear of it.
+void Daemon::take_controller_reports(Interface& iface, TimeUs now) {
+  io::ControllerReport r;
+  while (iface.can.take_report(r)) {
+    if (r.event.state_changed || r.event.frames_lost) core_.controller_event(iface.bus, r.event, now);
+    const auto subject = LogSubject::interface(iface.can.name());
+    const std::string& name = iface.can.name();
+    const std::size_t nodes = core_.node_count(iface.bus);
+    std::string counters;
+    if (r.tx_errors >= 0) counters = fmt::format(", TX errors {}, RX errors {}", r.tx_errors, r.rx_errors);
+    if (r.event.state_changed) {
+      const char* now_name = io::can_state_name(r.event.state);
+      const char* was = io::can_state_name(r.before);
+      if (r.event.state == CanState::kBusOff)
+        spdlog::error("{}: CAN controller bus-off (was {}{}): its {} node(s) are off the bus", name, was, counters, nodes);
+      else if (r.event.state == CanState::kErrorActive)
+        spdlog::info("{}: CAN controller {} ({}was {}): its {} node(s) are on the bus", name, now_name,
+                     r.restarted ? "restarted, " : "", was, nodes);
+      else
+        spdlog::warn("{}: CAN controller {} (was {}{})", name, now_name, was, counters);
+      if (control_) control_->bus_state_changed(name, r.before, r.event.state, now);
+    }
+    if (r.event.frames_lost)
+      spdlog::warn("{}: CAN controller lost frames ({}{}{})", name, r.rx_overflow ? "RX overflow" : "",
+                   r.rx_overflow && r.tx_overflow ? ", " : "", r.tx_overflow ? "TX overflow" : "");
+    if (r.tx_timeout) spdlog::warn("{}: transmission timed out (driver)", name);
+  }
 }
 
 void Daemon::drain(Interface& iface, TimeUs now) {
@@ -231,11 +281,15 @@ void Daemon::try_open(Interface& i, TimeUs now) {
     i.in_epoll = true;
     i.mask = EPOLLIN;
     i.retry_at = kNever;
+    apply_bus_model(i, io::kernel_link(i.can.name()));
+    const char* model = i.real_can ? "paced by its controller"
+                        : core_.bus_model(i.bus) == io::BusModel::kTimed ? "timed bus" : "ideal bus";
     if (i.reported_down)
       spdlog::info("{}: interface is back, {} node(s) on the bus again", i.can.name(), core_.node_count(i.bus));
     else
-      spdlog::info("{}: open, {} kbit/s", i.can.name(), i.bit_rate_kbit);
+      spdlog::info("{}: open, {} kbit/s, {}", i.can.name(), i.bit_rate_kbit, model);
     i.reported_down = false;
+    take_controller_reports(i, now);
     return;
   }
   i.retry_at = now + kRetryPeriod;
@@ -297,6 +351,13 @@ void Daemon::report_status(TimeUs now) {
     const auto subject = LogSubject::interface(i->can.name());
     if (drops && i->can.is_open())
       spdlog::warn("{}: {} frame(s) dropped in the last {:.0f} s (kernel queue full)", i->can.name(), drops, dt);
+    const io::BusLoad load = core_.bus_load(i->bus);
+    if (load.dropped > i->bus_drops_reported)
+      spdlog::warn("{}: {} frame(s) dropped in the last {:.0f} s: the bus's queue of {} frames was full (offered {:.0f} % "
+                   "of {} kbit/s over 10 s)",
+                   i->can.name(), load.dropped - i->bus_drops_reported, dt, load.queue_capacity, load.offered_10s * 100,
+                   i->bit_rate_kbit);
+    i->bus_drops_reported = load.dropped;
   }
   std::size_t configured = std::count_if(interfaces_.begin(), interfaces_.end(), [](const auto& i) { return i->configured; });
   char buf[160];
@@ -515,7 +576,7 @@ void Daemon::remove_node(const std::string& key) {
   apply(combined(), clock_now());
 }
 
-std::vector<control::BusStatistics> Daemon::bus_statistics() const {
+std::vector<control::BusStatistics> Daemon::buses() const {
   std::vector<control::BusStatistics> out;
   for (const auto& ip : interfaces_) {
     const Interface& i = *ip;
@@ -528,12 +589,25 @@ std::vector<control::BusStatistics> Daemon::bus_statistics() const {
     b.frames_out = i.can.stats().tx;
     b.drops = i.can.stats().tx_dropped;
     b.offline = i.can.stats().tx_offline;
+    b.measured_load = i.measured_load;
+    b.model = i.real_can ? "controller" : core_.bus_model(i.bus) == io::BusModel::kTimed ? "timed" : "ideal";
+    b.state = i.can.controller_state();
+    b.load = core_.bus_load(i.bus);
+    out.push_back(b);
+  }
+  return out;
+}
+
+std::vector<control::BusStatistics> Daemon::bus_statistics() const {
+  std::vector<control::BusStatistics> out = buses();
+  for (control::BusStatistics& b : out) {
+    const Interface* i = nullptr;
+    for (const auto& ip : interfaces_)
+      if (ip->configured && ip->can.name() == b.name) i = ip.get();
     Traffic t;
     for (const auto& [key, e] : nodes_)
-      if (core_.bus_of(e.ref) == i.bus) t += estimate_traffic(core_.node(e.ref));
-    b.offered_load = i.bit_rate_kbit ? t.bits_per_s / (i.bit_rate_kbit * 1000.0) : 0;
-    b.measured_load = i.measured_load;
-    out.push_back(b);
+      if (core_.bus_of(e.ref) == i->bus) t += estimate_traffic(core_.node(e.ref));
+    b.offered_load = i->bit_rate_kbit ? t.bits_per_s / (i->bit_rate_kbit * 1000.0) : 0;
   }
   return out;
 }

@@ -90,6 +90,7 @@ class Daemon : public control::ControlHost {
   void remove_node(const std::string& key) override;
   void reload() override;
   std::vector<control::BusStatistics> bus_statistics() const override;
+  std::vector<control::BusStatistics> buses() const override;
   std::string config_file() const override { return settings_.config_file; }
 
  private:
@@ -111,9 +112,11 @@ class Daemon : public control::ControlHost {
   void reload(TimeUs now);
   void start_control();
   Interface& ensure_interface(const config::InterfaceConfig& ic);
+  void apply_bus_model(Interface& iface, const io::KernelLink& link);
   void remove_node(NodeEntry& e);
   void on_can_events(Interface& iface, std::uint32_t events);
   void drain(Interface& iface, TimeUs now);
+  void take_controller_reports(Interface& iface, TimeUs now);
   void flush(TimeUs now);
   void sweep_interfaces(TimeUs now);
   void try_open(Interface& iface, TimeUs now);

@@ -1,6 +1,7 @@
 #include "io/can_interface.hpp"
 
 #include <linux/can.h>
+#include <linux/can/error.h>
 #include <linux/can/netlink.h>
 #include <linux/can/raw.h>
 #include <linux/if_link.h>
@@ -39,6 +40,47 @@ void to_socketcan(const CanFrame& in, ::can_frame& out) {
   if (!in.rtr()) std::memcpy(out.data, in.data, out.len);
 }
 
+const char* can_state_name(CanState s) {
+  switch (s) {
+    case CanState::kErrorActive: return "error-active";
+    case CanState::kErrorWarning: return "error-warning";
+    case CanState::kErrorPassive: return "error-passive";
+    case CanState::kBusOff: return "bus-off";
+  }
+  return "?";
+}
+
+// The kernel's can_change_state() sets CAN_ERR_BUSOFF, or CAN_ERR_CRTL with
+// the new state's warning / passive / active bits in data[1] (the higher of
+// the RX and TX states); CAN_ERR_RESTARTED follows a restart after bus-off.
+ControllerReport decode_error_frame(const ::can_frame& f, CanState state) {
+  ControllerReport r;
+  r.before = state;
+  CanState now = state;
+  if (f.can_id & CAN_ERR_RESTARTED) {
+    r.restarted = true;
+    now = CanState::kErrorActive;
+  }
+  if (f.can_id & CAN_ERR_CRTL) {
+    const std::uint8_t c = f.data[1];
+    r.rx_overflow = c & CAN_ERR_CRTL_RX_OVERFLOW;
+    r.tx_overflow = c & CAN_ERR_CRTL_TX_OVERFLOW;
+    if (c & (CAN_ERR_CRTL_RX_PASSIVE | CAN_ERR_CRTL_TX_PASSIVE)) now = CanState::kErrorPassive;
+    else if (c & (CAN_ERR_CRTL_RX_WARNING | CAN_ERR_CRTL_TX_WARNING)) now = CanState::kErrorWarning;
+    else if (c & CAN_ERR_CRTL_ACTIVE) now = CanState::kErrorActive;
+  }
+  if (f.can_id & CAN_ERR_BUSOFF) now = CanState::kBusOff;
+  r.tx_timeout = f.can_id & CAN_ERR_TX_TIMEOUT;
+  if (f.can_id & CAN_ERR_CNT) {
+    r.tx_errors = f.data[6];
+    r.rx_errors = f.data[7];
+  }
+  r.event.state = now;
+  r.event.state_changed = now != state;
+  r.event.frames_lost = r.rx_overflow || r.tx_overflow;
+  return r;
+}
+
 CanInterface::CanInterface(std::string name, std::size_t tx_queue_frames)
     : name_(std::move(name)), queue_(tx_queue_frames ? tx_queue_frames : 1) {}
 
@@ -69,9 +111,65 @@ bool CanInterface::open() {
   addr.can_family = AF_CAN;
   addr.can_ifindex = int(index);
   if (::bind(fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr) < 0) return fail("bind", errno);
+  can_err_mask_t errors = CAN_ERR_TX_TIMEOUT | CAN_ERR_CRTL | CAN_ERR_BUSOFF | CAN_ERR_RESTARTED;
+  ::setsockopt(fd_, SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &errors, sizeof errors);
   error_.clear();
   interest_changed_ = true;
+  // A controller that was bus-off or passive when we last saw it may have
+  // restarted meanwhile (down / up): its state now is the kernel's.
+  const int kernel = kernel_link(name_).can_state;
+  const CanState now = kernel == CAN_STATE_BUS_OFF       ? CanState::kBusOff
+                       : kernel == CAN_STATE_ERROR_PASSIVE ? CanState::kErrorPassive
+                       : kernel == CAN_STATE_ERROR_WARNING ? CanState::kErrorWarning
+                                                           : CanState::kErrorActive;
+  if (now != state_) {
+    ControllerReport r;
+    r.before = state_;
+    r.restarted = state_ == CanState::kBusOff && now != CanState::kBusOff;
+    r.event.state = now;
+    r.event.state_changed = true;
+    report(r);
+  }
   return true;
+}
+
+void CanInterface::report(const ControllerReport& r) {
+  if (r.event.state_changed) state_ = r.event.state;
+  if (report_count_ == kReports) {
+    // Full: the oldest report goes, its losses folded into the next one.
+    ControllerReport& next = reports_[(report_head_ + 1) % kReports];
+    const ControllerReport& oldest = reports_[report_head_];
+    next.event.frames_lost |= oldest.event.frames_lost;
+    next.event.state_changed |= oldest.event.state_changed;
+    next.before = oldest.before;
+    report_head_ = (report_head_ + 1) % kReports;
+    --report_count_;
+  }
+  reports_[(report_head_ + report_count_++) % kReports] = r;
+}
+
+bool CanInterface::take_report(ControllerReport& out) {
+  if (report_count_ == 0) return false;
+  out = reports_[report_head_];
+  report_head_ = (report_head_ + 1) % kReports;
+  --report_count_;
+  return true;
+}
+
+int CanInterface::accept(const ::can_frame* in, std::size_t n, CanFrame* out) {
+  int kept = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (in[i].can_id & CAN_ERR_FLAG) {
+      ++stats_.error_frames;
+      const ControllerReport r = decode_error_frame(in[i], state_);
+      stats_.tx_timeouts += r.tx_timeout;
+      if (r.event.state_changed || r.event.frames_lost || r.tx_timeout || r.restarted) report(r);
+      continue;
+    }
+    if (from_socketcan(in[i], out[kept])) ++kept;
+  }
+  stats_.rx += std::uint64_t(kept);
+  return kept;
 }
 
 void CanInterface::close() {
@@ -184,13 +282,11 @@ int CanInterface::read_batch(CanFrame* out, std::size_t max) {
     fail("recvmmsg", errno);
     return -1;
   }
-  int kept = 0;
-  for (int i = 0; i < got; ++i) {
-    if (msgs[i].msg_len < CAN_MTU) continue;  // not a classic CAN frame
-    if (from_socketcan(frames[i], out[kept])) ++kept;
-  }
-  stats_.rx += std::uint64_t(kept);
-  return kept;
+  // Classic CAN frames to the front (CAN FD ones are not for us).
+  std::size_t classic = 0;
+  for (int i = 0; i < got; ++i)
+    if (msgs[i].msg_len >= CAN_MTU) frames[classic++] = frames[i];
+  return accept(frames, classic, out);
 }
 
 // ---- netlink: IFLA_LINKINFO / IFLA_INFO_DATA / IFLA_CAN_BITTIMING
@@ -203,27 +299,37 @@ const rtattr* find_attr(const rtattr* a, int len, unsigned short type) {
   return nullptr;
 }
 
-std::uint32_t bit_rate_from_link(const nlmsghdr* h) {
+void read_link(const nlmsghdr* h, KernelLink& out) {
   const auto* ifi = static_cast<const ifinfomsg*>(NLMSG_DATA(h));
   int len = int(h->nlmsg_len) - int(NLMSG_LENGTH(sizeof *ifi));
   const rtattr* info = find_attr(IFLA_RTA(ifi), len, IFLA_LINKINFO);
-  if (!info) return 0;
-  const rtattr* data = find_attr(static_cast<const rtattr*>(RTA_DATA(info)), int(RTA_PAYLOAD(info)), IFLA_INFO_DATA);
-  if (!data) return 0;
-  const rtattr* bt = find_attr(static_cast<const rtattr*>(RTA_DATA(data)), int(RTA_PAYLOAD(data)), IFLA_CAN_BITTIMING);
-  if (!bt || RTA_PAYLOAD(bt) < sizeof(can_bittiming)) return 0;
+  if (!info) return;
+  const auto* nested = static_cast<const rtattr*>(RTA_DATA(info));
+  if (const rtattr* kind = find_attr(nested, int(RTA_PAYLOAD(info)), IFLA_INFO_KIND))
+    out.kind.assign(static_cast<const char*>(RTA_DATA(kind)), strnlen(static_cast<const char*>(RTA_DATA(kind)), RTA_PAYLOAD(kind)));
+  const rtattr* data = find_attr(nested, int(RTA_PAYLOAD(info)), IFLA_INFO_DATA);
+  if (!data) return;
+  const auto* can = static_cast<const rtattr*>(RTA_DATA(data));
+  if (const rtattr* st = find_attr(can, int(RTA_PAYLOAD(data)), IFLA_CAN_STATE); st && RTA_PAYLOAD(st) >= sizeof(std::uint32_t)) {
+    std::uint32_t v;
+    std::memcpy(&v, RTA_DATA(st), sizeof v);
+    out.can_state = int(v);
+  }
+  const rtattr* bt = find_attr(can, int(RTA_PAYLOAD(data)), IFLA_CAN_BITTIMING);
+  if (!bt || RTA_PAYLOAD(bt) < sizeof(can_bittiming)) return;
   can_bittiming timing;
   std::memcpy(&timing, RTA_DATA(bt), sizeof timing);
-  return timing.bitrate;
+  out.bit_rate = timing.bitrate;
 }
 
 }  // namespace
 
-std::uint32_t kernel_bit_rate(const std::string& ifname) {
+KernelLink kernel_link(const std::string& ifname) {
+  KernelLink link;
   unsigned index = if_nametoindex(ifname.c_str());
-  if (index == 0) return 0;
+  if (index == 0) return link;
   int fd = ::socket(AF_NETLINK, SOCK_RAW | SOCK_CLOEXEC, NETLINK_ROUTE);
-  if (fd < 0) return 0;
+  if (fd < 0) return link;
   struct {
     nlmsghdr h;
     ifinfomsg i;
@@ -234,7 +340,6 @@ std::uint32_t kernel_bit_rate(const std::string& ifname) {
   req.h.nlmsg_seq = 1;
   req.i.ifi_family = AF_UNSPEC;
   req.i.ifi_index = int(index);
-  std::uint32_t rate = 0;
   timeval tv{1, 0};
   ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
   if (::send(fd, &req, req.h.nlmsg_len, 0) >= 0) {
@@ -242,10 +347,12 @@ std::uint32_t kernel_bit_rate(const std::string& ifname) {
     ssize_t n = ::recv(fd, buf, sizeof buf, 0);
     int len = int(n);
     for (auto* h = reinterpret_cast<nlmsghdr*>(buf); n > 0 && NLMSG_OK(h, len); h = NLMSG_NEXT(h, len))
-      if (h->nlmsg_type == RTM_NEWLINK) rate = bit_rate_from_link(h);
+      if (h->nlmsg_type == RTM_NEWLINK) read_link(h, link);
   }
   ::close(fd);
-  return rate;
+  return link;
 }
+
+std::uint32_t kernel_bit_rate(const std::string& ifname) { return kernel_link(ifname).bit_rate; }
 
 }  // namespace cansim::io

@@ -6,6 +6,12 @@
 // drains on EPOLLOUT; beyond that they are dropped and counted. An interface
 // that is missing or goes down is closed and reopened by the owner's retry
 // timer; its nodes keep running and resume on the wire when it is back.
+//
+// The socket also takes the controller's error frames (CAN_RAW_ERR_FILTER:
+// bus-off, controller problems, restarted, TX timeout; not the per-frame
+// protocol and bus errors, which may flood): they become ControllerReports
+// for the owner, who passes them on to the nodes (LoopCore::controller_event).
+// vcan never sends any.
 #pragma once
 
 #include <cstdint>
@@ -13,6 +19,7 @@
 #include <vector>
 
 #include "core/can_frame.hpp"
+#include "io/controller_event.hpp"
 #include "io/transport.hpp"
 
 struct can_frame;
@@ -26,7 +33,21 @@ struct CanStats {
   std::uint64_t tx_offline = 0;   // sent while the interface was down / missing
   std::uint64_t tx_queued = 0;
   std::uint64_t errors = 0;
+  std::uint64_t error_frames = 0;  // from the controller (CAN_ERR_FLAG)
+  std::uint64_t tx_timeouts = 0;   // reported by the driver
 };
+
+// One error frame of the controller (linux/can/error.h), decoded.
+struct ControllerReport {
+  ControllerEvent event;           // for the nodes
+  CanState before = CanState::kErrorActive;
+  bool rx_overflow = false, tx_overflow = false, tx_timeout = false;
+  bool restarted = false;          // CAN_ERR_RESTARTED, or the interface reopened
+  int tx_errors = -1, rx_errors = -1;  // the error counters when the frame has them (CAN_ERR_CNT)
+};
+// `state`: the controller's state before this frame.
+ControllerReport decode_error_frame(const ::can_frame& f, CanState state);
+const char* can_state_name(CanState s);  // "error-active", "error-warning", "error-passive", "bus-off"
 
 // Conversion between SocketCAN frames and core frames (EFF <-> kExtended,
 // RTR <-> kRtr). Returns false for frames the core does not take (error frames).
@@ -59,7 +80,17 @@ class CanInterface : public Transport {
   void set_deferred(bool deferred) { deferred_ = deferred; }
   // Reads up to kBatch frames (recvmmsg). Returns the count, 0 when nothing
   // is pending, -1 when the interface failed (is_open() is then false).
+  // Error frames among them become reports (take_report()).
   int read_batch(CanFrame* out, std::size_t max);
+  // What read_batch does with received kernel frames: data and remote frames
+  // to `out` (returns their count), error frames to the reports.
+  int accept(const ::can_frame* in, std::size_t n, CanFrame* out);
+  // The controller's state (from the kernel at open, then its error frames).
+  CanState controller_state() const { return state_; }
+  // The next report not yet taken, oldest first; false when none. At most
+  // kReports wait: beyond, the oldest are merged away (the state stays exact).
+  static constexpr std::size_t kReports = 16;
+  bool take_report(ControllerReport& out);
   // Sends queued frames (sendmmsg); returns false if the interface failed.
   bool drain();
   // True while frames wait for EPOLLOUT.
@@ -83,8 +114,13 @@ class CanInterface : public Transport {
   void enqueue(const CanFrame& frame);
   bool send_now(const CanFrame& frame, bool& again);
 
+  void report(const ControllerReport& r);
+
   std::string name_;
   int fd_ = -1;
+  CanState state_ = CanState::kErrorActive;
+  ControllerReport reports_[kReports];
+  std::size_t report_head_ = 0, report_count_ = 0;
   std::string error_;
   std::vector<CanFrame> queue_;  // ring, fixed size
   std::size_t head_ = 0;
@@ -96,8 +132,18 @@ class CanInterface : public Transport {
   std::uint64_t drops_reported_ = 0;
 };
 
-// The nominal bit rate of a real CAN interface from the kernel (netlink
-// IFLA_CAN_BITTIMING), in bit/s; 0 when unknown (vcan, missing, no netlink).
+// What the kernel says of a network interface (netlink RTM_GETLINK): its
+// link kind ("vcan", "can", "vxcan", ...; empty when missing or unknown) and,
+// for a real CAN controller, its nominal bit rate (IFLA_CAN_BITTIMING, bit/s;
+// 0 when unknown).
+struct KernelLink {
+  std::string kind;
+  std::uint32_t bit_rate = 0;
+  int can_state = -1;  // IFLA_CAN_STATE (enum can_state), -1 when unknown
+  // A CAN controller with a bit timing: it paces the frames itself.
+  bool real_can() const { return kind == "can"; }
+};
+KernelLink kernel_link(const std::string& ifname);
 std::uint32_t kernel_bit_rate(const std::string& ifname);
 
 }  // namespace cansim::io

@@ -94,6 +94,7 @@ NodeRef LoopCore::add_node(BusId bus, NodeSetup setup, std::unique_ptr<Applicati
   slot->storage = std::move(storage);
   slot->node = std::make_unique<Node>(std::move(setup), *slot, slot->app.get(), slot->storage.get());
   slot->node->set_bus_bit_rate(buses_[bus]->bit_rate_index);
+  slot->node->set_can_state(buses_[bus]->controller, now_);
   if (observer_) slot->node->set_observer(slot.get());
   slot->epoch_seen = slot->node->rx_epoch() - 1;  // forces the first registration
   slots_[ref] = std::move(slot);
@@ -166,6 +167,20 @@ void LoopCore::receive(BusId bus, const CanFrame& frame, TimeUs now) {
   b.meter.carried(bits, now_);
   if (b.timed) b.timed->occupy(bits, now_);
   deliver(bus, kNoNode, frame, now_);
+  rebuild_dirty();
+  flush(now_);
+  settle_buses(TimedBus::Phase::kAt);
+}
+
+void LoopCore::controller_event(BusId bus, const ControllerEvent& event, TimeUs now) {
+  now_ = std::max(now_, now);
+  if (event.state_changed) buses_[bus]->controller = event.state;
+  for (auto& s : slots_) {
+    if (!s || s->bus != bus) continue;
+    if (event.state_changed) s->node->set_can_state(event.state, now_);
+    if (event.frames_lost) s->node->can_overrun(now_);
+    after(s->ref);
+  }
   rebuild_dirty();
   flush(now_);
   settle_buses(TimedBus::Phase::kAt);

@@ -25,8 +25,9 @@
 #include <vector>
 
 #include "core/node.hpp"
-#include "io/deadline_heap.hpp"
 #include "io/bus_meter.hpp"
+#include "io/controller_event.hpp"
+#include "io/deadline_heap.hpp"
 #include "io/dispatch.hpp"
 #include "io/timed_bus.hpp"
 #include "io/transport.hpp"
@@ -115,6 +116,11 @@ class LoopCore {
   // ---- running (no allocation in steady state)
   // A frame received from the bus's transport (another device on the wire).
   void receive(BusId bus, const CanFrame& frame, TimeUs now);
+  // The bus's CAN controller changed state or lost frames: every node on it
+  // reacts as its device does (Node::set_can_state, Node::can_overrun). The
+  // state stays the bus's: nodes added later start in it.
+  void controller_event(BusId bus, const ControllerEvent& event, TimeUs now);
+  CanState controller_state(BusId bus) const { return buses_[bus]->controller; }
   // Advances every node whose deadline is at or before `now`.
   void run_due(TimeUs now);
   // The earliest deadline of any node or timed bus, or kNever.
@@ -167,6 +173,7 @@ class LoopCore {
     RxDispatch dispatch;
     std::unique_ptr<TimedBus> timed;  // null: ideal
     BusMeter meter;
+    CanState controller = CanState::kErrorActive;
   };
   struct Pending {
     BusId bus;

@@ -41,6 +41,10 @@ ControlFleet::Bus& ControlFleet::bus(const std::string& name) {
     b.wire = std::move(memory);
   }
   b.id = core_.add_bus(name, *b.wire, 3);
+  // Ideal unless the fleet says `bus_model: timed` (the daemon's vcan default
+  // would change every frame time the control tests state).
+  if (const config::InterfaceConfig* ic = running_.interface(name); ic && ic->bus_model == config::BusModelChoice::kTimed)
+    core_.set_bus_model(b.id, io::BusModel::kTimed);
   return b;
 }
 
@@ -107,6 +111,9 @@ std::vector<control::BusStatistics> ControlFleet::bus_statistics() const {
     s.up = true;
     s.bit_rate_kbit = 250;
     s.frames_out = b.memory ? b.memory->log.size() : 0;
+    s.model = core_.bus_model(b.id) == io::BusModel::kTimed ? "timed" : "ideal";
+    s.state = core_.controller_state(b.id);
+    s.load = core_.bus_load(b.id);
     out.push_back(s);
   }
   return out;

@@ -53,6 +53,7 @@ class ControlFleet : public control::ControlHost {
   std::vector<io::MemoryTransport::Sent> take(const std::string& bus);
   // A frame from "the master" on a bus, at the current time.
   void receive(const std::string& bus, const CanFrame& f);
+  io::BusId bus_id(const std::string& name) { return bus(name).id; }
   const control::NodeHandle& node(const std::string& key) const { return *find(key); }
 
  private:
