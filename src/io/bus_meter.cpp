@@ -50,16 +50,16 @@ void BusMeter::delay(TimeUs d, TimeUs now) {
 }
 
 double BusMeter::bits_per_s(const std::array<std::uint32_t, kBins>& bins, TimeUs window, TimeUs now) const {
+  // The complete bins of the window: [last - n, last), `last` the bin now is in.
   const std::int64_t last = now / kBin;
-  const std::int64_t first = last - window / kBin + 1;
-  const TimeUs from = std::max(first * kBin, start_);
-  if (now <= from) return 0;
+  const std::int64_t first = last - window / kBin;
+  const TimeUs from = std::max(first * kBin, start_), to = last * kBin;
+  if (to <= from) return 0;
   std::uint64_t bits = 0;
   // Bins the meter has not reached yet, or left behind, hold nothing for `now`.
   const std::int64_t oldest = std::max({first, bin_ - std::int64_t(kBins) + 1, start_ / kBin});
-  for (std::int64_t b = oldest; b <= std::min(last, bin_); ++b)
-    bits += bins[b % kBins];
-  return double(bits) * 1e6 / double(now - from);
+  for (std::int64_t b = oldest; b < std::min(last, bin_ + 1); ++b) bits += bins[b % kBins];
+  return double(bits) * 1e6 / double(to - from);
 }
 
 BusMeter::Figures BusMeter::figures(TimeUs now) const {

@@ -4,10 +4,11 @@
 // and the queueing delay of each frame (queued -> start of transmission) in
 // one histogram per second over the last 10 s. O(1) per frame, no allocation.
 //
-// Windows end now: the last 1 s (10 bins, the current one partial) and 10 s
-// (100 bins), shortened to the time since the meter started. Delays are kept
-// in buckets 1/8 octave wide (exact below 16 µs): a percentile is its
-// bucket's upper bound (at most 12.5 % high), never above the window's max.
+// Loads are over the last complete 1 s and 10 s: the 10 and 100 bins before
+// the one `now` is in (the figures move every 100 ms), shortened to the time
+// since the meter started. Delays are over the current second and the 9
+// before, kept in buckets 1/8 octave wide (exact below 16 µs): a percentile
+// is its bucket's upper bound (at most 12.5 % high), never above the max.
 #pragma once
 
 #include <array>

@@ -5,9 +5,11 @@
 
 #include <cmath>
 #include <cstring>
+#include <map>
 
 #include "config/eds_reader.hpp"
 #include "control/service.hpp"
+#include "io/wire_bits.hpp"
 #include "support/control_fleet.hpp"
 
 namespace cansim::test {
@@ -306,6 +308,98 @@ TEST_F(ControlServiceTest, SignalsOnlyReachSubscribers) {
   sd_bus_message_unref(bus.call(bus.fleet_call("Unsubscribe")));
   EXPECT_EQ(node_call("generic/0", "Nmt", "s", "preop"), "");
   EXPECT_TRUE(signal_names().empty());
+}
+
+// Fleet properties, read as a client reads them.
+sd_bus_message* fleet_property(BusPair& bus, const char* name, const char* type) {
+  sd_bus_message* m = nullptr;
+  sd_bus_message_new_method_call(bus.client(), &m, nullptr, control::kRootPath, "org.freedesktop.DBus.Properties", "Get");
+  sd_bus_message_append(m, "ss", control::kFleetInterface, name);
+  sd_bus_message* r = bus.call(m);
+  if (r && sd_bus_message_enter_container(r, 'v', type) <= 0) {
+    sd_bus_message_unref(r);
+    return nullptr;
+  }
+  return r;
+}
+
+std::map<std::string, std::string> bus_states(BusPair& bus) {
+  std::map<std::string, std::string> out;
+  sd_bus_message* r = fleet_property(bus, "BusStates", "a{ss}");
+  const char *k, *v;
+  if (r && sd_bus_message_enter_container(r, 'a', "{ss}") > 0)
+    while (sd_bus_message_read(r, "{ss}", &k, &v) > 0) out[k] = v;
+  if (r) sd_bus_message_unref(r);
+  return out;
+}
+
+TEST_F(ControlServiceTest, ControllerStateIsAPropertyAndASignal) {
+  using M = std::map<std::string, std::string>;
+  EXPECT_EQ(bus_states(bus), (M{{"vcan0", "error-active"}, {"vcan1", "error-active"}}));
+  subscribe();
+  // As the daemon does with a real interface's error frame (Daemon::take_controller_reports).
+  fleet.core().controller_event(fleet.bus_id("vcan1"), {CanState::kBusOff, true, false}, 5 * kMs);
+  fleet.service().bus_state_changed("vcan1", CanState::kErrorPassive, CanState::kBusOff, 5 * kMs);
+  bus.pump();
+  bool seen = false, changed = false;
+  for (auto& [name, m] : bus.take_signals()) {
+    if (name == "BusStateChanged") {
+      std::int64_t t = 0;
+      const char *iface, *old, *now;
+      ASSERT_GT(sd_bus_message_read(m, "xsss", &t, &iface, &old, &now), 0);
+      EXPECT_EQ(t, 5 * kMs);
+      EXPECT_EQ(std::string(iface) + " " + old + " -> " + now, "vcan1 error-passive -> bus-off");
+      seen = true;
+    }
+    changed |= name == "PropertiesChanged";
+    sd_bus_message_unref(m);
+  }
+  EXPECT_TRUE(seen && changed);
+  EXPECT_EQ(bus_states(bus), (M{{"vcan0", "error-active"}, {"vcan1", "bus-off"}}));
+  EXPECT_FALSE(fleet.core().node(fleet.node("vcan1/other/0").ref).on_bus());
+}
+
+TEST(ControlBusLoad, TimedBusFiguresAsAProperty) {
+  ControlFleet fleet(R"(
+interfaces: {vcan0: {bus_model: timed}, vcan1: {}}
+nodes:
+  - {profile: generic-404, interface: vcan0, node_id: 0x10, count: 20, name: generic}
+  - {profile: generic-404, interface: vcan1, node_id: 0x10, name: other}
+)");
+  BusPair bus(fleet.service());
+  fleet.run_until(2'500 * kMs);  // boot-ups at 0, heartbeats each second, all at once
+  sd_bus_message* r = fleet_property(bus, "BusLoad", "a(ssddddxxxuut)");
+  ASSERT_NE(r, nullptr);
+  ASSERT_GT(sd_bus_message_enter_container(r, 'a', "(ssddddxxxuut)"), 0);
+  const char *name, *model;
+  double o1, o10, c1, c10;
+  std::int64_t p50, p99, max;
+  std::uint32_t queued, capacity;
+  std::uint64_t dropped;
+  ASSERT_GT(sd_bus_message_read(r, "(ssddddxxxuut)", &name, &model, &o1, &o10, &c1, &c10, &p50, &p99, &max, &queued,
+                                &capacity, &dropped), 0);
+  EXPECT_EQ(std::string(name) + " " + model, "vcan0 timed");
+  // 20 heartbeats a second (0x710..0x723, 58 to 60 bits each) at 250 kbit/s
+  // in the last full second (1.5 .. 2.5 s): about 0.47 %.
+  int beats = 0, first19 = 0, boot_ups19 = 0;
+  for (std::uint32_t i = 0; i < 20; ++i) {
+    beats += io::wire_bits(F(0x710 + i, {0x7F}));
+    if (i < 19) first19 += io::wire_bits(F(0x710 + i, {0x7F}));
+    if (i < 19) boot_ups19 += io::wire_bits(F(0x710 + i, {0x00}));
+  }
+  EXPECT_NEAR(c1, beats / 250'000.0, 1e-12);
+  EXPECT_EQ(o1, c1);
+  // They leave one after the other, lowest CAN-ID first: the last waits for
+  // the 19 before it (4 µs a bit); so did the boot-ups at 0 s, in the window too.
+  EXPECT_EQ(max, std::max(first19, boot_ups19) * 4);
+  EXPECT_LE(p50, first19 * 4 / 2 * 1.125);
+  EXPECT_EQ(capacity, 1024u);
+  EXPECT_EQ(queued + dropped, 0u);
+  ASSERT_GT(sd_bus_message_read(r, "(ssddddxxxuut)", &name, &model, &o1, &o10, &c1, &c10, &p50, &p99, &max, &queued,
+                                &capacity, &dropped), 0);
+  EXPECT_EQ(std::string(name) + " " + model, "vcan1 ideal");
+  EXPECT_EQ(capacity, 0u);
+  sd_bus_message_unref(r);
 }
 
 TEST_F(ControlServiceTest, AddNodesBootsThemAndRefusesCollisionsAtomically) {

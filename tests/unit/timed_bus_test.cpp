@@ -197,6 +197,7 @@ TEST_P(TimedBusTest, AFullQueueDropsAndCountsWhatItCannotHold) {
   // 0x2A1) are lost. 0x181 starts at 51, 0x192 at 120, 0x1A3 at 178 and 291.
   const Log got = frames(tx);
   EXPECT_EQ(got, (Log{{at(51 + 66), kB}, {at(120 + 55), kC}, {at(178 + 110), kA1}, {at(291 + 122), kA2}})) << dump(got);
+  core.run_until(ms(100));  // loads count complete 100 ms bins
   const BusLoad load = core.bus_load(bus);
   EXPECT_EQ(load.dropped, 2u);
   EXPECT_EQ(load.queue_capacity, 4u);
