@@ -52,7 +52,7 @@ void print_reply(const Request& r, const std::string& path, sd_bus_message* repl
     case Output::kValue: return p.value(r.object, read_value(reply));
     case Output::kAdded: return p.added(node_refs(read_object_paths(reply)));
     case Output::kTime: return p.time(read_int64(reply));
-    case Output::kStats: return p.stats(read_bus_stats(reply));
+    case Output::kStats: return;  // run_request: three replies
     case Output::kDcf: return r.file.empty() ? p.document("dcf", read_text(reply)) : write_text_file(r.file, read_text(reply));
     case Output::kNothing:
     case Output::kWatch: return;
@@ -141,6 +141,18 @@ int Watch::run(const std::string& node_path) {
   return 0;
 }
 
+// GetBusStatistics, then the BusLoad and BusStates properties of the same buses.
+std::vector<BusStats> bus_statistics(Connection& connection, sd_bus_message* reply) {
+  std::vector<BusStats> rows = read_bus_stats(reply);
+  auto property = [&](const char* name) {
+    return connection.call(kFleetPath, kPropertiesInterface, "Get",
+                           {Value(std::string(kFleetInterface)), Value(std::string(name))});
+  };
+  read_bus_load(property("BusLoad").get(), rows);
+  read_bus_states(property("BusStates").get(), rows);
+  return rows;
+}
+
 bool is_socket(const std::string& path) {
   std::error_code ec;
   return std::filesystem::is_socket(path, ec);
@@ -157,6 +169,10 @@ int run_request(Connection& connection, const Request& request, Printer& printer
   std::vector<Arg> args = request.call.args;
   if (request.output == Output::kAdded) args = {Value(read_text_file(request.file))};
   MessagePtr reply = connection.call(path, request.call.interface, request.call.method, args);
+  if (request.output == Output::kStats) {
+    printer.stats(bus_statistics(connection, reply.get()));
+    return 0;
+  }
   print_reply(request, path, reply.get(), printer);
   return 0;
 }

@@ -311,6 +311,44 @@ std::vector<BusStats> read_bus_stats(sd_bus_message* m) {
   });
 }
 
+namespace {
+BusStats* row_of(std::vector<BusStats>& rows, const char* name) {
+  for (BusStats& b : rows)
+    if (b.name == name) return &b;
+  return nullptr;
+}
+}  // namespace
+
+void read_bus_load(sd_bus_message* m, std::vector<BusStats>& rows) {
+  enter(m, 'v', "a(ssddddxxxuut)");
+  read_array(m, "(ssddddxxxuut)", [&](sd_bus_message* m) {
+    const char *name, *model;
+    BusStats l;
+    expect_value(sd_bus_message_read(m, "(ssddddxxxuut)", &name, &model, &l.offered_1s, &l.offered_10s, &l.carried_1s,
+                                     &l.carried_10s, &l.delay_p50_us, &l.delay_p99_us, &l.delay_max_us, &l.queued,
+                                     &l.queue_capacity, &l.queue_dropped));
+    if (BusStats* b = row_of(rows, name)) {
+      l.name = b->name, l.up = b->up, l.bit_rate_kbit = b->bit_rate_kbit, l.frames_in = b->frames_in;
+      l.frames_out = b->frames_out, l.frames_dropped = b->frames_dropped, l.frames_offline = b->frames_offline;
+      l.offered_load = b->offered_load, l.measured_load = b->measured_load, l.state = b->state, l.model = model;
+      *b = l;
+    }
+    return 0;
+  });
+  leave(m);
+}
+
+void read_bus_states(sd_bus_message* m, std::vector<BusStats>& rows) {
+  enter(m, 'v', "a{ss}");
+  read_array(m, "{ss}", [&](sd_bus_message* m) {
+    const char *name, *state;
+    expect_value(sd_bus_message_read(m, "{ss}", &name, &state));
+    if (BusStats* b = row_of(rows, name)) b->state = state;
+    return 0;
+  });
+  leave(m);
+}
+
 NodeStatus read_node_status(sd_bus_message* m) {
   NodeStatus status;
   enter(m, 'a', "{sv}");

@@ -24,6 +24,10 @@ std::vector<std::string> read_object_paths(sd_bus_message* m);  // ao
 std::vector<NodeRow> read_node_rows(sd_bus_message* m);
 std::vector<FaultRow> read_fault_rows(sd_bus_message* m);
 std::vector<BusStats> read_bus_stats(sd_bus_message* m);
+// Fills the BusLoad (a variant of a(ssddddxxxuut)) and BusStates (a variant
+// of a{ss}) properties into the rows of the same interfaces.
+void read_bus_load(sd_bus_message* m, std::vector<BusStats>& rows);
+void read_bus_states(sd_bus_message* m, std::vector<BusStats>& rows);
 NodeStatus read_node_status(sd_bus_message* m);  // a{sv} of io.cansim.Node1
 
 // "vcan0/dps/0" for a node object path, "" for any other path.

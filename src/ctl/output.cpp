@@ -334,6 +334,18 @@ void Printer::stats(const std::vector<BusStats>& rows) {
       json.member("frames_offline", b.frames_offline);
       json.member("offered_load", b.offered_load);
       json.member("measured_load", b.measured_load);
+      json.member("bus_model", b.model);
+      json.member("controller_state", b.state);
+      json.member("offered_load_1s", b.offered_1s);
+      json.member("offered_load_10s", b.offered_10s);
+      json.member("carried_load_1s", b.carried_1s);
+      json.member("carried_load_10s", b.carried_10s);
+      json.member("queue_delay_p50_us", b.delay_p50_us);
+      json.member("queue_delay_p99_us", b.delay_p99_us);
+      json.member("queue_delay_max_us", b.delay_max_us);
+      json.member("queued", b.queued);
+      json.member("queue_capacity", b.queue_capacity);
+      json.member("queue_dropped", b.queue_dropped);
       json.end_object();
     }
     json.end_array();
@@ -347,6 +359,21 @@ void Printer::stats(const std::vector<BusStats>& rows) {
                percent(b.offered_load), percent(b.measured_load)});
   }
   table.print(out_);
+  // The bus model's figures (Fleet1.BusLoad, BusStates): loads over 1 / 10 s,
+  // queueing delays over 10 s.
+  out_ << '\n';
+  Table bus({"INTERFACE", "MODEL", "STATE", "CARRIED 1S", "10S", "OFFERED 1S", "10S", "DELAY P50", "P99", "MAX",
+             "QUEUED", "LOST"});
+  auto ms = [](std::int64_t us) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.1f ms", double(us) / 1000.0);
+    return std::string(buf);
+  };
+  for (const BusStats& b : rows)
+    bus.add({b.name, b.model, b.state, percent(b.carried_1s), percent(b.carried_10s), percent(b.offered_1s),
+             percent(b.offered_10s), ms(b.delay_p50_us), ms(b.delay_p99_us), ms(b.delay_max_us),
+             std::to_string(b.queued) + "/" + std::to_string(b.queue_capacity), std::to_string(b.queue_dropped)});
+  bus.print(out_);
 }
 
 void Printer::event(const Event& e) {

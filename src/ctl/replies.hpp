@@ -40,6 +40,12 @@ struct BusStats {
   std::uint32_t bit_rate_kbit = 0;
   std::uint64_t frames_in = 0, frames_out = 0, frames_dropped = 0, frames_offline = 0;
   double offered_load = 0, measured_load = 0;
+  // Fleet1.BusLoad a(ssddddxxxuut) and BusStates a{ss} of the same interface.
+  std::string model, state;
+  double offered_1s = 0, offered_10s = 0, carried_1s = 0, carried_10s = 0;
+  std::int64_t delay_p50_us = 0, delay_p99_us = 0, delay_max_us = 0;
+  std::uint32_t queued = 0, queue_capacity = 0;
+  std::uint64_t queue_dropped = 0;
 };
 
 // Node1.Pressure / Temperature: (ddsy). NaN and "" without such a channel.

@@ -541,7 +541,7 @@ def time_and_stats(ctl: Ctl, t_start: float) -> None:
     assert t1 < j["seconds"] <= time.monotonic() - t_start + 1.0, (t1, j, time.monotonic() - t_start)
     it.log(f"time: {out.strip()!r}, --json {j}")
 
-    table = ctl.ok("stats").splitlines()
+    table, bus_table = (part.splitlines() for part in ctl.ok("stats").split("\n\n"))
     # (column 7, GetBusStatistics' "frames not sent", is not checked by name:
     # cansimctl calls it LOCAL / local_deliveries)
     head = table[0].split()
@@ -554,7 +554,12 @@ def time_and_stats(ctl: Ctl, t_start: float) -> None:
         st[0]["bit_rate_kbit"] == 250, st
     assert st[0]["frames_out"] > 100 and st[0]["frames_in"] > 0, st
     assert 0 < st[0]["offered_load"] < 1, st
-    it.log(f"stats: {table[1]!r}; --json {st[0]}")
+    # The bus model (vcan: timed by default), its state and figures.
+    assert bus_table[0].split()[:3] == ["INTERFACE", "MODEL", "STATE"] and \
+        bus_table[1].split()[:3] == ["vcan0", "timed", "error-active"], bus_table
+    assert st[0]["bus_model"] == "timed" and st[0]["controller_state"] == "error-active", st
+    assert 0 < st[0]["carried_load_10s"] < 1 and st[0]["queue_capacity"] == 1024 and st[0]["queue_dropped"] == 0, st
+    it.log(f"stats: {table[1]!r} / {bus_table[1]!r}; --json {st[0]}")
 
 
 def bad_lines(ctl: Ctl) -> None:

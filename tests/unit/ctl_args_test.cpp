@@ -460,10 +460,14 @@ TEST(CtlOutput, FaultsAndStats) {
             "1   drift  pressure  yes     10.000000  until cancelled  -       0\n"
             "2   noise  -         no      0.500000   0.25 s           2 s     3\n");
   std::ostringstream stats;
-  Printer(stats, false).stats({{"vcan0", false, 250, 1, 2, 3, 4, 0.123, 0.0}});
+  Printer(stats, false).stats({{"vcan0", false, 250, 1, 2, 3, 4, 0.123, 0.0, "timed", "error-passive", 0.9, 0.85,
+                                0.8, 0.75, 1200, 15000, 20000, 3, 1024, 7}});
   EXPECT_EQ(stats.str(),
             "INTERFACE  UP  KBIT/S  IN  OUT  DROPPED  OFFLINE  OFFERED  MEASURED\n"
-            "vcan0      no  250     1   2    3        4        12.3%    0.0%\n");
+            "vcan0      no  250     1   2    3        4        12.3%    0.0%\n"
+            "\n"
+            "INTERFACE  MODEL  STATE          CARRIED 1S  10S    OFFERED 1S  10S    DELAY P50  P99      MAX      QUEUED  LOST\n"
+            "vcan0      timed  error-passive  80.0%       75.0%  90.0%       85.0%  1.2 ms     15.0 ms  20.0 ms  3/1024  7\n");
 }
 
 TEST(CtlOutput, SmallReplies) {
