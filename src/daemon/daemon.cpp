@@ -391,6 +391,21 @@ void Daemon::check_bus_load() {
 
 void Daemon::notify(const std::string& state) { sd_notify(0, state.c_str()); }
 
+void Daemon::ready_when_sent() {
+  ready_marks_.clear();
+  for (const auto& i : interfaces_)
+    if (i->configured) ready_marks_.emplace_back(i->bus, core_.bus_mark(i->bus));
+  ready_pending_ = true;
+  check_ready();
+}
+
+void Daemon::check_ready() {
+  for (const auto& [bus, mark] : ready_marks_)
+    if (core_.bus_holds_before(bus, mark)) return;
+  ready_pending_ = false;
+  notify("READY=1");
+}
+
 // ---------------------------------------------------------------- fleet changes
 
 struct Daemon::Pending {
@@ -518,7 +533,7 @@ void Daemon::reload() {
       TimeUs t = d.clock_now();
       d.flush(t);  // the new nodes' boot-ups are on the bus before READY=1
       d.report_status(t);
-      d.notify("READY=1");
+      d.ready_when_sent();
     }
   } ready{*this};
   config::FleetConfig fresh = settings_.load();
@@ -655,7 +670,7 @@ int Daemon::run() {
   flush(now);         // the boot-ups are on the bus before READY=1
   sweep_interfaces(now);
   report_status(now);
-  notify("READY=1");
+  ready_when_sent();
   int signal = 0;
   for (;;) {
     now = clock_now();
@@ -670,6 +685,7 @@ int Daemon::run() {
     flush(now);
     housekeeping(now);
     sweep_interfaces(now);
+    if (ready_pending_) check_ready();
     TimeUs next = std::min(core_.next_deadline(), housekeeping_deadline());
     if (control_at != kNever) next = std::min(next, control_at - epoch_);
     endpoints_->before_sleep(next == kNever ? kNever : next + epoch_);

@@ -125,6 +125,10 @@ class Daemon : public control::ControlHost {
   void report_status(TimeUs now);
   void check_bus_load();
   void notify(const std::string& state);
+  // READY=1 once the frames the nodes sent so far are on the wire (the
+  // boot-ups: a timed bus takes its time); checked after every loop pass.
+  void ready_when_sent();
+  void check_ready();
 
   DaemonSettings settings_;
   io::EventLoop loop_;
@@ -146,6 +150,8 @@ class Daemon : public control::ControlHost {
   std::uint64_t last_frames_in_ = 0;
   double frames_per_s_ = 0;
   double status_period_s_ = 0;
+  std::vector<std::pair<io::BusId, std::uint64_t>> ready_marks_;
+  bool ready_pending_ = false;
 };
 
 }  // namespace cansim::daemon

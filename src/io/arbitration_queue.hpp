@@ -23,6 +23,7 @@ struct QueuedFrame {
   TimeUs queued_at = 0;   // when its node sent it
   std::uint32_t from = 0;  // the sender's NodeRef
   std::uint16_t bits = 0;  // wire_bits(frame)
+  std::uint64_t order = 0;  // TimedBus: frames it took before this one
 };
 
 class ArbitrationQueue {
@@ -44,6 +45,11 @@ class ArbitrationQueue {
   template <typename Fn>
   void for_each(Fn&& fn) {
     for (Entry& e : pool_)
+      if (e.queued) fn(e.q);
+  }
+  template <typename Fn>
+  void for_each(Fn&& fn) const {
+    for (const Entry& e : pool_)
       if (e.queued) fn(e.q);
   }
 

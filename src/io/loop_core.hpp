@@ -92,6 +92,12 @@ class LoopCore {
   BusModel bus_model(BusId bus) const { return buses_[bus]->timed ? BusModel::kTimed : BusModel::kIdeal; }
   // The bus's traffic figures at now().
   BusLoad bus_load(BusId bus) const;
+  // Timed buses: a mark of the frames taken so far, and whether one taken
+  // before it still waits or is on the wire (false on an ideal bus).
+  std::uint64_t bus_mark(BusId bus) const { return buses_[bus]->timed ? buses_[bus]->timed->taken() : 0; }
+  bool bus_holds_before(BusId bus, std::uint64_t mark) const {
+    return buses_[bus]->timed && buses_[bus]->timed->holds_before(mark);
+  }
   std::size_t bus_count() const { return buses_.size(); }
   // Builds a node (not powered yet). The core owns app and storage.
   NodeRef add_node(BusId bus, NodeSetup setup, std::unique_ptr<Application> app = nullptr,

@@ -9,12 +9,21 @@ TimeUs ceil_us(std::int64_t ns) { return (ns + 999) / 1000; }
 }  // namespace
 
 bool TimedBus::submit(const QueuedFrame& q, TimeUs) {
-  if (!queue_.push(q)) {
+  QueuedFrame numbered = q;
+  numbered.order = taken_;
+  if (!queue_.push(numbered)) {
     ++dropped_;
     return false;
   }
+  ++taken_;
   next_stale_ |= !busy_;
   return true;
+}
+
+bool TimedBus::holds_before(std::uint64_t mark) const {
+  bool holds = busy_ && current_.order < mark;
+  queue_.for_each([&](const QueuedFrame& q) { holds |= q.order < mark; });
+  return holds;
 }
 
 void TimedBus::occupy(int bits, TimeUs now) {

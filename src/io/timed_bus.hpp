@@ -56,6 +56,10 @@ class TimedBus {
   }
 
   std::size_t queued() const { return queue_.size() + (busy_ ? 1 : 0); }
+  // Frames taken so far (a mark), and whether one taken before `mark` still
+  // waits or is on the wire.
+  std::uint64_t taken() const { return taken_; }
+  bool holds_before(std::uint64_t mark) const;
   std::size_t capacity() const { return queue_.capacity(); }
   std::uint64_t dropped() const { return dropped_; }
   // Calls fn(QueuedFrame&) for every queued frame, the one on the wire too.
@@ -84,6 +88,7 @@ class TimedBus {
   QueuedFrame current_;
   std::int64_t start_ns_ = 0, end_ns_ = 0;  // of current_
   std::uint64_t dropped_ = 0;
+  std::uint64_t taken_ = 0;
   mutable TimeUs next_event_ = kNever;
   mutable bool next_stale_ = false;  // the queue's head may have changed
 };
