@@ -4,14 +4,6 @@
 
 namespace cansim::io {
 
-// Bits 30..20: the first 11 identifier bits; 19: RTR (11-bit) or SRR (29-bit,
-// recessive); 18: IDE; 17..1: the 18 extension bits; 0: RTR (29-bit).
-std::uint32_t ArbitrationQueue::key(const CanFrame& f) {
-  const std::uint32_t rtr = f.rtr() ? 1 : 0;
-  if (!f.extended()) return ((f.id & 0x7FF) << 20) | (rtr << 19);
-  return (((f.id >> 18) & 0x7FF) << 20) | (3u << 18) | ((f.id & 0x3FFFF) << 1) | rtr;
-}
-
 ArbitrationQueue::ArbitrationQueue(std::size_t capacity) : pool_(std::max<std::size_t>(capacity, 1)), buckets_(kBuckets) {
   for (std::size_t i = pool_.size(); i-- > 0;) {
     pool_[i].next = free_;
@@ -32,7 +24,12 @@ bool ArbitrationQueue::push(const QueuedFrame& q) {
   if (free_ == kNone) return false;
   const std::uint32_t i = take_free();
   pool_[i].q = q;
-  ++size_;
+  // Strictly lower: an equal key queued later stays behind.
+  const std::uint32_t k = key(q.frame);
+  if (size_++ == 0 || k < top_key_) {
+    top_ = i;
+    top_key_ = k;
+  }
   if (q.frame.extended()) {
     pool_[i].seq = seq_++;
     extended_.push_back(i);
@@ -57,24 +54,20 @@ bool ArbitrationQueue::extended_less(std::uint32_t a, std::uint32_t b) const {
   return ka != kb ? ka < kb : pool_[a].seq < pool_[b].seq;
 }
 
-bool ArbitrationQueue::standard_first() const {
-  if (summary_ == 0) return false;
-  if (extended_.empty()) return true;
+std::uint32_t ArbitrationQueue::find_top() const {
+  if (summary_ == 0) return extended_.front();
   const unsigned w = unsigned(__builtin_ctzll(summary_));
   const std::uint32_t b = w * 64 + unsigned(__builtin_ctzll(words_[w]));
-  return (b << 19) < key(pool_[extended_.front()].q.frame);
-}
-
-std::uint32_t ArbitrationQueue::top_index() const {
-  if (!standard_first()) return extended_.front();
-  const unsigned w = unsigned(__builtin_ctzll(summary_));
-  return buckets_[w * 64 + unsigned(__builtin_ctzll(words_[w]))].head;
+  if (!extended_.empty() && key(pool_[extended_.front()].q.frame) < (b << 19)) return extended_.front();
+  return buckets_[b].head;
 }
 
 void ArbitrationQueue::pop() {
-  if (standard_first()) pop_standard();
-  else pop_extended();
-  --size_;
+  if (pool_[top_].q.frame.extended()) pop_extended();
+  else pop_standard();
+  if (--size_ == 0) return;
+  top_ = find_top();
+  top_key_ = key(pool_[top_].q.frame);
 }
 
 void ArbitrationQueue::pop_standard() {

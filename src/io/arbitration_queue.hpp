@@ -30,8 +30,14 @@ class ArbitrationQueue {
  public:
   explicit ArbitrationQueue(std::size_t capacity = 1024);
 
-  // The arbitration field as one number: the lower wins.
-  static std::uint32_t key(const CanFrame& f);
+  // The arbitration field as one number, the lower wins. Bits 30..20: the
+  // first 11 identifier bits; 19: RTR (11-bit) or SRR (29-bit, recessive);
+  // 18: IDE; 17..1: the 18 extension bits; 0: RTR (29-bit).
+  static std::uint32_t key(const CanFrame& f) {
+    const std::uint32_t rtr = f.rtr() ? 1 : 0;
+    if (!f.extended()) return ((f.id & 0x7FF) << 20) | (rtr << 19);
+    return (((f.id >> 18) & 0x7FF) << 20) | (3u << 18) | ((f.id & 0x3FFFF) << 1) | rtr;
+  }
 
   // False when full (the caller counts the drop).
   bool push(const QueuedFrame& q);
@@ -39,7 +45,7 @@ class ArbitrationQueue {
   std::size_t size() const { return size_; }
   std::size_t capacity() const { return pool_.size(); }
   // The frame that wins arbitration now. Only when !empty().
-  const QueuedFrame& top() const { return pool_[top_index()].q; }
+  const QueuedFrame& top() const { return pool_[top_].q; }
   void pop();
   // Calls fn(QueuedFrame&) for every queued frame (any order).
   template <typename Fn>
@@ -66,8 +72,7 @@ class ArbitrationQueue {
     std::uint32_t head = kNone, tail = kNone;
   };
 
-  std::uint32_t top_index() const;
-  bool standard_first() const;
+  std::uint32_t find_top() const;
   std::uint32_t take_free();
   void pop_standard();
   void pop_extended();
@@ -76,6 +81,8 @@ class ArbitrationQueue {
   std::vector<Entry> pool_;
   std::uint32_t free_ = kNone;
   std::size_t size_ = 0;
+  std::uint32_t top_ = kNone;  // the winner, kept by push and pop
+  std::uint32_t top_key_ = 0;
   std::vector<Fifo> buckets_;
   std::uint64_t summary_ = 0;            // bit w: words_[w] != 0
   std::uint64_t words_[kBuckets / 64] = {};  // bit b of word w: bucket 64 w + b not empty

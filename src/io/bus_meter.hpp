@@ -43,6 +43,12 @@ class BusMeter {
     roll(now);
     carried_[bin_ % kBins] += std::uint32_t(bits);
   }
+  // A frame on the wire the instant it was offered (ideal bus, outside frames).
+  void offered_and_carried(int bits, TimeUs now) {
+    roll(now);
+    offered_[bin_ % kBins] += std::uint32_t(bits);
+    carried_[bin_ % kBins] += std::uint32_t(bits);
+  }
   void delay(TimeUs d, TimeUs now);
   Figures figures(TimeUs now) const;
 

@@ -29,7 +29,10 @@ BusId LoopCore::add_bus(std::string name, Transport& transport, std::uint8_t bit
 
 void LoopCore::set_bus_bit_rate(BusId bus, std::uint8_t bit_rate_index) {
   buses_[bus]->bit_rate_index = bit_rate_index;
-  if (buses_[bus]->timed) buses_[bus]->timed->set_bit_ns(bit_ns(bit_rate_index));
+  if (buses_[bus]->timed) {
+    buses_[bus]->timed->set_bit_ns(bit_ns(bit_rate_index));
+    update_bus_next();
+  }
   for (auto& s : slots_)
     if (s && s->bus == bus) s->node->set_bus_bit_rate(bit_rate_index);
 }
@@ -163,9 +166,11 @@ void LoopCore::receive(BusId bus, const CanFrame& frame, TimeUs now) {
     flush(now_);
   }
   const int bits = b.timed ? wire_bits(frame) : unstuffed_wire_bits(frame);
-  b.meter.offered(bits, now_);
-  b.meter.carried(bits, now_);
-  if (b.timed) b.timed->occupy(bits, now_);
+  b.meter.offered_and_carried(bits, now_);
+  if (b.timed) {
+    b.timed->occupy(bits, now_);
+    bus_next_stale_ = true;
+  }
   deliver(bus, kNoNode, frame, now_);
   rebuild_dirty();
   flush(now_);
@@ -190,7 +195,7 @@ void LoopCore::run_due(TimeUs now) {
   now_ = std::max(now_, now);
   if (timed_buses_) {
     settle_buses(TimedBus::Phase::kBefore);
-    flush(now_);
+    if (ring_size_) flush(now_);
   }
   while (heap_.top_time() <= now_) {
     NodeRef ref = heap_.top();
@@ -219,13 +224,14 @@ void LoopCore::on_send(NodeRef from, const CanFrame& frame) {
   ++stats_.frames_out;
   // Ideal buses count frames without stuff bits: computing them costs a
   // timed bus about a dozen table reads a frame (io/wire_bits.hpp).
-  const int bits = b.timed ? wire_bits(frame) : unstuffed_wire_bits(frame);
-  b.meter.offered(bits, now_);
   if (b.timed) {
+    const int bits = wire_bits(frame);
+    b.meter.offered(bits, now_);
     b.timed->submit({frame, now_, from, std::uint16_t(bits)}, now_);
+    bus_next_stale_ = true;
     return;
   }
-  b.meter.carried(bits, now_);
+  b.meter.offered_and_carried(unstuffed_wire_bits(frame), now_);
   put_on_wire(bus, from, frame);
 }
 
@@ -244,6 +250,7 @@ void LoopCore::settle_bus(BusId bus, TimedBus::Phase phase) {
   Bus& b = *buses_[bus];
   QueuedFrame done;
   std::int64_t started_ns = 0;
+  bus_next_stale_ = true;
   while (b.timed->settle(now_, phase, done, started_ns)) {
     b.meter.carried(done.bits, now_);
     b.meter.delay((started_ns - done.queued_at * 1000) / 1000, now_);
@@ -255,21 +262,26 @@ void LoopCore::settle_bus(BusId bus, TimedBus::Phase phase) {
 // flush, so what the receivers answer at now is not in an arbitration before
 // now). At now: until the deliveries of what ended cause nothing more.
 void LoopCore::settle_buses(TimedBus::Phase phase) {
-  if (timed_buses_ == 0) return;
+  if (timed_buses_ == 0 || (!bus_next_stale_ && now_ * 1000 < bus_due_ns_)) return;
   for (;;) {
     for (BusId bus = 0; bus < buses_.size(); ++bus)
-      if (buses_[bus]->timed) settle_bus(bus, phase);
+      if (buses_[bus]->timed && buses_[bus]->timed->due_ns() <= now_ * 1000) settle_bus(bus, phase);
     if (phase == TimedBus::Phase::kBefore) return;  // kAt follows
     if (ring_size_ == 0) break;
     flush(now_);
   }
-  update_bus_next();
+  if (bus_next_stale_) update_bus_next();
 }
 
 void LoopCore::update_bus_next() {
+  bus_next_stale_ = false;
   bus_next_ = kNever;
+  bus_due_ns_ = std::numeric_limits<std::int64_t>::max();
   for (const auto& b : buses_)
-    if (b->timed) bus_next_ = std::min(bus_next_, b->timed->next_event());
+    if (b->timed) {
+      bus_next_ = std::min(bus_next_, b->timed->next_event());
+      bus_due_ns_ = std::min(bus_due_ns_, b->timed->due_ns());
+    }
 }
 
 void LoopCore::push_pending(const Pending& p) {

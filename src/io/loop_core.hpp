@@ -20,6 +20,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -212,7 +213,12 @@ class LoopCore {
   std::size_t ring_size_ = 0;
   DeadlineHeap heap_;
   std::size_t timed_buses_ = 0;
-  TimeUs bus_next_ = kNever;  // the earliest next_event() of the timed buses
+  // Kept here, beside the heap, so that a loop pass of the nodes does not
+  // touch the buses' (cold) state: the earliest next_event() and due_ns()
+  // of the timed buses, stale once one took, sent or saw a frame.
+  TimeUs bus_next_ = kNever;
+  std::int64_t bus_due_ns_ = std::numeric_limits<std::int64_t>::max();
+  bool bus_next_stale_ = false;
   LoopObserver* observer_ = nullptr;
   std::size_t live_ = 0;
   TimeUs now_ = 0;

@@ -8,10 +8,9 @@ namespace {
 TimeUs ceil_us(std::int64_t ns) { return (ns + 999) / 1000; }
 }  // namespace
 
-bool TimedBus::submit(const QueuedFrame& q, TimeUs) {
-  QueuedFrame numbered = q;
-  numbered.order = taken_;
-  if (!queue_.push(numbered)) {
+bool TimedBus::submit(QueuedFrame q, TimeUs) {
+  q.order = taken_;
+  if (!queue_.push(q)) {
     ++dropped_;
     return false;
   }

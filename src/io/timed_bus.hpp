@@ -20,6 +20,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 
 #include "io/arbitration_queue.hpp"
 #include "io/wire_bits.hpp"
@@ -42,12 +43,17 @@ class TimedBus {
 
   // A local node's frame, sent at `now`. False when the queue is full (the
   // frame is dropped and counted).
-  bool submit(const QueuedFrame& q, TimeUs now);
+  bool submit(QueuedFrame q, TimeUs now);
   // A frame from the wire, seen at `now`, occupies the bus for `bits`.
   void occupy(int bits, TimeUs now);
   // The next frame that has ended by `now`, into `done` (its start time in
   // `started_ns`); false when none. Call until false.
   bool settle(TimeUs now, Phase phase, QueuedFrame& done, std::int64_t& started_ns);
+  // settle() has nothing to do before this time (ns): the end of the frame
+  // on the wire, or when the bus is free for the next.
+  std::int64_t due_ns() const {
+    return busy_ ? end_ns_ : queue_.empty() ? std::numeric_limits<std::int64_t>::max() : free_ns_;
+  }
   // When the frame on the wire, or the one that will win next, ends (µs,
   // rounded up); kNever when nothing is queued.
   TimeUs next_event() const {

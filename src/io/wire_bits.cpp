@@ -33,10 +33,11 @@ constexpr auto kCrcSlices = make_crc_slices();
 // Stuffing as a state machine over bytes. State: the last bit sent (stuff
 // bits included) and the length of its run, 1..4 (a run reaching 5 inserts a
 // stuff bit at once, which starts a run of 1 of the other value):
-// index = bit * 4 + run - 1. Entry for `width` input bits (MSB first): next
-// state | stuff bits inserted << 3.
-constexpr std::array<std::uint8_t, 8 * 256> make_stuff_table(int width) {
-  std::array<std::uint8_t, 8 * 256> t{};
+// index = bit * 4 + run - 1. Entry for `width` input bits (MSB first): the
+// next state already times 256 (the next read's row: one instruction less
+// on the chain) | stuff bits inserted << 12.
+constexpr std::array<std::uint16_t, 8 * 256> make_stuff_table(int width) {
+  std::array<std::uint16_t, 8 * 256> t{};
   for (unsigned s = 0; s < 8; ++s)
     for (unsigned in = 0; in < (1u << width); ++in) {
       unsigned last = s >> 2, run = (s & 3) + 1, inserted = 0;
@@ -51,7 +52,7 @@ constexpr std::array<std::uint8_t, 8 * 256> make_stuff_table(int width) {
           run = 1;
         }
       }
-      t[s * 256 + in] = std::uint8_t((last * 4 + run - 1) | (inserted << 3));
+      t[s * 256 + in] = std::uint16_t(((last * 4 + run - 1) << 8) | (inserted << 12));
     }
   return t;
 }
@@ -84,10 +85,11 @@ Header header(const CanFrame& f) {
   return {h, (std::uint64_t(1) << 39) | h, 5};
 }
 
-unsigned stuff_step(unsigned state, unsigned byte, int& inserted) {
-  const std::uint8_t e = kStuff8[state * 256 + byte];
-  inserted += e >> 3;
-  return e & 7;
+// `row`: the state times 256.
+unsigned stuff_step(unsigned row, unsigned byte, int& inserted) {
+  const std::uint16_t e = kStuff8[row | byte];
+  inserted += e >> 12;
+  return e & 0x700;
 }
 
 // CRC and stuff bits: the stuffing is a chain of table reads, byte after
@@ -99,20 +101,19 @@ struct Coded {
 Coded code(const CanFrame& f) {
   const Header h = header(f);
   const int n = data_bytes(f), length = h.bytes + n;
-  unsigned crc = 0, state = 0 * 4 + 0;  // as after a single dominant bit: the pad starts with 1
+  unsigned crc = 0, row = 0;  // state 0, as after a single dominant bit: the pad starts with 1
   int inserted = 0;
   for (int i = 0; i < h.bytes; ++i) {
     const int shift = 8 * (h.bytes - 1 - i);
     crc ^= kCrcSlices[length - 1 - i][(h.crc_bits >> shift) & 0xFF];
-    state = stuff_step(state, unsigned(h.stuff_bits >> shift) & 0xFF, inserted);
+    row = stuff_step(row, unsigned(h.stuff_bits >> shift) & 0xFF, inserted);
   }
   for (int i = 0; i < n; ++i) {
     crc ^= kCrcSlices[n - 1 - i][f.data[i]];
-    state = stuff_step(state, f.data[i], inserted);
+    row = stuff_step(row, f.data[i], inserted);
   }
-  state = stuff_step(state, crc >> 7, inserted);
-  const std::uint8_t e = kStuff7[state * 256 + (crc & 0x7F)];
-  return {crc, inserted + (e >> 3)};
+  row = stuff_step(row, crc >> 7, inserted);
+  return {crc, inserted + (kStuff7[row | (crc & 0x7F)] >> 12)};
 }
 
 }  // namespace
