@@ -33,13 +33,19 @@ constexpr auto kCrcSlices = make_crc_slices();
 // Stuffing as a state machine over bytes. State: the last bit sent (stuff
 // bits included) and the length of its run, 1..4 (a run reaching 5 inserts a
 // stuff bit at once, which starts a run of 1 of the other value):
-// index = bit * 4 + run - 1. Entry for `width` input bits (MSB first): the
-// next state already times 256 (the next read's row: one instruction less
-// on the chain) | stuff bits inserted << 12.
-constexpr std::array<std::uint16_t, 8 * 256> make_stuff_table(int width) {
-  std::array<std::uint16_t, 8 * 256> t{};
-  for (unsigned s = 0; s < 8; ++s)
-    for (unsigned in = 0; in < (1u << width); ++in) {
+// s = bit * 4 + run - 1. For each value of `width` input bits (MSB first),
+// byte s of `next` is the next state of state s, times 8, and byte s of
+// `inserted` the stuff bits inserted. A state times 8 is the shift that
+// picks its byte: the chain from one input byte to the next is a shift and
+// a mask (the words are read off the chain, by the data), not a table read.
+struct StuffTable {
+  std::array<std::uint64_t, 256> next{};
+  std::array<std::uint64_t, 256> inserted{};
+};
+constexpr StuffTable make_stuff_table(int width) {
+  StuffTable t;
+  for (unsigned in = 0; in < (1u << width); ++in)
+    for (unsigned s = 0; s < 8; ++s) {
       unsigned last = s >> 2, run = (s & 3) + 1, inserted = 0;
       for (int i = width - 1; i >= 0; --i) {
         const unsigned bit = (in >> i) & 1;
@@ -52,7 +58,8 @@ constexpr std::array<std::uint16_t, 8 * 256> make_stuff_table(int width) {
           run = 1;
         }
       }
-      t[s * 256 + in] = std::uint16_t(((last * 4 + run - 1) << 8) | (inserted << 12));
+      t.next[in] |= std::uint64_t((last * 4 + run - 1) * 8) << (8 * s);
+      t.inserted[in] |= std::uint64_t(inserted) << (8 * s);
     }
   return t;
 }
@@ -85,11 +92,10 @@ Header header(const CanFrame& f) {
   return {h, (std::uint64_t(1) << 39) | h, 5};
 }
 
-// `row`: the state times 256.
-unsigned stuff_step(unsigned row, unsigned byte, int& inserted) {
-  const std::uint16_t e = kStuff8[row | byte];
-  inserted += e >> 12;
-  return e & 0x700;
+// `shift`: the state times 8.
+unsigned stuff_step(const StuffTable& t, unsigned shift, unsigned bits, int& inserted) {
+  inserted += int((t.inserted[bits] >> shift) & 0xFF);
+  return unsigned((t.next[bits] >> shift) & 0xFF);
 }
 
 // CRC and stuff bits: the stuffing is a chain of table reads, byte after
@@ -101,19 +107,19 @@ struct Coded {
 Coded code(const CanFrame& f) {
   const Header h = header(f);
   const int n = data_bytes(f), length = h.bytes + n;
-  unsigned crc = 0, row = 0;  // state 0, as after a single dominant bit: the pad starts with 1
+  unsigned crc = 0, shift = 0;  // state 0, as after a single dominant bit: the pad starts with 1
   int inserted = 0;
   for (int i = 0; i < h.bytes; ++i) {
-    const int shift = 8 * (h.bytes - 1 - i);
-    crc ^= kCrcSlices[length - 1 - i][(h.crc_bits >> shift) & 0xFF];
-    row = stuff_step(row, unsigned(h.stuff_bits >> shift) & 0xFF, inserted);
+    crc ^= kCrcSlices[length - 1 - i][(h.crc_bits >> (8 * (h.bytes - 1 - i))) & 0xFF];
+    shift = stuff_step(kStuff8, shift, unsigned(h.stuff_bits >> (8 * (h.bytes - 1 - i))) & 0xFF, inserted);
   }
   for (int i = 0; i < n; ++i) {
     crc ^= kCrcSlices[n - 1 - i][f.data[i]];
-    row = stuff_step(row, f.data[i], inserted);
+    shift = stuff_step(kStuff8, shift, f.data[i], inserted);
   }
-  row = stuff_step(row, crc >> 7, inserted);
-  return {crc, inserted + (kStuff7[row | (crc & 0x7F)] >> 12)};
+  shift = stuff_step(kStuff8, shift, crc >> 7, inserted);
+  stuff_step(kStuff7, shift, crc & 0x7F, inserted);
+  return {crc, inserted};
 }
 
 }  // namespace
