@@ -213,11 +213,16 @@ void bench_wakeup_lateness(config::Profile& profile, int count, int seconds, io:
   double cpu = cpu_seconds() - cpu0;
   std::sort(late.begin(), late.end());
   auto pct = [&](double p) { return late.empty() ? 0LL : (long long)late[std::size_t(p * double(late.size() - 1))]; };
-  std::printf("  %-5s %d nodes: %zu wake-ups/s, lateness p50 %lld us, p99 %lld us, max %lld us; %.0f frames/s, "
-              "%.1f %% of a core\n",
+  std::uint64_t dropped = 0, queued = 0;
+  for (io::BusId b : f.buses) {
+    dropped += f.core.bus_load(b).dropped;
+    queued += f.core.bus_load(b).queued;
+  }
+  std::printf("  %-5s %d nodes: %zu wake-ups/s, lateness p50 %lld us, p99 %lld us, max %lld us; %.0f frames/s "
+              "(%llu queued at the end, %llu dropped), %.1f %% of a core\n",
               model == io::BusModel::kTimed ? "timed" : "ideal", count, late.size() / std::size_t(seconds), pct(0.5),
               pct(0.99), late.empty() ? 0LL : (long long)late.back(), double(f.tx.frames - out0) / seconds,
-              cpu / seconds * 100);
+              (unsigned long long)queued, (unsigned long long)dropped, cpu / seconds * 100);
 }
 
 }  // namespace
