@@ -170,6 +170,16 @@ std::string record_file_name(std::string pattern, std::uint8_t node_id, bool gro
   return (p.parent_path() / (p.stem().string() + "-" + id + p.extension().string())).string();
 }
 
+// The serial number of the first node of an entry without `serial:` (each
+// node adds its index): the profile's serial_number_base, else for a group
+// the profile's 0x1018:04 default.
+std::optional<std::uint32_t> first_serial(const Profile& profile, int count) {
+  if (profile.identity.serial_per_node) return profile.identity.serial_base;
+  if (count < 2) return std::nullopt;
+  const OdEntry* e = profile.layout->find(0x1018, 4);
+  return e && e->default_bytes.size() >= 4 ? get_u32(e->default_bytes.data()) : 0;
+}
+
 void parse_node_entry(const Where& w, const YAML::Node& entry, ProfileCache& cache, FleetConfig& out) {
   check_keys(w, entry,
              {"profile", "interface", "node_id", "count", "name", "serial", "bit_rate", "record", "options", "vendor",
@@ -211,11 +221,6 @@ void parse_node_entry(const Where& w, const YAML::Node& entry, ProfileCache& cac
   }
   std::optional<std::uint32_t> serial;
   if (entry["serial"]) serial = std::uint32_t(get_int(w.child("serial"), entry["serial"], 0, 0xFFFFFFFF));
-  else if (count > 1) {
-    const OdEntry* e = profile->layout->find(0x1018, 4);
-    std::uint32_t base_serial = e && e->default_bytes.size() >= 4 ? get_u32(e->default_bytes.data()) : 0;
-    serial = base_serial;
-  }
   std::string record;
   if (entry["record"]) {
     record = get_string(w.child("record"), entry["record"]);
@@ -226,6 +231,7 @@ void parse_node_entry(const Where& w, const YAML::Node& entry, ProfileCache& cac
     profile = make_variant(w, entry, *profile, cache.text(path), cache.strict());
     cache.add_variant(profile);
   }
+  if (!serial) serial = first_serial(*profile, count);
   const std::string fingerprint_base = cache.text(path) + "\n---\n" + YAML::Dump(entry);
   // Appended piece by piece: GCC 12 -O3 reports a false -Wrestrict for a
   // chain of std::string operator+ here (as in name += '-' above).

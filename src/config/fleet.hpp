@@ -26,7 +26,7 @@ struct NodeConfig {
   std::string interface;
   std::uint8_t node_id = 1;             // 1..127 or 0xFF (LSS-unconfigured)
   std::uint32_t bit_rate_kbit = 250;    // the node's own rate
-  std::optional<std::uint32_t> serial;  // 0x1018:04; set for count groups and `serial:`
+  std::optional<std::uint32_t> serial;  // 0x1018:04: `serial:`, serial_number_base or a count group's default, + index
   std::string record_file;              // `record:` CSV file of the node's physics (empty: none)
   // Shared by the nodes of one entry; a private copy (own layout) when the
   // entry overrides options or vendor parameters.

@@ -133,8 +133,9 @@ std::uint8_t bit_rate_selector(std::uint32_t kbit) {
   return i < 0 ? 0xFF : std::uint8_t(i);
 }
 
-NodeSetup node_setup(const Profile& profile, std::optional<std::uint8_t> node_id) {
+NodeSetup node_setup(const Profile& profile, std::optional<std::uint8_t> node_id, std::uint32_t index) {
   NodeSetup setup;
+  if (profile.identity.serial_per_node) setup.serial_number = profile.identity.serial_base + index;
   setup.layout = profile.layout;
   setup.options = profile.options;
   setup.node_id = node_id.value_or(profile.node_id);

@@ -50,7 +50,10 @@ std::uint32_t bit_rate_kbit(int index);
 std::uint8_t bit_rate_selector(std::uint32_t kbit);
 
 // What the core needs to build a node of `profile`: its layout, options and
-// bit rate, and its node-ID unless `node_id` says another.
-NodeSetup node_setup(const Profile& profile, std::optional<std::uint8_t> node_id = std::nullopt);
+// bit rate, its node-ID unless `node_id` says another, and the serial number
+// of the node at `index` of its group when the profile has a
+// `serial_number_base` (0x1018:04 = base + index).
+NodeSetup node_setup(const Profile& profile, std::optional<std::uint8_t> node_id = std::nullopt,
+                     std::uint32_t index = 0);
 
 }  // namespace cansim::config

@@ -26,7 +26,6 @@ void NmtSlave::restart(ResetKind kind, TimeUs now, bool reload) {
   }
   node_.reset_services(now);  // includes reset() below: builds plan_
   if (Application* app = node_.app()) app->on_reset(node_, kind, now);
-  node_.apply_serial_number();
   if (node_.node_id() == kUnconfigured) return;  // waits for LSS (CiA 305)
   boot_at_ = now + plan_.boot_up_delay;
   update_deadline();

@@ -44,9 +44,9 @@ config::ProfileSearch profile_search(const std::string& config_file) {
 }
 
 NodeSetup node_setup(const config::NodeConfig& node) {
-  NodeSetup setup = config::node_setup(*node.profile, node.node_id);
+  NodeSetup setup = config::node_setup(*node.profile, node.node_id, node.index);
   setup.bit_rate_index = config::bit_rate_selector(node.bit_rate_kbit);
-  setup.serial_number = node.serial;
+  if (node.serial) setup.serial_number = node.serial;
   return setup;
 }
 

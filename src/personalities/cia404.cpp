@@ -199,7 +199,6 @@ void Cia404Application::apply_filter(Node& node, std::size_t ch) {
 
 void Cia404Application::on_reset(Node& node, ResetKind kind, TimeUs now) {
   ++config_epoch_;
-  if (identity_.serial_per_node) node.values().set_u(0x1018, 4, identity_.serial_base + node_index_);
   if (kind != ResetKind::kCommunication) source_->reboot(now);
   for (std::size_t ch = 0; ch < state_.size(); ++ch) {
     const ChannelConfig& c = profile_->channels[ch];

@@ -129,7 +129,8 @@ TEST_F(FleetTest, OptionAndVendorOverridesMakeAPrivateProfile) {
   EXPECT_EQ(f.nodes[1].bit_rate_kbit, 125u);
   EXPECT_EQ(f.nodes[0].bit_rate_kbit, 250u);
   EXPECT_EQ(f.profiles.size(), 2u);
-  EXPECT_FALSE(f.nodes[0].serial);
+  EXPECT_EQ(f.nodes[0].serial, 1u);    // the profile's serial_number_base
+  EXPECT_EQ(f.nodes[1].serial, 500u);  // the entry's
 }
 
 TEST_F(FleetTest, ProfilesAreFoundByNameOrPath) {

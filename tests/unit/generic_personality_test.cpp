@@ -60,8 +60,8 @@ TEST(Generic, SerialNumberIsBasePlusIndex) {
   SimBus bus;
   auto a0 = personalities::make_application(p, {1, 0, "a", {}});
   auto a7 = personalities::make_application(p, {1, 7, "b", {}});
-  SimNode& n0 = bus.add(p, 0x10, a0.get());
-  SimNode& n7 = bus.add(p, 0x11, a7.get());
+  SimNode& n0 = bus.add(p, 0x10, a0.get(), config::node_setup(p, 0x10, 0).serial_number);
+  SimNode& n7 = bus.add(p, 0x11, a7.get(), config::node_setup(p, 0x11, 7).serial_number);
   bus.power_on_all();
   EXPECT_EQ(n0->values().u(0x1018, 4), 1u);
   EXPECT_EQ(n7->values().u(0x1018, 4), 8u);
