@@ -214,6 +214,7 @@ void Cia404Application::on_reset(Node& node, ResetKind kind, TimeUs now) {
     }
     st.have_ref = false;
     st.upper_armed = st.lower_armed = true;
+    st.emcy_status = 0;  // the EMCY producer forgot them
   }
   event_channels_ = change_channels_ = 0;
   rescan_ = true;
@@ -486,6 +487,7 @@ std::unique_ptr<Application> Cia404Application::snapshot() const {
   std::unique_ptr<MeasurementSource> source = source_->snapshot();
   if (!source) return nullptr;
   auto copy = std::make_unique<Cia404Application>(profile_, std::move(source), identity_, node_index_);
+  copy->sensor_fault_emcy_ = sensor_fault_emcy_;
   copy->restore(*this);
   return copy;
 }

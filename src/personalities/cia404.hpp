@@ -100,6 +100,18 @@ class Cia404Application : public Application {
   const Cia404Profile& profile() const { return *profile_; }
   MeasurementSource& source() { return *source_; }
 
+  // ---- CiA 404 sensor faults as EMCY (the generic reference node; device
+  // personalities signal them their manual's way): a channel whose 0x6150
+  // says "not valid" (open, short, sensor error) raises kEmcySensorFault, an
+  // overloaded one kEmcyRangeExceeded, each with 0x1001 bit 5 (device profile
+  // specific) and the channel's sub-index and the condition's 0x6150 bits in
+  // manufacturer bytes 0-1 (no range EMCY while the value is not valid); the
+  // error reset follows when no channel has the condition any more. Checked
+  // on the event-check grid, in every NMT state.
+  static constexpr std::uint16_t kEmcySensorFault = 0x5030;    // CiA 301 class 5xxx: device hardware
+  static constexpr std::uint16_t kEmcyRangeExceeded = 0xF001;  // CiA 301 class Fxxx: additional functions
+  void set_sensor_fault_emcy(bool on) { sensor_fault_emcy_ = on; }
+
   // ---- fault injection at run time (the profile's faults are armed at boot)
   // Returns physics::kInvalidFaultHandle when the source has no fault schedule.
   physics::FaultHandle arm_fault(Node& node, const physics::FaultSpec& spec, TimeUs now);
@@ -176,8 +188,9 @@ class Cia404Application : public Application {
   // Vendor supervision (status monitoring, counters, min/max capture), run
   // in every NMT state from the reset on, every supervision_period()
   // (0: the device has none).
-  virtual void supervise(Node&, TimeUs) {}
-  virtual TimeUs supervision_period() const { return 0; }
+  // The default: the sensor-fault EMCYs when set_sensor_fault_emcy(true).
+  virtual void supervise(Node& node, TimeUs now) { report_sensor_faults(node, now); }
+  virtual TimeUs supervision_period() const;
   // Delta / limit results of one check of channel `ch` (kEvent* bits). The
   // default raises a TPDO event for the mapped PV, field value and status on
   // kEventsRaising; vendors with their own event routing override it.
@@ -222,6 +235,7 @@ class Cia404Application : public Application {
     std::uint32_t measured_epoch = 0;
     Measurement measured;
     bool rendered = false;  // the live objects hold `measured`
+    std::uint8_t emcy_status = 0;  // the 0x6150 error bits reported by EMCY (set_sensor_fault_emcy)
   };
   const UnitChoice* find_unit(const ChannelConfig& c, std::uint32_t code) const;
   UnitChoice resolve(const Node& node, const UnitChoice& u) const;
@@ -241,6 +255,9 @@ class Cia404Application : public Application {
   std::uint8_t status_bits(std::size_t ch, const ChannelParams& p, const Measurement& m, std::uint8_t sensor_status) const;
   void fault_schedule_changed(Node& node, TimeUs now);
   void control_changed(Node& node, TimeUs now);
+  void report_sensor_faults(Node& node, TimeUs now);
+  void report_condition(Node& node, std::size_t ch, std::uint16_t code, std::uint8_t bits, std::uint8_t status,
+                        TimeUs now);
 
   std::shared_ptr<const Cia404Profile> profile_;
   std::unique_ptr<MeasurementSource> source_;
@@ -256,6 +273,7 @@ class Cia404Application : public Application {
   bool rescan_ = true;  // the event channels follow the TPDO configuration
   TimeUs next_check_ = 0;  // the next point of the event-check grid (anchored at reset)
   TimeUs next_supervision_ = 0;
+  bool sensor_fault_emcy_ = false;
 };
 
 // The Cia404Application behind a node's Application (null: none, e.g. a

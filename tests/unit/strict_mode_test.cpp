@@ -90,6 +90,12 @@ TEST_P(Inventory, FaithfulIsTheDefault) {
   EXPECT_EQ(p.layout.get(), p.faithful_layout.get());
 }
 
+// CiA 301 §7.5.2.17: 0x1014 is mandatory where EMCY is supported, and every
+// device sends EMCYs (Gems: its profile lacks it; strict mode adds it).
+TEST_P(Inventory, StrictModeHasTheEmcyCobIdObject) {
+  EXPECT_NE(strict_repo_profile(GetParam()).layout->find(0x1014, 0), nullptr);
+}
+
 INSTANTIATE_TEST_SUITE_P(Profiles, Inventory, ::testing::ValuesIn(kDevices));
 
 TEST(StrictMode, GenericProfileHasNoQuirks) {
@@ -99,7 +105,7 @@ TEST(StrictMode, GenericProfileHasNoQuirks) {
 
 TEST(StrictMode, QuirkCountsPerProfile) {
   // The inventory printed by `cansimd --quirks` (kept in step with docs/devices).
-  const std::pair<const char*, std::size_t> counts[] = {{"dps", 16}, {"p92c", 22}, {"gems9000", 26},
+  const std::pair<const char*, std::size_t> counts[] = {{"dps", 16}, {"p92c", 22}, {"gems9000", 27},
                                                         {"smc", 18}, {"cmp", 6}};
   for (const auto& [name, n] : counts)
     EXPECT_EQ(config::quirk_inventory(prepared_repo_profile(name)).size(), n) << name;
