@@ -541,7 +541,7 @@ void device_options(const EdsDocument& doc, Profile& p) {
       rates += (rates.empty() ? "" : ",") + std::to_string(bit_rate_index(b.kbit));
       supported.push_back(b.kbit);
     }
-    if (!rates.empty()) o.lss_bit_rates = rates;
+    if (!rates.empty()) ByteSet::parse(rates, o.lss_bit_rates);
     if (!supported.empty() && std::find(supported.begin(), supported.end(), 250u) == supported.end())
       p.bit_rate_kbit = supported.front();
   }

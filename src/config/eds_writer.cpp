@@ -173,8 +173,7 @@ class Writer {
 
   // The profile's own rate, and with LSS the lss_bit_rates table indices.
   void bit_rates() {
-    ByteSet indices;
-    if (options_.lss_supported) ByteSet::parse(options_.lss_bit_rates, indices);
+    const ByteSet indices = options_.lss_supported ? options_.lss_bit_rates : ByteSet{};
     for (std::uint32_t kbit : {10u, 20u, 50u, 125u, 250u, 500u, 800u, 1000u}) {
       const bool on = kbit == id_.bit_rate_kbit || indices.has(std::uint8_t(bit_rate_index(kbit)));
       const std::string name = "BaudRate_" + std::to_string(kbit);

@@ -221,6 +221,25 @@ void parse_objects(const Where& w, const YAML::Node& list, OdLayout& out) {
   }
 }
 
+namespace {
+
+// One option's value as its kind declares it (node_options.hpp): a value the
+// kind refuses fails with what it expected.
+template <class Kind>
+void parse_option(const Where& w, const YAML::Node& n, const Kind& kind, typename Kind::Value& out) {
+  if constexpr (std::is_same_v<Kind, option_kind::Bool>) {
+    out = get_bool(w, n);
+  } else if constexpr (std::is_same_v<Kind, option_kind::Int>) {
+    std::int64_t v = 0;
+    if (!n.IsScalar() || !parse_int_literal(n.Scalar(), v) || v < kind.lo || v > kind.hi) fail(w, n, kind.expected());
+    out = v;
+  } else {
+    if (!n.IsScalar() || !kind.parse(n.Scalar(), out)) fail(w, n, kind.expected());
+  }
+}
+
+}  // namespace
+
 void parse_options(const Where& w, const YAML::Node& map, NodeOptions& out) {
   if (!map) return;
   if (!map.IsMap()) fail(w, map, "expected a mapping of option names to values");
@@ -228,26 +247,15 @@ void parse_options(const Where& w, const YAML::Node& map, NodeOptions& out) {
     std::string key = kv.first.Scalar();
     Where wk = w.child(key);
     bool known = false;
-    auto set = [&](auto& field, const YAML::Node& v) {
-      using T = std::decay_t<decltype(field)>;
-      if constexpr (std::is_same_v<T, bool>) field = get_bool(wk, v);
-      else if constexpr (std::is_same_v<T, std::int64_t>) field = get_int(wk, v, INT64_MIN, INT64_MAX);
-      else field = get_string(wk, v);
-    };
-#define CANSIM_PARSE_OPTION(type, name, def, kind, help) \
-  if (key == #name) {                               \
-    set(out.name, kv.second);                       \
-    known = true;                                   \
+#define CANSIM_PARSE_OPTION(kind, name, def, strict, help) \
+  if (key == #name) {                                 \
+    parse_option(wk, kv.second, CANSIM_OPTION_KIND_##kind, out.name); \
+    known = true;                                     \
   }
     CANSIM_NODE_OPTIONS(CANSIM_PARSE_OPTION)
 #undef CANSIM_PARSE_OPTION
     if (!known) fail(wk, kv.first, "unknown option (see README, 'Profile options')");
   }
-  ByteSet set;
-  if (!ByteSet::parse(out.tpdo_allowed_types, set))
-    fail(w.child("tpdo_allowed_types"), map["tpdo_allowed_types"], "expected ranges like '0-240,252-255'");
-  if (!ByteSet::parse(out.lss_bit_rates, set))
-    fail(w.child("lss_bit_rates"), map["lss_bit_rates"], "expected ranges like '0-4,6-8'");
 }
 
 Profile parse_profile(const YAML::Node& root, const std::string& file, bool strict) {

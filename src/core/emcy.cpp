@@ -38,10 +38,6 @@ void Emcy::reset(TimeUs) {
   last_sent_ = kNever;
   next_ = kNever;
   register_ = 0;
-  const std::string& mode = node_.options().emcy_on_partial_clear;
-  partial_clear_ = mode == "none" ? PartialClear::kNone
-                   : mode == "latest" ? PartialClear::kLatest
-                                      : PartialClear::kReset;
   const OdObject* h = node_.od().object(0x1003);
   history_depth_ = h && h->count > 1 ? std::uint8_t(std::min<int>(h->count - 1, 254)) : 0;
   read_config();
@@ -111,9 +107,9 @@ void Emcy::clear(std::uint16_t code, TimeUs now) {
   std::copy(active_ + i + 1, active_ + active_n_, active_ + i);
   --active_n_;
   update_register();
-  if (active_n_ == 0 || partial_clear_ == PartialClear::kReset)
+  if (active_n_ == 0 || node_.options().emcy_on_partial_clear == PartialClearEmcy::kReset)
     emit(kErrorReset, register_, kNoMfr, now);
-  else if (partial_clear_ == PartialClear::kLatest)
+  else if (node_.options().emcy_on_partial_clear == PartialClearEmcy::kLatest)
     emit(active_[active_n_ - 1].code, register_, kNoMfr, now);
 }
 

@@ -81,7 +81,6 @@ class Emcy : private NodeService {
   SdoAbort write(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
 
  private:
-  enum class PartialClear : std::uint8_t { kReset, kLatest, kNone };
   struct Active {
     std::uint16_t code;
     std::uint8_t reg;
@@ -108,7 +107,6 @@ class Emcy : private NodeService {
   std::uint32_t can_id_ = 0;
   bool extended_ = false;
   bool valid_ = true;
-  PartialClear partial_clear_ = PartialClear::kReset;
   std::uint8_t register_ = 0;
   std::uint8_t history_depth_ = 0;
   std::uint8_t active_n_ = 0;

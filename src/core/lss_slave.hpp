@@ -98,8 +98,6 @@ class LssSlave : private NodeService {
   SwitchPhase switch_phase_ = SwitchPhase::kIdle;
   std::uint8_t switch_target_rate_ = 0;
   TimeUs switch_delay_ = 0;
-  bool rates_parsed_ = false;
-  ByteSet rates_;                        // lss_bit_rates
   const OdEntry* identity_[4] = {};      // 0x1018:01..04
 };
 

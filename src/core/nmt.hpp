@@ -115,8 +115,6 @@ class NmtSlave : private NodeService {
   bool booted_ = false;
   std::uint32_t resets_ = 0;
   BootPlan plan_;
-  ByteSet startup_values_;
-  bool startup_values_any_ = true;
 };
 
 }  // namespace cansim

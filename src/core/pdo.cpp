@@ -140,9 +140,6 @@ PdoEngine::PdoEngine(Node& node) : NodeService(node) {
   rpdos_.shrink_to_fit();
   event_tpdos_.reserve(tpdos_.size());
   watched_rpdos_.reserve(rpdos_.size());
-  if (!ByteSet::parse(node_.options().tpdo_allowed_types, allowed_types_))
-    ByteSet::parse("0-240,252-255", allowed_types_);
-  if (!ByteSet::parse(node_.options().tpdo_event_timer_types, timer_types_)) ByteSet::parse("254-255", timer_types_);
 }
 
 void PdoEngine::reset(TimeUs now) {
@@ -228,6 +225,10 @@ void PdoEngine::arm(Rpdo& r) {
 
 // ---------------------------------------------------------------------------
 // Configuration cache
+
+bool PdoEngine::timer_sends(const PdoConfig& cfg) const {
+  return cfg.event_ms && node_.options().tpdo_event_timer_types.has(cfg.type);
+}
 
 bool PdoEngine::valid(const PdoConfig& cfg) const {
   return node_.options().pdo_ignore_valid_bit || !(cfg.cobid & kPdoCobInvalid);
@@ -348,7 +349,7 @@ SdoAbort PdoEngine::check_comm(const PdoConfig& cfg, bool tx, std::uint8_t sub, 
     case kSubType:
       if (v == cfg.type) return SdoAbort::kNone;
       if (!tx) return reserved_rpdo_type(v) ? SdoAbort::kInvalidValue : SdoAbort::kNone;
-      if (reserved_tpdo_type(v) || !allowed_types_.has(std::uint8_t(v)))
+      if (reserved_tpdo_type(v) || !node_.options().tpdo_allowed_types.has(std::uint8_t(v)))
         return SdoAbort(o.tpdo_bad_type_abort);
       // RTR-only types need RTR (COB-ID bit 30 = 0).
       if ((v == kTypeRtrSync || v == kTypeRtrAsync) && ((cfg.cobid & kPdoCobNoRtr) || !o.tpdo_rtr_supported))

@@ -172,7 +172,7 @@ class PdoEngine : private NodeService {
 
   // ---- TPDO
   static bool event_driven(std::uint8_t type) { return type >= 254; }
-  bool timer_sends(const PdoConfig& cfg) const { return cfg.event_ms && timer_types_.has(cfg.type); }
+  bool timer_sends(const PdoConfig& cfg) const;
   void on_sync_tpdo(Tpdo& t, std::uint8_t counter, TimeUs now);
   void on_sync_cyclic(Tpdo& t, std::uint8_t counter, TimeUs now);
   void on_rtr(Tpdo& t, TimeUs now);
@@ -196,8 +196,6 @@ class PdoEngine : private NodeService {
   std::vector<std::uint16_t> event_tpdos_;
   std::vector<std::uint16_t> watched_rpdos_;
   void index_active();
-  ByteSet allowed_types_;    // tpdo_allowed_types, parsed once
-  ByteSet timer_types_;      // tpdo_event_timer_types, parsed once
   TimeUs next_ = kNever;
   TimeUs last_now_ = 0;      // latest time seen; "due now" for state detection
   bool operational_ = false;  // node_.allowed(Service::kPdo) as last seen

@@ -1,7 +1,6 @@
 #include "core/sdo_server.hpp"
 
 #include <algorithm>
-#include <cstdlib>
 #include <cstring>
 
 #include "core/crc16.hpp"
@@ -29,65 +28,7 @@ constexpr std::uint8_t kBlockSize = 0x02;   // s bit of a block initiate
 constexpr std::uint8_t kLastSeg = 0x80;     // c bit of a block segment
 constexpr std::uint8_t kMaxBlkSize = 127;   // CiA 301: 0 < blksize < 128
 
-const char* skip_spaces(const char* p) {
-  while (*p == ' ' || *p == ',' || *p == '\t') ++p;
-  return p;
-}
-
 }  // namespace
-
-// ------------------------------------------------------------ option parsers
-
-bool SdoServer::parse_abort_map(const char* text, AbortMap& out) {
-  out = AbortMap{};
-  for (const char* p = skip_spaces(text); *p; p = skip_spaces(p)) {
-    char* end = nullptr;
-    unsigned long from = std::strtoul(p, &end, 0);
-    if (end == p || *end != '=' || out.count == AbortMap::kMax) return false;
-    p = end + 1;
-    unsigned long to = std::strtoul(p, &end, 0);
-    if (end == p || from > 0xFFFFFFFFul || to > 0xFFFFFFFFul) return false;
-    out.from[out.count] = std::uint32_t(from);
-    out.to[out.count++] = std::uint32_t(to);
-    p = end;
-    if (*p && *p != ',' && *p != ' ') return false;
-  }
-  return true;
-}
-
-std::uint32_t SdoServer::AbortMap::apply(std::uint32_t code) const {
-  for (int i = 0; i < count; ++i)
-    if (from[i] == code) return to[i];
-  return code;
-}
-
-bool SdoServer::parse_index_ranges(const char* text, IndexRanges& out) {
-  out = IndexRanges{};
-  for (const char* p = skip_spaces(text); *p; p = skip_spaces(p)) {
-    char* end = nullptr;
-    unsigned long lo = std::strtoul(p, &end, 0);
-    if (end == p || lo > 0xFFFF || out.count == IndexRanges::kMax) return false;
-    unsigned long hi = lo;
-    p = end;
-    if (*p == '-') {
-      ++p;
-      hi = std::strtoul(p, &end, 0);
-      if (end == p || hi < lo || hi > 0xFFFF) return false;
-      p = end;
-    }
-    out.lo[out.count] = std::uint16_t(lo);
-    out.hi[out.count++] = std::uint16_t(hi);
-    if (*p && *p != ',' && *p != ' ') return false;
-  }
-  return true;
-}
-
-bool SdoServer::IndexRanges::contains(std::uint16_t index) const {
-  if (count == 0) return true;
-  for (int i = 0; i < count; ++i)
-    if (index >= lo[i] && index <= hi[i]) return true;
-  return false;
-}
 
 // ------------------------------------------------------------ configuration
 
@@ -95,10 +36,7 @@ void SdoServer::reset(TimeUs) {
   idle();
   delayed_n_ = 0;  // answers still in the pipe die with the reset
   const NodeOptions& o = node_.options();
-  timeout_ = o.sdo_timeout_ms > 0 ? ms(o.sdo_timeout_ms) : 0;
-  if (!parse_abort_map(o.sdo_abort_map.c_str(), abort_map_)) abort_map_ = AbortMap{};
-  if (!parse_index_ranges(o.sdo_segmented_download_indices.c_str(), seg_dn_indices_))
-    seg_dn_indices_ = IndexRanges{};
+  timeout_ = ms(o.sdo_timeout_ms);  // 0: no timeout
 
   // One buffer for the largest value plus a segment of slack (block download
   // stores whole 7-byte segments before the end frame says how many count).
@@ -272,7 +210,7 @@ const OdEntry* SdoServer::download_target() {
     return nullptr;
   }
   // Vendor quirk: multi-frame writes only to some objects (0x06010000).
-  if (!seg_dn_indices_.contains(index_)) {
+  if (!node_.options().sdo_segmented_download_indices.contains(index_)) {
     abort(SdoAbort::kUnsupportedAccess);
     return nullptr;
   }
@@ -589,7 +527,7 @@ void SdoServer::abort(std::uint32_t code, std::uint16_t index, std::uint8_t sub)
   std::uint8_t d[8] = {0x80};
   put_u16(d + 1, index);
   d[3] = sub;
-  put_u32(d + 4, abort_map_.apply(code));
+  put_u32(d + 4, node_.options().sdo_abort_map.apply(code));
   send_raw(d);
 }
 

@@ -85,25 +85,6 @@ class SdoServer : private NodeService {
   std::uint32_t tx_cob_id() const { return tx_id_; }
   std::size_t buffer_bytes() const { return buf_.size(); }
 
-  // Parsers for the string options (also usable by the profile loader to
-  // validate them). Return false on a syntax error.
-  struct AbortMap {
-    static constexpr int kMax = 16;
-    std::uint32_t from[kMax] = {};
-    std::uint32_t to[kMax] = {};
-    int count = 0;
-    std::uint32_t apply(std::uint32_t code) const;
-  };
-  struct IndexRanges {
-    static constexpr int kMax = 16;
-    std::uint16_t lo[kMax] = {};
-    std::uint16_t hi[kMax] = {};
-    int count = 0;  // 0 = every index
-    bool contains(std::uint16_t index) const;
-  };
-  static bool parse_abort_map(const char* text, AbortMap& out);
-  static bool parse_index_ranges(const char* text, IndexRanges& out);
-
  private:
   enum class State : std::uint8_t {
     kIdle,
@@ -177,8 +158,6 @@ class SdoServer : private NodeService {
   std::uint32_t rx_id_ = 0;
   std::uint32_t tx_id_ = 0;
   TimeUs timeout_ = 0;
-  AbortMap abort_map_;
-  IndexRanges seg_dn_indices_;
   // transfer
   State state_ = State::kIdle;
   TimeUs deadline_ = kNever;

@@ -156,13 +156,13 @@ SdoAbort StoreRestore::save_group(std::uint8_t sub) {
 }
 
 SdoAbort StoreRestore::restore_group(std::uint8_t sub) {
-  const std::string& mode = node_.options().restore_mode;
-  if (mode == "ram") {
+  const RestoreMode mode = node_.options().restore_mode;
+  if (mode == RestoreMode::kRam) {
     defaults_to_ram(sub);  // kept only if saved afterwards
     return SdoAbort::kNone;
   }
   if (!rewrite(sub, false)) return SdoAbort::kHardware;
-  if (mode == "immediate") defaults_to_ram(sub);
+  if (mode == RestoreMode::kImmediate) defaults_to_ram(sub);
   return SdoAbort::kNone;
 }
 

@@ -90,9 +90,7 @@ bool P92cApplication::stored_mapping_valid(const Node& node) const {
 // LSS bit-rate set of the profile.
 SdoAbort P92cApplication::check_write(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now) {
   if (e.index != kBitRate) return Cia404Application::check_write(node, e, data, now);
-  ByteSet rates;
-  ByteSet::parse(node.options().lss_bit_rates, rates);
-  return rates.has(data[0]) ? SdoAbort::kNone : SdoAbort::kInvalidValue;
+  return node.options().lss_bit_rates.has(data[0]) ? SdoAbort::kNone : SdoAbort::kInvalidValue;
 }
 
 void P92cApplication::count_edge(Node& node, std::uint16_t counter) {

@@ -134,13 +134,13 @@ TEST(EdsExport, AnObjectTheDeviceLacksIsNotInItsEds) {
 TEST(EdsExport, BitRatesFollowLssOption) {
   config::Profile p = load_repo_profile("generic-404");
   auto options = std::make_shared<NodeOptions>(*p.options);
-  options->lss_bit_rates = "3-4";
+  ASSERT_TRUE(ByteSet::parse("3-4", options->lss_bit_rates));
   p.options = options;
   const std::string text = export_eds(p);
   EXPECT_THAT(text, HasSubstr("BaudRate_125=1\nBaudRate_250=1\nBaudRate_500=0"));
   EXPECT_THAT(text, HasSubstr("BaudRate_10=0"));
   const config::Profile back = eds_profile(text);
-  EXPECT_EQ(back.options->lss_bit_rates, "4,3");
+  EXPECT_EQ(back.options->lss_bit_rates.text(), "3-4");
   EXPECT_EQ(back.bit_rate_kbit, 250u);
 }
 
@@ -244,7 +244,7 @@ TEST(EdsReader, DeviceInfoGivesLssBitRatesAndDummies) {
       eds("[1000]\nDataType=0x7\nAccessType=ro\n[DummyUsage]\nDummy0001=0\nDummy0002=0\n",
           "LSS_Supported=1\nBaudRate_125=1\nBaudRate_500=1\nBaudRate_250=0\n"));
   EXPECT_TRUE(p.options->lss_supported);
-  EXPECT_EQ(p.options->lss_bit_rates, "4,2");
+  EXPECT_EQ(p.options->lss_bit_rates.text(), "2,4");
   EXPECT_EQ(p.bit_rate_kbit, 125u);  // no 250: the first rate the file lists
   EXPECT_FALSE(p.options->rpdo_dummy_mapping);
 }

@@ -159,7 +159,7 @@ TEST(StrictMode, ProfileKeyTurnsItOn) {
   EXPECT_TRUE(s.strict);
   EXPECT_FALSE(s.options->sdo_upload_response_0x60);
   EXPECT_FALSE(s.options->sdo_expedited_only);
-  EXPECT_EQ(s.options->sdo_abort_map, "");
+  EXPECT_EQ(s.options->sdo_abort_map.count, 0);
   EXPECT_EQ(s.options->lss_bit_rates, p.options->lss_bit_rates);  // a setting: kept
 }
 
@@ -192,8 +192,8 @@ TEST(StrictMode, WholeFleetKeepsEntryOverrides) {
       "  - {profile: smc, interface: vcan0, node_id: 1, name: a, options: {restore_mode: ram}}\n"
       "  - {profile: smc, interface: vcan0, node_id: 2, name: b}\n",
       "f.yaml", search);
-  EXPECT_EQ(fleet.nodes[0].profile->options->restore_mode, "ram");
-  EXPECT_EQ(fleet.nodes[1].profile->options->restore_mode, "on_reset");
+  EXPECT_EQ(fleet.nodes[0].profile->options->restore_mode, RestoreMode::kRam);
+  EXPECT_EQ(fleet.nodes[1].profile->options->restore_mode, RestoreMode::kOnReset);
   EXPECT_EQ(fleet.nodes[1].profile->layout->find(0x1003, 0)->type, DataType::kUnsigned8);
 }
 
