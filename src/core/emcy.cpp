@@ -11,12 +11,10 @@ namespace cansim {
 namespace {
 using cob::kFrame29Bit;
 using cob::kInvalid;
-constexpr std::uint32_t kReserved30 = 1u << 30;
 constexpr std::uint16_t kErrorReset = 0x0000;
 constexpr std::uint8_t kGenericBit = 0x01;
 constexpr std::uint8_t kNoMfr[5] = {};
 
-std::uint32_t id_bits(std::uint32_t v) { return v & (kFrame29Bit | 0x1FFFFFFFu); }
 }  // namespace
 
 std::uint8_t Emcy::class_bits(std::uint16_t code) {
@@ -48,7 +46,7 @@ void Emcy::read_config() {
   std::uint32_t v = c ? std::uint32_t(node_.values().get_u(*c)) : cob::kEmcyBase + node_.node_id();
   valid_ = !(v & kInvalid);
   extended_ = v & kFrame29Bit;
-  can_id_ = v & (extended_ ? 0x1FFFFFFFu : 0x7FFu);
+  can_id_ = cob::can_id(v);
   const OdEntry* i = node_.od().find(0x1015, 0);
   inhibit_us_ = i ? TimeUs(node_.values().get_u(*i)) * 100 : 0;
 }
@@ -249,10 +247,10 @@ SdoAbort Emcy::write(const OdEntry& e, std::span<const std::uint8_t> data, TimeU
 // The CAN-ID may change only while bit 31 marks the EMCY invalid (CiA 301
 // §7.5.2.17); bit 30 is reserved.
 SdoAbort Emcy::write_cob_id(const OdEntry& e, std::uint32_t v) {
-  if (v & kReserved30) return SdoAbort::kInvalidValue;
-  if (!(v & kFrame29Bit) && (v & 0x1FFFF800u)) return SdoAbort::kInvalidValue;
+  if (v & cob::kEmcyReserved) return SdoAbort::kInvalidValue;
+  if (!cob::format_ok(v)) return SdoAbort::kInvalidValue;
   std::uint32_t current = std::uint32_t(node_.values().get_u(e));
-  if (!(current & kInvalid) && !(v & kInvalid) && id_bits(current) != id_bits(v))
+  if (!(current & kInvalid) && !(v & kInvalid) && cob::frame_id(current) != cob::frame_id(v))
     return SdoAbort::kInvalidValue;
   node_.values().set_u(e, v);
   read_config();

@@ -91,8 +91,10 @@ void Node::set_bus_off(bool off, TimeUs now) {
   }
 }
 
-bool Node::allowed(Service s) const {
-  switch (state()) {
+bool Node::allowed(Service s) const { return allowed_in(state(), s); }
+
+bool Node::allowed_in(NmtState state, Service s) const {
+  switch (state) {
     case NmtState::kOperational:
       return true;
     case NmtState::kPreOperational:

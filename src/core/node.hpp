@@ -126,7 +126,10 @@ class Node {
   std::uint8_t default_node_id() const { return options().node_id_defaults_follow_lss ? node_id_ : setup_.node_id; }
   std::uint8_t configured_bit_rate_index() const { return setup_.bit_rate_index; }
   NmtState state() const { return nmt_.state(); }
+  // NMT decides which services run (CiA 301 Table 82, as lely-core's
+  // per-state service sets): in the current state / in `state`.
   bool allowed(Service s) const;
+  bool allowed_in(NmtState state, Service s) const;
 
   const OdLayout& od() const { return *setup_.layout; }
   OdValues& values() { return values_; }

@@ -6,9 +6,9 @@
 //
 // Timing model (sans I/O): synchronous work happens in on_sync(), event-driven
 // work at absolute deadlines reported by next_deadline() (event timer, inhibit
-// expiry, RPDO timeout). NMT state changes are picked up by on_nmt_state() or,
-// if nobody calls it, detected at the next advance (next_deadline() reports
-// "due now" when the PDO-allowed state differs from the last one seen).
+// expiry, RPDO timeout). NMT decides whether PDOs run (Node::allowed); the
+// engine keeps no copy of the state: the node tells it of every change
+// (on_nmt_state), which starts or stops the PDOs.
 #pragma once
 
 #include <array>
@@ -29,7 +29,7 @@ enum class NmtState : std::uint8_t;
 
 // COB-ID bits of 0x14xx:01 / 0x18xx:01 (CiA 301 Table 71 / 73).
 constexpr std::uint32_t kPdoCobInvalid = cob::kInvalid;     // bit 31: PDO does not exist
-constexpr std::uint32_t kPdoCobNoRtr = 1u << 30;              // bit 30: no RTR allowed (TPDO)
+constexpr std::uint32_t kPdoCobNoRtr = cob::kNoRtr;          // bit 30: no RTR allowed (TPDO)
 constexpr std::uint32_t kPdoCobFrame = cob::kFrame29Bit;      // bit 29: 29-bit CAN-ID
 using cob::kRxIdExtended;
 
@@ -123,8 +123,7 @@ class PdoEngine : private NodeService {
   // Called by the SYNC consumer on every SYNC received (counter 0 when the
   // SYNC carries no counter, CiA 301 §7.2.5).
   void on_sync(std::uint8_t counter, TimeUs now);
-  // Called by NMT after a state change (optional: detected at the next advance).
-  void on_nmt_state(TimeUs now);
+  // Called by the node after every NMT state change.
   void on_nmt_state(NmtState old, TimeUs now);
   // Application events (CiA 301 §7.2.2.2, types 0/254/255): 1-based TPDO number.
   // Without a time the PDO goes out at the next advance (it reports itself due).
@@ -142,8 +141,14 @@ class PdoEngine : private NodeService {
   // (valid when the configuration is). The application is told of every
   // change by Application::on_pdo_config().
   std::span<const Tpdo> tpdos() const { return tpdos_; }
+  // TPDO `number` (1-based, 0x1800 + number - 1), null when the profile has none.
+  const Tpdo* tpdo(unsigned number) const;
   // The PDO exists: COB-ID bit 31 clear (or the vendor ignores the bit).
   bool valid(const PdoConfig& cfg) const;
+  // The mapping TPDO `number` holds now (sub 0 and its entries) as CiA 301's
+  // mapping rule judges it (§7.5.2.36: entries exist, are mappable and fit
+  // 64 bits): kNone when the PDO could run with it.
+  SdoAbort tpdo_mapping_status(unsigned number) const;
 
  private:
   // ---- configuration
@@ -158,6 +163,7 @@ class PdoEngine : private NodeService {
   SdoAbort check_cobid(const PdoConfig& cfg, bool tx, std::uint32_t& v) const;
   SdoAbort check_comm(const PdoConfig& cfg, bool tx, std::uint8_t sub, std::uint32_t& v) const;
   SdoAbort check_map_count(const PdoConfig& cfg, bool tx, std::uint32_t n) const;
+  SdoAbort check_mapping(const PdoConfig& cfg, bool tx, std::uint32_t n) const;  // entries 1..n
   SdoAbort check_map_write(const PdoConfig& cfg, bool tx, std::uint8_t sub, std::uint32_t v) const;
   void after_config_change(PdoConfig& cfg, bool tx, std::uint8_t comm_sub, TimeUs now);
   void restart(PdoConfig& cfg, bool tx, std::uint8_t comm_sub, TimeUs now);
@@ -165,7 +171,7 @@ class PdoEngine : private NodeService {
   Rpdo* find_rpdo(const PdoConfig& cfg);
 
   // ---- NMT
-  void sync_state(TimeUs now);
+  bool running() const;  // PDOs are allowed in the node's NMT state
   void arm(Tpdo& t, TimeUs now);
   void arm(Rpdo& r);
   void disarm(Tpdo& t);
@@ -197,8 +203,6 @@ class PdoEngine : private NodeService {
   std::vector<std::uint16_t> watched_rpdos_;
   void index_active();
   TimeUs next_ = kNever;
-  TimeUs last_now_ = 0;      // latest time seen; "due now" for state detection
-  bool operational_ = false;  // node_.allowed(Service::kPdo) as last seen
 };
 
 }  // namespace cansim

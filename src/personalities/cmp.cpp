@@ -5,6 +5,8 @@
 #include <cstring>
 #include <string>
 
+#include "core/cob_id.hpp"
+
 
 namespace cansim::personalities::cmp {
 
@@ -119,7 +121,7 @@ class CmpApplication : public Cia404Application {
     check_faults(node, now);
     if (indication_due_ <= now) {
       indication_due_ = kNever;
-      node.send(CanFrame::make(0x000, {0x01, settings_.start_indication_node_id}));
+      node.send(CanFrame::make(cob::kNmt, {kNmtStart, settings_.start_indication_node_id}));
     }
     next = std::min({next, repeat_beyond_limits(node, now), indication_due_, now + kFaultPoll});
     return next;
@@ -141,8 +143,8 @@ class CmpApplication : public Cia404Application {
     node.values().set_u(kLimitEventType, std::uint8_t(ch + 1), limit_state_[ch]);
     if (!bits) return;
     for (unsigned n = 1; n <= kPdoCount; ++n) {
-      const std::uint64_t type = node.values().u(std::uint16_t(0x1800 + n - 1), 2);
-      if ((type == 0 || type == 254) && (node.values().u(kEventMask, std::uint8_t(n)) & bits)) {
+      const Tpdo* t = node.pdo().tpdo(n);
+      if (t && (t->cfg.type == 0 || t->cfg.type == 254) && (node.values().u(kEventMask, std::uint8_t(n)) & bits)) {
         node.pdo().raise_event(n, now);
         repeat_due_[n - 1] = kNever;  // the timer counts from this transmission
       }
@@ -196,9 +198,9 @@ class CmpApplication : public Cia404Application {
     TimeUs next = kNever;
     for (unsigned n = 1; n <= kPdoCount; ++n) {
       TimeUs& due = repeat_due_[n - 1];
-      const auto comm = std::uint16_t(0x1800 + n - 1);
-      const std::uint64_t timer_ms = node.values().u(comm, 5);
-      if ((node.values().u(comm, 1) & 0x80000000u) || node.values().u(comm, 2) != 254 || !timer_ms ||
+      const Tpdo* t = node.pdo().tpdo(n);
+      const TimeUs timer_ms = t ? t->cfg.event_ms : 0;
+      if (!t || !node.pdo().valid(t->cfg) || t->cfg.type != 254 || !timer_ms ||
           !beyond_limits(node.values().u(kEventMask, std::uint8_t(n)))) {
         due = kNever;
         continue;

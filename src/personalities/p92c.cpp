@@ -66,24 +66,12 @@ void P92cApplication::fill_serial(Node& node) {
 void P92cApplication::boot_checks(Node& node, ResetKind kind, TimeUs now) {
   if (kind == ResetKind::kCommunication) return;
   if (node.store().corrupt()) node.emcy().report(kEmcyEepromInvalid, 0, nullptr, now);
-  if (!stored_mapping_valid(node)) {
+  if (!ok(node.pdo().tpdo_mapping_status(1))) {
     node.values().reset(node.node_id(), kMapping, kMapping);
     node.pdo().reset(now);
     node.emcy().report(kEmcyMapping, 0, nullptr, now);
   }
   if (fault_active(physics::FaultKind::EepromError, now)) node.emcy().report(kEmcyStartUp, 0, nullptr, now);
-}
-
-bool P92cApplication::stored_mapping_valid(const Node& node) const {
-  const OdValues& v = node.values();
-  const std::uint64_t n = v.u(kMapping, 0);
-  unsigned bits = 0;
-  for (std::uint8_t i = 1; i <= n; ++i) {
-    const auto raw = std::uint32_t(v.u(kMapping, i));
-    if (!node.od().find(kMapping, i) || !ok(check_pdo_map_entry(node.od(), raw, true, false))) return false;
-    bits += PdoMapEntry::decode(raw).bits;
-  }
-  return bits <= 64;
 }
 
 // 0x4F00: the index table of §3.3 (index 5 blank, 8 and 9 not listed) is the

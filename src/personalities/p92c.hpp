@@ -29,7 +29,6 @@ class P92cApplication : public Cia404Application {
  private:
   void fill_serial(Node& node);
   void boot_checks(Node& node, ResetKind kind, TimeUs now);
-  bool stored_mapping_valid(const Node& node) const;
   void count_edge(Node& node, std::uint16_t counter);
 
   Settings settings_;

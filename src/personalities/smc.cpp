@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 
+#include "core/cob_id.hpp"
 #include "core/nmt.hpp"
 #include "physics/quantize.hpp"
 
@@ -19,7 +20,7 @@ constexpr std::uint32_t kRset = 0x74657372;
 constexpr std::uint16_t kEmcySensor = 0x5030;  // §4.8
 constexpr std::uint8_t kInvalidBit = 0x01;     // 0x6150 bit 0 / 0x1001 bit 0
 constexpr float kFltMax = std::numeric_limits<float>::max();
-constexpr std::uint32_t kKeepBits = 0xC0000000u;  // 0x4001:02 preserves COB-ID bits 31, 30 (§6.3.7)
+constexpr std::uint32_t kKeepBits = cob::kInvalid | cob::kNoRtr;  // 0x4001:02 keeps COB-ID bits 31, 30 (§6.3.7)
 
 bool is_field_or_process_value(std::uint16_t index) {
   return index == 0x6130 || index == 0x7100 || index == 0x7130 || index == 0x9130;
@@ -330,8 +331,8 @@ void SmcApplication::change_node_id(Node& node, std::uint8_t sub, std::uint8_t i
       std::uint8_t sub;
       std::uint32_t id;
     };
-    for (Cob c : {Cob{0x1005, 0, 0x80u}, Cob{0x1012, 0, 0x100u}, Cob{0x1014, 0, 0x80u + id},
-                  Cob{0x1800, 1, 0x180u + id}, Cob{0x1801, 1, 0x280u + id}}) {
+    for (Cob c : {Cob{0x1005, 0, cob::kSync}, Cob{0x1012, 0, cob::kTime}, Cob{0x1014, 0, cob::kEmcyBase + id},
+                  Cob{0x1800, 1, cob::tpdo_default(1, id)}, Cob{0x1801, 1, cob::tpdo_default(2, id)}}) {
       const OdEntry* e = node.od().find(c.index, c.sub);
       if (e) node.values().set_u(*e, (node.values().get_u(*e) & kKeepBits) | c.id);
     }
