@@ -1,7 +1,8 @@
 // io.cansim.Node1, the measurement side: the true process value (hold, step,
 // ramp, any YAML model), reported-value overrides, faults and recording.
-// Everything goes through the node's CiA 404 chain
-// (personalities::Cia404Application), so PDOs and events follow.
+// Everything goes through the node's measurement control
+// (personalities::MeasurementControl: its CiA 404 chain and device part), so
+// PDOs and events follow.
 #include <cmath>
 
 #include "config/physics_config.hpp"
@@ -16,7 +17,7 @@ using NodeContext = ControlService::NodeContext;
 using physics::Channel;
 
 // The node's chain, or an error when it has none / not this channel.
-personalities::Cia404Application* chain(NodeContext& n, const char* channel, Channel* ch, sd_bus_error* e, int* r) {
+personalities::MeasurementControl* chain(NodeContext& n, const char* channel, Channel* ch, sd_bus_error* e, int* r) {
   const std::string_view name = channel;
   if (name != "pressure" && name != "temperature") {
     *r = fail(e, kErrorUnknownChannel, "unknown channel '" + std::string(name) + "': expected pressure or temperature");

@@ -148,7 +148,7 @@ void ControlService::node_added(const NodeHandle& h) {
   n->service = this;
   n->handle = &h;
   n->path = node_path(h);
-  n->sensor = personalities::as_cia404(h.app);
+  n->sensor = personalities::measurement_control(h.app);
   if (n->sensor) {
     NodeContext* raw = n.get();
     n->sensor->set_fault_listener([raw](const physics::FaultEdge& edge) {

@@ -10,7 +10,7 @@
 #include "control/names.hpp"
 #include "control/service.hpp"
 #include "core/node.hpp"
-#include "personalities/cia404.hpp"
+#include "personalities/measurement_control.hpp"
 
 namespace cansim::control {
 
@@ -18,7 +18,7 @@ struct ControlService::NodeContext {
   ControlService* service = nullptr;
   const NodeHandle* handle = nullptr;
   std::string path;
-  personalities::Cia404Application* sensor = nullptr;  // null: no measurement chain
+  personalities::MeasurementControl* sensor = nullptr;  // null: no measurement chain
   Node& node() const { return service->host().core().node(handle->ref); }
   // A method acts now: what was due before the call happens first.
   TimeUs act_now() const {

@@ -34,6 +34,8 @@ std::unique_ptr<Application> make_application(const model::Profile& profile, con
   return std::visit(Maker{profile, ctx}, profile.device);
 }
 
+MeasurementControl* measurement_control(Application* app) { return dynamic_cast<MeasurementControl*>(app); }
+
 std::uint64_t node_seed(const NodeContext& ctx) {
   const std::uint64_t key = ctx.key.empty() ? ctx.index : physics::hash_string(ctx.key);
   return physics::derive_seed(ctx.fleet_seed, key);

@@ -12,6 +12,7 @@
 #include "model/profile.hpp"
 #include "personalities/catalog.hpp"
 #include "personalities/cia404.hpp"
+#include "personalities/measurement_control.hpp"
 
 namespace cansim::personalities {
 

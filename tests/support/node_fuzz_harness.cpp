@@ -61,7 +61,7 @@ bool NodeFuzzHarness::MemoryStorage::save(std::span<const std::uint8_t> data) {
 
 NodeFuzzHarness::NodeFuzzHarness(const config::Profile& profile)
     : app_(personalities::make_application(profile, personalities::NodeContext{})),
-      cia404_(personalities::as_cia404(app_.get())) {
+      measurement_(personalities::measurement_control(app_.get())) {
   sink_.clock = &now_;
   sink_.recording = &recording_;
   node_.emplace(config::node_setup(profile), sink_, app_.get(), &storage_);
@@ -114,7 +114,7 @@ void NodeFuzzHarness::run_record(const std::uint8_t* r) {
 }
 
 void NodeFuzzHarness::arm_fault(const std::uint8_t* r) {
-  if (!cia404_) return;
+  if (!measurement_) return;
   physics::FaultSpec f;
   f.kind = physics::FaultKind(std::uint8_t(physics::FaultKind::Silent) + r[3] % 6);
   const TimeUs duration = ms(r[5] | (r[6] << 8));
@@ -122,7 +122,7 @@ void NodeFuzzHarness::arm_fault(const std::uint8_t* r) {
   f.sdo_delay_us = ms(r[7]);
   f.drop_every_n = r[8] % 5;
   f.drop_probability = r[9] / 255.0;
-  cia404_->arm_fault(*node_, f, now_);
+  measurement_->arm_fault(*node_, f, now_);
 }
 
 void NodeFuzzHarness::deliver(const std::uint8_t* r) {

@@ -23,7 +23,7 @@
 
 #include "config/profile.hpp"
 #include "core/node.hpp"
-#include "personalities/cia404.hpp"
+#include "personalities/measurement_control.hpp"
 
 namespace cansim::test {
 
@@ -81,7 +81,7 @@ class NodeFuzzHarness {
   CheckingSink sink_;
   MemoryStorage storage_;
   std::unique_ptr<Application> app_;
-  personalities::Cia404Application* cia404_ = nullptr;  // app_ when it is one
+  personalities::MeasurementControl* measurement_ = nullptr;  // app_'s, when it has one
   std::optional<Node> node_;
   std::optional<NodeSnapshot> node_at_power_on_;
   std::unique_ptr<Application> app_at_power_on_;

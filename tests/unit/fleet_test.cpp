@@ -10,7 +10,7 @@
 #include "config/fleet.hpp"
 #include "config/profile.hpp"
 #include "daemon/daemon.hpp"
-#include "personalities/cia404.hpp"
+#include "personalities/measurement_control.hpp"
 
 namespace cansim::config {
 namespace {
@@ -300,10 +300,10 @@ TEST_F(FleetTest, ANodeRecordsItsReadingsAndCheckDoesNotTouchTheFile) {
   EXPECT_FALSE(fs::exists(file));
   {
     auto app = daemon::make_node_application(f.nodes[0], 1);
-    auto* cia = dynamic_cast<personalities::Cia404Application*>(app.get());
+    personalities::MeasurementControl* cia = personalities::measurement_control(app.get());
     ASSERT_NE(cia, nullptr);
-    for (int i = 0; i < 3; ++i) cia->source().sample(physics::Channel::Pressure, ms(10) * i);
-    cia->source().sample(physics::Channel::Temperature, ms(20));  // same instant: no new row
+    for (int i = 0; i < 3; ++i) cia->chain().source().sample(physics::Channel::Pressure, ms(10) * i);
+    cia->chain().source().sample(physics::Channel::Temperature, ms(20));  // same instant: no new row
   }
   std::ifstream in(file);
   std::string line;
