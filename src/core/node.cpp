@@ -16,6 +16,10 @@ Node::Node(NodeSetup setup, FrameSink& sink, Application* app, NodeStorage* stor
   if (!setup_.options) setup_.options = std::make_shared<NodeOptions>();
 }
 
+static_assert(ServiceContract<LssSlave> && ServiceContract<NmtSlave> && ServiceContract<SdoServer> &&
+              ServiceContract<Heartbeat> && ServiceContract<NodeGuarding> && ServiceContract<SyncConsumer> &&
+              ServiceContract<PdoEngine> && ServiceContract<Emcy> && ServiceContract<StoreRestore>);
+
 template <typename Fn>
 void Node::for_each_service(Fn&& fn) {
   fn(lss_);

@@ -51,20 +51,17 @@ class Node;
 class SdoServer : private NodeService {
  public:
   explicit SdoServer(Node& node) : NodeService(node) {}
-  // Re-reads its configuration from the OD (after a reset / power-on).
+  // The NodeService contract (core/node_service.hpp):
   void reset(TimeUs now);
-  // Returns true when the frame was addressed to this service.
   bool on_frame(const CanFrame& frame, TimeUs now);
-  // Runs the work due at or before now (delayed answers, the protocol timeout).
+  // process: the delayed answers and the protocol timeout.
   void process(TimeUs now);
   TimeUs next_deadline() const {
     return std::min({deadline_, block_ack_at_, delayed_n_ ? delayed_[delayed_head_].at : kNever});
   }
-  // COB-IDs this service wants to receive (for the bus dispatcher).
   void collect_rx_ids(std::vector<std::uint32_t>& out) const;
-  // True for OD indices whose remote writes this service handles itself (0x1200).
+  // owns: 0x1200.
   bool owns(std::uint16_t index) const;
-  // A checked remote write of an owned entry: validate, store, react.
   SdoAbort write(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
 
   // ---- fault injection

@@ -344,76 +344,18 @@ void Daemon::remove_node(NodeEntry& e) {
 
 void Daemon::apply(config::FleetConfig cfg, TimeUs now) {
   const std::uint64_t seed = settings_.seed.value_or(cfg.seed);
-  auto bus_rate = [&](const std::string& iface) {
-    return config::bit_rate_selector(resolve_bit_rate(*cfg.interface(iface)));
-  };
   // Phase 1 (may throw): decide what changes and build the new applications,
   // so an invalid reload leaves the running fleet untouched.
-  std::vector<Pending> to_add;
   std::set<std::string> wanted;
-  for (const auto& n : cfg.nodes) {
-    wanted.insert(n.key);
-    auto it = nodes_.find(n.key);
-    if (it != nodes_.end() && it->second.cfg.fingerprint == n.fingerprint && it->second.seed == seed &&
-        it->second.cfg.interface == n.interface && it->second.bus_rate == bus_rate(n.interface))
-      continue;
-    to_add.push_back({&n, make_node_application(n, seed)});
-  }
+  std::vector<Pending> to_add = plan(cfg, seed, wanted);
   // Phase 2: interfaces, removals, additions.
   for (auto& i : interfaces_) i->configured = false;
   for (const auto& ic : cfg.interfaces) ensure_interface(ic);
-  std::size_t removed = 0, changed = 0;
-  for (auto it = nodes_.begin(); it != nodes_.end();) {
-    bool replaced = std::any_of(to_add.begin(), to_add.end(), [&](const Pending& p) { return p.cfg->key == it->first; });
-    if (!wanted.count(it->first) || replaced) {
-      const auto subject = LogSubject::node(it->first);
-      spdlog::info("{}: node 0x{:02X} {}", it->first, it->second.cfg.node_id, replaced ? "changed, restarting" : "removed");
-      (replaced ? changed : removed) += 1;
-      if (control_) control_->node_removed(it->first);
-      remove_node(it->second);
-      it = nodes_.erase(it);
-    } else {
-      ++it;
-    }
-  }
+  const auto [removed, changed] = remove_stale(wanted, to_add);
   std::vector<io::NodeRef> fresh;
   std::vector<BitRateMismatch> mismatched;  // (re)started nodes at another rate than their bus: one warning per entry
-  for (auto& p : to_add) {
-    const config::NodeConfig& n = *p.cfg;
-    Interface* iface = nullptr;
-    for (auto& i : interfaces_)
-      if (i->can.name() == n.interface) iface = i.get();
-    const NodeSetup setup = node_setup(n);
-    auto storage = std::make_unique<FileStorage>(settings_.state_dir, n.key);
-    NodeEntry e;
-    e.cfg = n;
-    e.seed = seed;
-    e.bus_rate = config::bit_rate_selector(iface->bit_rate_kbit);
-    e.ref = core_.add_node(iface->bus, setup, std::move(p.app), std::move(storage));
-    if (setup.bit_rate_index != e.bus_rate) add_mismatch(mismatched, n, iface->bit_rate_kbit);
-    e.handle.key = n.key;
-    e.handle.name = n.name;
-    e.handle.index = n.index;
-    e.handle.profile = n.profile->name;
-    e.handle.personality = n.profile->personality;
-    e.handle.interface = n.interface;
-    e.handle.ref = e.ref;
-    e.handle.app = core_.app(e.ref);
-    fresh.push_back(e.ref);
-    NodeEntry& stored = nodes_[n.key] = std::move(e);
-    {
-      const auto subject = LogSubject::node(n.key);
-      spdlog::debug("{}: node 0x{:02X} ({}, {})", n.key, n.node_id, n.profile->name, n.profile->personality);
-    }
-    if (control_) control_->node_added(stored.handle);
-  }
-  for (auto& i : interfaces_)
-    if (!i->configured && i->can.is_open()) {
-      const auto subject = LogSubject::interface(i->can.name());
-      spdlog::info("{}: no longer configured, closed", i->can.name());
-      i->can.close();
-      i->in_epoll = false;
-    }
+  for (Pending& p : to_add) fresh.push_back(add_node(p, seed, mismatched));
+  close_unconfigured_interfaces();
   // Open new interfaces now, so the boot-up frames reach the bus. Building
   // the nodes took time: they power on now, not when the reload began (their
   // heartbeat would come early by as much).
@@ -428,6 +370,87 @@ void Daemon::apply(config::FleetConfig cfg, TimeUs now) {
     spdlog::warn("{}", describe(m));
   }
   check_bus_load();
+}
+
+// The nodes of `cfg` that are new or changed, with their applications built;
+// `wanted` receives every key of `cfg`.
+std::vector<Daemon::Pending> Daemon::plan(const config::FleetConfig& cfg, std::uint64_t seed,
+                                          std::set<std::string>& wanted) {
+  auto bus_rate = [&](const std::string& iface) {
+    return config::bit_rate_selector(resolve_bit_rate(*cfg.interface(iface)));
+  };
+  std::vector<Pending> to_add;
+  for (const auto& n : cfg.nodes) {
+    wanted.insert(n.key);
+    auto it = nodes_.find(n.key);
+    if (it != nodes_.end() && it->second.cfg.fingerprint == n.fingerprint && it->second.seed == seed &&
+        it->second.cfg.interface == n.interface && it->second.bus_rate == bus_rate(n.interface))
+      continue;
+    to_add.push_back({&n, make_node_application(n, seed)});
+  }
+  return to_add;
+}
+
+// Removes the running nodes that are no longer wanted or are about to be
+// replaced; returns how many of each.
+std::pair<std::size_t, std::size_t> Daemon::remove_stale(const std::set<std::string>& wanted,
+                                                         const std::vector<Pending>& to_add) {
+  std::size_t removed = 0, changed = 0;
+  for (auto it = nodes_.begin(); it != nodes_.end();) {
+    bool replaced = std::any_of(to_add.begin(), to_add.end(), [&](const Pending& p) { return p.cfg->key == it->first; });
+    if (!wanted.count(it->first) || replaced) {
+      const auto subject = LogSubject::node(it->first);
+      spdlog::info("{}: node 0x{:02X} {}", it->first, it->second.cfg.node_id, replaced ? "changed, restarting" : "removed");
+      (replaced ? changed : removed) += 1;
+      if (control_) control_->node_removed(it->first);
+      remove_node(it->second);
+      it = nodes_.erase(it);
+    } else {
+      ++it;
+    }
+  }
+  return {removed, changed};
+}
+
+// Adds a planned node to the loop and the control API (not yet powered).
+io::NodeRef Daemon::add_node(Pending& p, std::uint64_t seed, std::vector<BitRateMismatch>& mismatched) {
+  const config::NodeConfig& n = *p.cfg;
+  Interface* iface = nullptr;
+  for (auto& i : interfaces_)
+    if (i->can.name() == n.interface) iface = i.get();
+  const NodeSetup setup = node_setup(n);
+  auto storage = std::make_unique<FileStorage>(settings_.state_dir, n.key);
+  NodeEntry e;
+  e.cfg = n;
+  e.seed = seed;
+  e.bus_rate = config::bit_rate_selector(iface->bit_rate_kbit);
+  e.ref = core_.add_node(iface->bus, setup, std::move(p.app), std::move(storage));
+  if (setup.bit_rate_index != e.bus_rate) add_mismatch(mismatched, n, iface->bit_rate_kbit);
+  e.handle.key = n.key;
+  e.handle.name = n.name;
+  e.handle.index = n.index;
+  e.handle.profile = n.profile->name;
+  e.handle.personality = n.profile->personality;
+  e.handle.interface = n.interface;
+  e.handle.ref = e.ref;
+  e.handle.app = core_.app(e.ref);
+  NodeEntry& stored = nodes_[n.key] = std::move(e);
+  {
+    const auto subject = LogSubject::node(n.key);
+    spdlog::debug("{}: node 0x{:02X} ({}, {})", n.key, n.node_id, n.profile->name, n.profile->personality);
+  }
+  if (control_) control_->node_added(stored.handle);
+  return stored.ref;
+}
+
+void Daemon::close_unconfigured_interfaces() {
+  for (auto& i : interfaces_)
+    if (!i->configured && i->can.is_open()) {
+      const auto subject = LogSubject::interface(i->can.name());
+      spdlog::info("{}: no longer configured, closed", i->can.name());
+      i->can.close();
+      i->in_epoll = false;
+    }
 }
 
 config::FleetConfig Daemon::combined() const {

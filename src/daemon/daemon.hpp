@@ -108,6 +108,11 @@ class Daemon : public control::ControlHost {
   // those removed at run time.
   config::FleetConfig combined() const;
   void apply(config::FleetConfig cfg, TimeUs now);
+  std::vector<Pending> plan(const config::FleetConfig& cfg, std::uint64_t seed, std::set<std::string>& wanted);
+  std::pair<std::size_t, std::size_t> remove_stale(const std::set<std::string>& wanted,
+                                                   const std::vector<Pending>& to_add);
+  io::NodeRef add_node(Pending& p, std::uint64_t seed, std::vector<BitRateMismatch>& mismatched);
+  void close_unconfigured_interfaces();
   void reload(TimeUs now);
   void start_control();
   Interface& ensure_interface(const config::InterfaceConfig& ic);

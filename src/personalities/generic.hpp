@@ -6,8 +6,8 @@
 // kRangeExceeded, each with 0x1001 bit 5 (device profile specific) and the
 // channel's sub-index and the condition's 0x6150 bits in manufacturer bytes
 // 0-1 (no range EMCY while the value is not valid); the error reset follows
-// when no channel has the condition any more. Checked on the event-check
-// grid, in every NMT state.
+// when no channel has the condition any more. Checked every 100 ms from the
+// reset on, in every NMT state.
 #pragma once
 
 #include <array>

@@ -34,13 +34,26 @@ std::uint32_t cob_id(std::uint8_t sel, std::uint8_t param, std::uint8_t node_id)
 
 }  // namespace
 
-config::Profile node_fuzz_profile(const std::string& path) {
+std::size_t node_fuzz_variant(const std::string& name) {
+  for (std::size_t i = 0; i < kNodeFuzzVariantCount; ++i)
+    if (name == kNodeFuzzVariants[i].name) return i;
+  return kNodeFuzzVariantCount;
+}
+
+config::Profile node_fuzz_profile(const std::string& profiles, const NodeFuzzVariant& variant) {
+  const std::string path = profiles + "/" + variant.profile + ".yaml";
   YAML::Node root = config::load_yaml_file(path);
-  root["vendor"]["cia404"]["event_check_period"] = "100 ms";
-  root["sensor"]["pressure"]["sample_rate"] = "100 Hz";
-  root["sensor"]["temperature"]["sample_rate"] = "10 Hz";
-  config::Profile profile = config::parse_profile(root, path);
-  return profile;
+  YAML::Node vendor = root["vendor"];
+  vendor["cia404"]["event_check_period"] = "100 ms";
+  // Each personality's supervision period (config/vendor_settings.cpp).
+  const std::string personality = root["personality"].as<std::string>();
+  for (const auto& [who, key] : {std::pair{"honeywell-dps", "span_check_period"}, {"danfoss-p92c", "monitor_period"},
+                                 {"gems-9000", "supervision_period"}, {"adz-smc", "stay_set_period"}})
+    if (personality == who) vendor[key] = "100 ms";
+  for (const auto& [channel, rate] : {std::pair{"pressure", "100 Hz"}, {"temperature", "10 Hz"}})
+    if (root["sensor"][channel]) root["sensor"][channel]["sample_rate"] = rate;
+  if (variant.strict) root["strict"] = true;
+  return config::parse_profile(root, path);
 }
 
 void NodeFuzzHarness::CheckingSink::send(const CanFrame& f) {
@@ -66,6 +79,11 @@ NodeFuzzHarness::NodeFuzzHarness(const config::Profile& profile)
   sink_.recording = &recording_;
   node_.emplace(config::node_setup(profile), sink_, app_.get(), &storage_);
   node_->power_on(0);
+  // Inputs start from the boot-up (a profile's boot_up_delay_ms would spend
+  // the first records of every input in INITIALISING, deaf to NMT).
+  while (node_->state() == NmtState::kInitialising && node_->next_deadline() <= ms(10000))
+    run_until(node_->next_deadline());
+  booted_at_ = now_;
   node_at_power_on_.emplace(node_->snapshot());
   storage_at_power_on_ = storage_.blob;
   if (app_) {
@@ -86,7 +104,7 @@ void NodeFuzzHarness::start_from_power_on() {
   if (app_) app_->restore(*app_at_power_on_);
   storage_.blob = storage_at_power_on_;
   sink_.sent.clear();
-  now_ = 0;
+  now_ = booted_at_;
 }
 
 void NodeFuzzHarness::run(std::span<const std::uint8_t> input) {
@@ -144,6 +162,19 @@ void NodeFuzzHarness::run_until(TimeUs t) {
     node_->advance(now_);
   }
   now_ = std::max(now_, t);
+}
+
+NodeFuzzHarness& NodeFuzzTarget::harness(std::size_t variant) {
+  if (!harnesses_[variant]) {
+    profile_storage_[variant] = node_fuzz_profile(profiles_, kNodeFuzzVariants[variant]);
+    harnesses_[variant] = std::make_unique<NodeFuzzHarness>(profile_storage_[variant]);
+  }
+  return *harnesses_[variant];
+}
+
+void NodeFuzzTarget::run(std::span<const std::uint8_t> input) {
+  if (input.empty()) return;
+  harness(node_fuzz_variant(input[0])).run(input.subspan(1));
 }
 
 }  // namespace cansim::test
