@@ -161,7 +161,7 @@ def device_seed(profile_file):
     out = [rec(10, NMT, [0x01, 0x00])]
     for row in rows:
         index = row["index"]
-        if not 0x2000 <= index < 0x6000 or len(out) >= 40:
+        if not 0x2000 <= index < 0x6000 or len(out) >= 24:
             continue
         sub = row.get("sub", 0)
         sub = int(str(sub).split("..")[0], 0) if isinstance(sub, str) else sub

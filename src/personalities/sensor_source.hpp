@@ -34,7 +34,7 @@ class MeasurementSource {
   virtual void reboot(TimeUs) {}
   // The node's fault schedule (null: this source has none).
   virtual physics::FaultSet* fault_set() { return nullptr; }
-  // A copy of this source's state for Cia404Application::snapshot (null:
+  // A copy of this source's state for a chain's copy (SourceSlot; null:
   // this source has none) and the way back to it.
   virtual std::unique_ptr<MeasurementSource> snapshot() const { return nullptr; }
   virtual void restore(const MeasurementSource&) {}
