@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Dict, List, NamedTuple, Optional, Tuple, Union
 
 from ._bus import NODE_IFACE
-from .errors import Refused
+from .errors import Refused, Timeout
 from .events import EVENT_NAMES, Event, Mark
 
 if TYPE_CHECKING:
@@ -196,6 +197,24 @@ class Channel:
             self.node._act("Step", "sds", self.name, float(value), unit)
         else:
             self.node._act("Ramp", "sdsd", self.name, float(value), unit, float(ramp))
+
+    def wait_for(self, value: float, *, tolerance: float = 0.01, timeout: float = 2.0,
+                 true_value: bool = False) -> Reading:
+        """Poll until the reported value (or the true value) is within
+        ``tolerance`` of ``value`` (in the channel's unit); the reading, or
+        cansim.Timeout with the last one. The reported value follows the
+        process at the sensor's own pace (sampling, filter, PDO timing)."""
+        deadline = time.monotonic() + timeout
+        while True:
+            r = self.reading()
+            got = r.true_value if true_value else r.value
+            if abs(got - value) <= tolerance:
+                return r
+            if time.monotonic() >= deadline:
+                which = "true value" if true_value else "reported value"
+                raise Timeout(f"{self.node.key} {self.name}: {which} {got:g} {r.unit}, "
+                              f"not {value:g} ± {tolerance:g} within {timeout} s")
+            time.sleep(0.01)
 
     def hold(self) -> None:
         """The true value stays where it is now."""

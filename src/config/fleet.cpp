@@ -275,14 +275,39 @@ void check_collisions(const Where& w, const YAML::Node& list, const FleetConfig&
   }
 }
 
+// The interfaces the node entries name that `interfaces:` does not declare,
+// added to it with the running fleet's bit rate for that name (else none:
+// the kernel's rate for real CAN, else 250).
+void declare_entry_interfaces(YAML::Node root, const std::string& file, const FleetConfig& running) {
+  YAML::Node ifaces = root["interfaces"] ? root["interfaces"] : YAML::Node(YAML::NodeType::Map);
+  if (!ifaces.IsMap() || !root["nodes"].IsSequence()) return;
+  std::size_t i = 0;
+  for (const auto& entry : root["nodes"]) {
+    const Where wi = Where{file, "nodes"}.item(i++);
+    if (!entry.IsMap() || !entry["interface"] || !entry["interface"].IsScalar()) continue;
+    const std::string name = entry["interface"].Scalar();
+    if (ifaces[name]) continue;
+    // Checked here, where the name has a line: the interface added below has none.
+    if (name.size() >= 16 || !valid_name(name))
+      fail(wi.child("interface"), entry["interface"], "expected a network interface name (at most 15 characters)");
+    YAML::Node setting(YAML::NodeType::Map);
+    if (const InterfaceConfig* ic = running.interface(name); ic && ic->bit_rate_kbit) setting["bit_rate"] = ic->bit_rate_kbit;
+    ifaces[name] = setting;
+  }
+  root["interfaces"] = ifaces;
+}
+
+// `interfaces:` may be left out: then it is every interface the nodes name,
+// at its default rate. Where it is given, a node's interface must be in it
+// (a misspelt name is an error, not a new bus).
 FleetConfig parse_root(const YAML::Node& root, const std::string& file, const ProfileSearch& search) {
   Where w{file, ""};
-  if (!root.IsMap()) fail(w, root, "expected a mapping with 'interfaces:' and 'nodes:'");
+  if (!root.IsMap()) fail(w, root, "expected a mapping with 'nodes:' (and 'interfaces:')");
   check_keys(w, root, {"seed", "interfaces", "nodes"});
+  if (!root["interfaces"]) declare_entry_interfaces(root, file, FleetConfig{});
   FleetConfig out;
   out.file = file;
   if (root["seed"]) out.seed = get_uint(w.child("seed"), root["seed"]);
-  if (!root["interfaces"]) fail(w.child("interfaces"), root, "missing required key 'interfaces'");
   parse_interfaces(w.child("interfaces"), root["interfaces"], out);
   if (!root["nodes"]) fail(w.child("nodes"), root, "missing required key 'nodes'");
   const YAML::Node& list = root["nodes"];
@@ -360,23 +385,7 @@ FleetConfig parse_fleet_fragment(const std::string& text, const std::string& fil
   } else {
     fail(Where{file, ""}, given, "expected a node entry, a list of node entries or a fleet document");
   }
-  YAML::Node ifaces = root["interfaces"] ? root["interfaces"] : YAML::Node(YAML::NodeType::Map);
-  if (ifaces.IsMap() && root["nodes"].IsSequence()) {
-    std::size_t i = 0;
-    for (const auto& entry : root["nodes"]) {
-      const Where wi = Where{file, "nodes"}.item(i++);
-      if (!entry.IsMap() || !entry["interface"] || !entry["interface"].IsScalar()) continue;
-      const std::string name = entry["interface"].Scalar();
-      if (ifaces[name]) continue;
-      // Checked here, where the name has a line: the interface added below has none.
-      if (name.size() >= 16 || !valid_name(name))
-        fail(wi.child("interface"), entry["interface"], "expected a network interface name (at most 15 characters)");
-      YAML::Node setting(YAML::NodeType::Map);
-      if (const InterfaceConfig* ic = running.interface(name); ic && ic->bit_rate_kbit) setting["bit_rate"] = ic->bit_rate_kbit;
-      ifaces[name] = setting;
-    }
-    root["interfaces"] = ifaces;
-  }
+  declare_entry_interfaces(root, file, running);
   return parse_root(root, file, search);
 }
 

@@ -70,6 +70,21 @@ TEST_F(FleetTest, CountReplicatesOverConsecutiveNodeIdsWithDistinctSerialsAndKey
   EXPECT_EQ(f.seed, 1u);
 }
 
+// Without `interfaces:`, the fleet's buses are the ones its entries name, at
+// the default rate; with it, an undeclared name is an error (see below).
+TEST_F(FleetTest, InterfacesDefaultToTheOnesTheNodesName) {
+  FleetConfig f = parse("nodes: [{profile: generic-404, interface: vcan3, node_id: 0x10, count: 20, name: pt},\n"
+                        "        {profile: generic-404, interface: can1, name: b}]\n");
+  ASSERT_EQ(f.interfaces.size(), 2u);
+  EXPECT_EQ(f.interfaces[0].name, "vcan3");
+  EXPECT_EQ(f.interfaces[1].name, "can1");
+  EXPECT_EQ(f.interfaces[0].bit_rate_kbit, 0u);  // the kernel's, else 250
+  EXPECT_EQ(f.nodes.size(), 21u);
+  EXPECT_EQ(error_of("nodes: [{profile: generic-404, interface: vcan_too_long_name0}]\n"),
+            "D/fleet.yaml:1:43: nodes[0].interface: expected a network interface name (at most 15 characters), "
+            "got 'vcan_too_long_name0'");
+}
+
 // physics / sensor / faults of an entry lie over the profile's: a channel,
 // a sensor key, the fault list; the personality's settings follow (SMC maps
 // its field value over the sensor range).
@@ -147,7 +162,6 @@ TEST_F(FleetTest, ErrorsNameFileLineKeyAndExpectation) {
   const std::string n = "nodes:\n  - {profile: generic-404, interface: vcan0";
   std::vector<Case> cases = {
       {"bogus: 1\n", "D/fleet.yaml:1:1: bogus: unknown key (expected one of: seed, interfaces, nodes), got 'bogus'"},
-      {"nodes: []\n", "D/fleet.yaml:1:1: interfaces: missing required key 'interfaces'"},
       {std::string(kIfaces), "D/fleet.yaml:1:1: nodes: missing required key 'nodes'"},
       {"interfaces:\n  vcan0: {bitrate: 250}\nnodes: []\n",
        "D/fleet.yaml:2:11: interfaces.vcan0.bitrate: unknown key (expected one of: bit_rate), got 'bitrate'"},
