@@ -84,19 +84,11 @@ def _escape_address(path: str) -> str:
     return "".join(c if c in plain else "".join(f"%{b:02x}" for b in c.encode()) for c in path)
 
 
-def unwrap(value: Any) -> Any:
-    """A jeepney variant (signature, value) as its plain value, recursively
-    for containers of variants."""
-    if isinstance(value, tuple) and len(value) == 2 and isinstance(value[0], str) and _is_signature(value[0]):
-        sig, inner = value
-        if sig == "ay":
-            return bytes(inner)
-        return inner
-    return value
-
-
-def _is_signature(s: str) -> bool:
-    return bool(s) and all(c in "ybnqiuxtdsogav(){}h" for c in s)
+def unwrap(variant: Tuple[str, Any]) -> Any:
+    """A D-Bus variant, as jeepney gives it (signature, value), as its value
+    (``ay`` as bytes)."""
+    signature, value = variant
+    return bytes(value) if signature == "ay" else value
 
 
 class _Router(DBusRouter):

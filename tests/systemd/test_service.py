@@ -215,6 +215,27 @@ def control_api(gid: int) -> None:
     step(f"a uid outside cansim: refused by the bus policy ({refused.stderr.strip()[:60]}...) and by both sockets")
 
 
+def python_client(gid: int) -> None:
+    """The package's Python module, plugin, EDS files and tools, used as a
+    bench user would: a uid in group cansim connects to the running service."""
+    where = run("/usr/bin/python3", "-c", "import cansim; print(cansim.__file__)", user=[gid]).stdout.strip()
+    assert where == "/usr/lib/python3/dist-packages/cansim/__init__.py", where
+    code = ("import cansim\n"
+            "with cansim.connect() as sim:\n"  # the default address: /run/cansimd/control
+            "    node = sim.node('generic/0')\n"
+            "    node.pressure.set(4.5, 'bar')\n"
+            "    print(len(sim.nodes()), node.pressure.true_value, node.pressure.unit)\n")
+    assert run("/usr/bin/python3", "-c", code, user=[gid]).stdout.split() == ["9", "4.5", "bar"]
+    assert "--cansim-config=PATH" in run("/usr/bin/python3", "-m", "pytest", "--help").stdout
+    eds = sorted(os.listdir("/usr/share/cansimd/eds"))
+    assert eds == [f"{p}.eds" for p in ("cmp", "dps", "gems9000", "generic-404", "p92c", "smc")], eds
+    for tool in ("decode.py", "plot-recording"):
+        assert os.access(f"/usr/share/cansimd/scripts/{tool}", os.X_OK), tool
+    assert os.path.exists("/usr/share/doc/cansimd/examples/hil_bench_test.py")
+    step("python3 -c 'import cansim' from dist-packages; cansim.connect() as a uid in group cansim: 9 nodes, "
+         "set 4.5 bar; the pytest plugin, 6 EDS files, decode.py, plot-recording and the example installed")
+
+
 def store(bus0) -> None:
     sdo = it.SdoClient(bus0, 0x10)
     sdo.download_u16(0x1017, 0, 500)
@@ -335,6 +356,7 @@ def main() -> int:
         with it.open_bus("vcan0") as bus0, it.open_bus("vcan1") as bus1:
             pids = start(bus0, bus1)
             control_api(gid)
+            python_client(gid)
             store(bus0)
             journal_fields()
             reload(bus0, bus1, pids)
