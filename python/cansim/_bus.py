@@ -18,7 +18,6 @@ from jeepney import DBusAddress, MatchRule, Message, MessageType, new_method_cal
 from jeepney.bus_messages import message_bus
 from jeepney.io.threading import DBusConnection, DBusRouter, ReceiveStopped, open_dbus_connection
 from jeepney.low_level import HeaderFields
-from jeepney.wrappers import DBusErrorResponse
 
 from .errors import Error, NoSuchNode, Refused, Timeout
 
@@ -91,7 +90,7 @@ def unwrap(variant: Tuple[str, Any]) -> Any:
     return bytes(value) if signature == "ay" else value
 
 
-class _Router(DBusRouter):
+class _Router(DBusRouter):  # type: ignore[misc]
     """jeepney's router, with signals handed to a callback and a quiet end
     when cansimd closes the connection."""
 

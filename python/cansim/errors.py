@@ -6,7 +6,7 @@ error name (``io.cansim.Error.OutOfRange`` ...) and message unchanged.
 
 from __future__ import annotations
 
-from typing import Optional
+from typing import Any, List, Optional
 
 __all__ = ["Error", "NoSuchNode", "Refused", "Timeout"]
 
@@ -34,7 +34,7 @@ class NoSuchNode(Refused, LookupError):
 class Timeout(Error, TimeoutError):
     """An awaited event did not come, or cansimd did not answer, in time."""
 
-    def __init__(self, message: str, seen: Optional[list] = None) -> None:
+    def __init__(self, message: str, seen: Optional[List[Any]] = None) -> None:
         super().__init__(message)
         #: the events of the awaited node received while waiting (for the report)
         self.seen = seen or []

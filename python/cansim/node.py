@@ -240,7 +240,7 @@ class Channel:
 class Fault:
     """An armed fault; a context manager that cancels it on exit."""
 
-    def __init__(self, node: "Node", id: int, kind: str, info: Optional[tuple] = None) -> None:
+    def __init__(self, node: "Node", id: int, kind: str, info: Optional[Tuple[Any, ...]] = None) -> None:
         self.node = node
         self.id = id
         self.kind = kind
@@ -249,7 +249,7 @@ class Fault:
     def __repr__(self) -> str:
         return f"<Fault {self.id} {self.kind} on {self.node.key}>"
 
-    def _listed(self) -> Optional[tuple]:
+    def _listed(self) -> Optional[Tuple[Any, ...]]:
         for f in self.node._call("ListFaults")[0]:
             if f[0] == self.id:
                 return tuple(f)
@@ -269,7 +269,7 @@ class Fault:
     @property
     def channel(self) -> str:
         f = self._info or self._listed()
-        return f[2] if f else ""
+        return str(f[2]) if f else ""
 
     def cancel(self) -> None:
         """End the fault now; a fault that has already ended is left alone."""
@@ -325,11 +325,11 @@ class Node:
     @property
     def key(self) -> str:
         """The fleet key, ``interface/name/index``: stable across LSS and reloads."""
-        return self._props["Key"]
+        return str(self._props["Key"])
 
     @property
     def name(self) -> str:
-        return self._props["Name"]
+        return str(self._props["Name"])
 
     @property
     def index(self) -> int:
@@ -337,15 +337,15 @@ class Node:
 
     @property
     def interface(self) -> str:
-        return self._props["Interface"]
+        return str(self._props["Interface"])
 
     @property
     def profile(self) -> str:
-        return self._props["Profile"]
+        return str(self._props["Profile"])
 
     @property
     def personality(self) -> str:
-        return self._props["Personality"]
+        return str(self._props["Personality"])
 
     # ------------------------------------------------------------ live state
     @property
@@ -356,7 +356,7 @@ class Node:
     @property
     def nmt_state(self) -> str:
         """``"initialising"``, ``"pre-operational"``, ``"operational"`` or ``"stopped"``."""
-        return self._get("NmtState")
+        return str(self._get("NmtState"))
 
     @property
     def powered(self) -> bool:
@@ -441,7 +441,7 @@ class Node:
 
     def dcf(self) -> str:
         """The node's CiA 306 DCF now (its EDS with current values)."""
-        return self._call("GetDcf")[0]
+        return str(self._call("GetDcf")[0])
 
     def record(self, path: Optional[str]) -> None:
         """CSV recording of true and reported values to ``path``; None stops it."""

@@ -10,12 +10,11 @@ import socket as _socket
 import subprocess
 import sys
 import tempfile
-import threading
 import time
-from typing import Any, Callable, Dict, Iterator, List, NamedTuple, Optional, Sequence, Union
+from typing import Any, Dict, Iterator, List, NamedTuple, Optional, Sequence, Union
 
 from ._bus import FLEET_IFACE, ROOT_PATH, Connection, choose_address, round_trip_offset
-from .errors import Error, NoSuchNode, Timeout
+from .errors import Error, Timeout
 from .events import EVENT_NAMES, Event, EventLog, Mark, event_of_signal
 from .node import Node, NodeState
 
@@ -122,11 +121,11 @@ class Simulator:
     @property
     def time(self) -> float:
         """Simulated seconds since cansimd started (the clock of ``at:``)."""
-        return self._conn.get(ROOT_PATH, FLEET_IFACE, "SimulatedTime") / 1e6
+        return float(self._conn.get(ROOT_PATH, FLEET_IFACE, "SimulatedTime")) / 1e6
 
     @property
     def version(self) -> str:
-        return self._conn.get(ROOT_PATH, FLEET_IFACE, "Version")
+        return str(self._conn.get(ROOT_PATH, FLEET_IFACE, "Version"))
 
     def add(self, path_or_yaml_text: Union[str, "os.PathLike[str]"]) -> List[Node]:
         """Add nodes from a fleet fragment (one entry, a list, or a fleet
