@@ -190,16 +190,16 @@ def test_fault_is_a_context_manager(pt):
 
 def test_fault_with_duration_and_parameters(pt):
     pt.pressure.set(2.0, "bar")
-    f = pt.fault("stuck", duration=0.2, value="3 bar", channel="pressure")
+    f = pt.fault("stuck", duration=1.0, value="3 bar", channel="pressure")
     assert pt.wait_for("FaultStarted", id=f.id).time is not None
     pt.pressure.wait_for(3.0, tolerance=0.05)
     ended = pt.wait_for("FaultEnded", id=f.id, timeout=5)
     started = pt.wait_for("FaultStarted", id=f.id)
-    assert ended.time - started.time == pytest.approx(0.2, abs=0.001)
+    assert ended.time - started.time == pytest.approx(1.0, abs=0.001)
 
 
 def test_fault_at_a_simulated_time(pt, sim):
-    at = sim.time + 0.3
+    at = sim.time + 1.0  # far enough ahead for a loaded host
     f = pt.fault("open", at=at, duration=0.1)
     assert not f.active
     started = pt.wait_for("FaultStarted", id=f.id, timeout=5)
@@ -248,11 +248,11 @@ def test_nmt_commands(pt):
 
 
 def test_power_cycle(pt):
-    pt.power_cycle(off=0.3)
+    pt.power_cycle(off=1.0)
     assert not pt.powered
     boot = pt.wait_for("BootUp", timeout=5)
     off = pt.wait_for("NmtStateChanged", new="initialising")
-    assert boot.time - off.time == pytest.approx(0.3, abs=0.01)
+    assert boot.time - off.time == pytest.approx(1.0, abs=0.01)
     assert pt.powered and pt.nmt_state == "pre-operational"
 
 
