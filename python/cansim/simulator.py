@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import atexit
+import ctypes
 import os
 import re
 import shutil
@@ -296,12 +298,13 @@ class _Process:
         self._log_file = open(self.log_path, "wb")
         try:
             self.proc = subprocess.Popen(command, stdin=subprocess.DEVNULL, stdout=self._log_file,
-                                         stderr=subprocess.STDOUT, env=env)
+                                         stderr=subprocess.STDOUT, env=env, preexec_fn=_die_with_parent)
         except OSError as e:
             self._log_file.close()
             self._notify.close()
             raise Error(f"cannot run {command[0]}: {e}") from e
         self._stopped = False
+        _running.add(self)
 
     def wait_ready(self, timeout: float) -> None:
         """Until cansimd says READY=1 (sd_notify: every node's boot-up is on
@@ -368,9 +371,32 @@ class _Process:
 
     def _finish(self, keep: bool = False) -> None:
         self._stopped = True
+        _running.discard(self)
         self._log_file.close()
         if not keep:
             shutil.rmtree(self.workdir, ignore_errors=True)
+
+
+_running: "set[_Process]" = set()
+
+
+@atexit.register
+def _stop_leftovers() -> None:
+    """A Simulator that was never closed: its cansimd stops with the interpreter."""
+    for process in list(_running):
+        try:
+            process.kill()
+        except Exception:
+            pass
+
+
+def _die_with_parent() -> None:
+    """In the child: SIGTERM when the process that started cansimd dies
+    (a killed pytest leaves no cansimd behind)."""
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
 
 
 def start(config: Union[str, "os.PathLike[str]", None] = None, *, profile: Optional[str] = None,
