@@ -60,40 +60,36 @@ def test_fleet_from_the_ini_file(pytester, has_can):
     result.assert_outcomes(passed=1)
 
 
-def test_a_module_sets_its_own_fleet(pytester, has_can):
-    source = f'''
+def with_own_fleet(pytester, entry, tests):
+    """Runs a test module whose cansim_config fixture returns `entry` as a fleet."""
+    pytester.makepyfile(f'''
 import pytest
 
 @pytest.fixture(scope="module")
 def cansim_config():
-    return "nodes: [{{profile: {PROFILES}/generic-404.yaml, interface: $INTERFACE, node_id: 0x20, count: 3, name: s}}]"
+    return "nodes: [{{profile: {PROFILES}/generic-404.yaml, interface: $INTERFACE, {entry}}}]"
+''' + tests)
+    return pytester.runpytest_inprocess("-p", "cansim.pytest_plugin", "--cansim-interface=vcan7")
 
+
+def test_a_module_sets_its_own_fleet(pytester, has_can):
+    result = with_own_fleet(pytester, "node_id: 0x20, count: 3, name: s", '''
 def test_fleet(cansim, cansim_interface):
     assert cansim_interface == "vcan7"
     assert [n.node_id for n in cansim.nodes()] == [0x20, 0x21, 0x22]
     assert cansim.node("s/2").interface == "vcan7"
-'''
-    pytester.makepyfile(source)
-    result = pytester.runpytest_inprocess("-p", "cansim.pytest_plugin", "--cansim-interface=vcan7")
+''')
     result.assert_outcomes(passed=1)
 
 
 def test_one_daemon_per_module(pytester, has_can):
-    source = f'''
-import pytest
-
-@pytest.fixture(scope="module")
-def cansim_config():
-    return "nodes: [{{profile: {PROFILES}/generic-404.yaml, interface: $INTERFACE, node_id: 0x20, name: s}}]"
-
+    result = with_own_fleet(pytester, "node_id: 0x20, name: s", '''
 def test_first(cansim):
     cansim.node("s").write(0x1017, 0, 777)
 
 def test_second(cansim):
     assert cansim.node("s").read(0x1017) == 777
-'''
-    pytester.makepyfile(source)
-    result = pytester.runpytest_inprocess("-p", "cansim.pytest_plugin", "--cansim-interface=vcan7")
+''')
     result.assert_outcomes(passed=2)
 
 
