@@ -12,7 +12,7 @@ import concurrent.futures
 import os
 import socket as _socket
 import time
-from typing import Any, Callable, Dict, List, Optional, Tuple
+from typing import Any, Callable, Dict, List, NamedTuple, Optional, Tuple
 
 from jeepney import DBusAddress, MatchRule, Message, MessageType, new_method_call
 from jeepney.bus_messages import message_bus
@@ -57,25 +57,38 @@ def _is_socket(path: str) -> bool:
         return False
 
 
-def choose_address(socket: Optional[str], bus: Optional[str]) -> Tuple[str, str]:
-    """(jeepney address, description) in cansimctl's order: an explicit
-    socket or bus, $CANSIM_CONTROL_SOCKET, the default socket paths, then
-    the system bus as root, else the user bus."""
+class Address(NamedTuple):
+    """Where a cansimd's control API is: jeepney's address, words for
+    messages, the private socket's path (None on a bus)."""
+
+    jeepney: str
+    description: str
+    socket: Optional[str]
+
+    @property
+    def is_bus(self) -> bool:
+        return self.socket is None
+
+
+def choose_address(socket: Optional[str], bus: Optional[str]) -> Address:
+    """In cansimctl's order: an explicit socket or bus,
+    $CANSIM_CONTROL_SOCKET, the default socket paths, then the system bus
+    as root, else the user bus."""
     if socket is not None and bus is not None:
         raise ValueError("give socket or bus, not both")
     if bus is not None:
         if bus not in ("system", "user"):
             raise ValueError(f"bus must be 'system' or 'user', got {bus!r}")
-        return ("SYSTEM" if bus == "system" else "SESSION"), f"the {bus} bus"
+        return Address("SYSTEM" if bus == "system" else "SESSION", f"the {bus} bus", None)
     if socket is None:
         socket = os.environ.get("CANSIM_CONTROL_SOCKET") or None
     if socket is None:
         socket = next((p for p in default_socket_paths() if _is_socket(p)), None)
     if socket is not None:
-        return f"unix:path={_escape_address(socket)}", f"the control socket {socket}"
+        return Address(f"unix:path={_escape_address(socket)}", f"the control socket {socket}", socket)
     if os.geteuid() == 0:
-        return "SYSTEM", "the system bus"
-    return "SESSION", "the user bus"
+        return Address("SYSTEM", "the system bus", None)
+    return Address("SESSION", "the user bus", None)
 
 
 def _escape_address(path: str) -> str:
@@ -125,18 +138,17 @@ class _Router(DBusRouter):  # type: ignore[misc]
 class Connection:
     """A connection to one cansimd, with a receiver thread."""
 
-    def __init__(self, address: str, description: str, *, is_bus: bool,
-                 on_signal: Callable[[Message], None], on_close: Callable[[], None]) -> None:
-        self.description = description
-        self.is_bus = is_bus
+    def __init__(self, address: Address, *, on_signal: Callable[[Message], None],
+                 on_close: Callable[[], None]) -> None:
+        self.description = address.description
         try:
-            self._conn: DBusConnection = open_dbus_connection(address, auth_timeout=5.0)
+            self._conn: DBusConnection = open_dbus_connection(address.jeepney, auth_timeout=5.0)
         except (OSError, ValueError, RuntimeError, TimeoutError, KeyError) as e:
-            raise Error(f"cannot connect to cansimd on {description}: {e}") from e
+            raise Error(f"cannot connect to cansimd on {address.description}: {e}") from e
         self._closed = False
         self._router = _Router(self._conn, on_signal, on_close)
         self._destination = BUS_NAME
-        if is_bus:
+        if address.is_bus:
             # On a bus, cansimd's signals reach this connection through a
             # match rule (on the private socket, Subscribe alone does it).
             rule = MatchRule(type="signal", sender=BUS_NAME, path_namespace=ROOT_PATH)

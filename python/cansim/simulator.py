@@ -51,12 +51,12 @@ class Simulator:
 
     def __init__(self, socket: Optional[str] = None, *, bus: Optional[str] = None,
                  _process: Optional["_Process"] = None) -> None:
-        address, description = choose_address(socket, bus)
+        address = choose_address(socket, bus)
+        self._socket = address.socket
         self._process = _process
         self._log = EventLog()
         self._nodes: Dict[str, Node] = {}
-        self._conn = Connection(address, description, is_bus=bus is not None or address in ("SYSTEM", "SESSION"),
-                                on_signal=self._on_signal, on_close=self._on_close)
+        self._conn = Connection(address, on_signal=self._on_signal, on_close=self._on_close)
         self._offset_us = round_trip_offset(self._conn)
         self._conn.method(ROOT_PATH, FLEET_IFACE, "Subscribe")
         self._last_action = self.mark()
@@ -198,6 +198,17 @@ class Simulator:
                       seen)
 
     # ------------------------------------------------------------ lifetime
+    @property
+    def control_socket(self) -> Optional[str]:
+        """The private control socket this Simulator talks to (None on a
+        bus): ``cansimctl --socket PATH`` reaches the same daemon."""
+        return self._socket
+
+    @property
+    def pid(self) -> Optional[int]:
+        """cansimd's process ID, when this Simulator started it."""
+        return self._process.proc.pid if self._process else None
+
     @property
     def log(self) -> Optional[str]:
         """cansimd's log file, when this Simulator started cansimd."""

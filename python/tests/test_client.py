@@ -413,7 +413,7 @@ def test_bus_statistics(sim):
 # ---------------------------------------------------------------- connect
 
 def test_connect_to_a_running_daemon(sim):
-    with cansim.connect(sim._process.socket) as other:
+    with cansim.connect(sim.control_socket) as other:
         assert [n.key for n in other.nodes()] == [n.key for n in sim.nodes()]
         node = other.node("pt/5")
         node.nmt("start")
@@ -423,7 +423,7 @@ def test_connect_to_a_running_daemon(sim):
 
 
 def test_connect_uses_the_environment(sim, monkeypatch):
-    monkeypatch.setenv("CANSIM_CONTROL_SOCKET", sim._process.socket)
+    monkeypatch.setenv("CANSIM_CONTROL_SOCKET", sim.control_socket)
     with cansim.connect() as other:
         assert len(other) == 14
 
@@ -469,7 +469,7 @@ def test_start_argument_errors(tmp_path):
 def test_a_crashed_daemon_is_an_error_not_a_hang():
     sim = cansim.start(profile=os.path.join(PROFILES, "generic-404.yaml"))
     node = sim.node("vcan0/0x10")
-    os.kill(sim._process.proc.pid, signal.SIGKILL)
+    os.kill(sim.pid, signal.SIGKILL)
     t0 = time.monotonic()
     with pytest.raises(cansim.Error):
         node.wait_for("BootUp", timeout=30)
@@ -483,7 +483,8 @@ def test_a_crashed_daemon_is_an_error_not_a_hang():
 
 def test_close_stops_the_daemon():
     sim = cansim.start(profile=os.path.join(PROFILES, "generic-404.yaml"))
-    proc = sim._process.proc
+    pid = sim.pid
     sim.close()
-    assert proc.returncode == 0
+    with pytest.raises(ProcessLookupError):
+        os.kill(pid, 0)  # stopped and reaped
     sim.close()  # twice is fine
