@@ -27,13 +27,13 @@ std::string export_eds(const config::Profile& p) {
   return config::write_eds(*p.layout, *p.options, config::identity_of(p));
 }
 
-config::Profile eds_profile(const std::string& text, const std::string& file = "t.eds") {
-  return config::profile_from_eds(config::parse_eds(text, file));
+config::Profile eds_profile(const std::string& text, const std::string& file = "t.eds", bool strict_eds = false) {
+  return config::profile_from_eds(config::parse_eds(text, file), false, strict_eds);
 }
 
-std::string eds_error(const std::string& text, const std::string& file = "bad.eds") {
+std::string eds_error(const std::string& text, const std::string& file = "bad.eds", bool strict_eds = false) {
   try {
-    eds_profile(text, file);
+    eds_profile(text, file, strict_eds);
   } catch (const config::ConfigError& e) {
     return e.what();
   }
@@ -275,23 +275,16 @@ TEST(EdsReader, RejectsTheAmbiguousWithFileAndLine) {
       {"[1000]\nDataType=0x5\nAccessType=ro\nDefaultValue=256\n",
        "bad.eds:4: [1000] DefaultValue: expected a value in the range of UNSIGNED8, got '256'"},
       {"[1000]\nDataType=0x7\nAccessType=ro\nDefaultValue=$NODEID+$NODEID\n", "bad.eds:4: [1000] DefaultValue: expected an integer"},
-      {"[1000]\nDataType=0x7\nAccessType=ro\nLowLimit=$NODEID+1\n", "bad.eds:4: [1000] LowLimit: expected an integer, got '$NODEID+1'"},
-      {"[2000]\nDataType=0x8\nAccessType=ro\nDefaultValue=0x3F800000\n",
-       "bad.eds:4: [2000] DefaultValue: expected a decimal floating-point number, got '0x3F800000'"},
       {"[1000]\nDataType=0x7\nDataType=0x5\n", "bad.eds:3: [1000] DataType: expected each key once per section (first at line 2)"},
       {"[1000]\nDataType=0x7\nAccessType=ro\n[1000]\n", "bad.eds:4: [1000]: expected each section once (first at line 1)"},
       {"DataType=0x7\n", "bad.eds:1: (before the first section): expected a [section] before any key, got 'DataType=0x7'"},
       {"[1000]\nDataType 0x7\n", "bad.eds:2: [1000]: expected [section], key=value or a ; comment, got 'DataType 0x7'"},
       {"[1000\n", "bad.eds:1: (before the first section): expected a section header [name], got '[1000'"},
       {"[1018sub1]\nDataType=0x7\nAccessType=ro\n", "bad.eds:1: [1018sub1]: expected an object section [1018] for this sub-object"},
-      {"[1018]\nObjectType=0x9\nSubNumber=3\n[1018sub0]\nDataType=0x5\nAccessType=ro\n",
-       "bad.eds:3: [1018] SubNumber: expected the number of [1018subN] sections (1), got '3'"},
       {"[1018]\nObjectType=0x4\n", "bad.eds:2: [1018] ObjectType: expected ObjectType 0x7 (VAR)"},
       {"[1017]\nDataType=0x6\nAccessType=rw\n[1017sub1]\nDataType=0x6\nAccessType=rw\n",
        "bad.eds:4: [1017sub1]: expected no sub-object sections for a VAR object"},
       {"[1000x]\n", "bad.eds:1: [1000x]: expected an object section [xxxx], [xxxxsubN], [xxxxName] or [xxxxValue]"},
-      {"[OptionalObjects]\nSupportedObjects=1\n1=0x1017\n[1000]\nDataType=0x7\nAccessType=ro\n",
-       "bad.eds:3: [OptionalObjects] 1: expected a section [1017] for this listed object, got '0x1017'"},
       {"[1000]\nDataType=0x7\nAccessType=ro\nPDOMapping=yes please\n", "bad.eds:4: [1000] PDOMapping: expected 0 or 1, got 'yes please'"},
       {"[1016]\nObjectType=0x8\nSubNumber=1\n[1016sub0]\nDataType=0x5\nAccessType=ro\n[1016Name]\n1=x\n",
        "bad.eds:7: [1016Name]: expected CompactSubObj in [1016] for this section"},
@@ -364,6 +357,184 @@ std::vector<Upload> uploads(const config::Profile& p, std::uint8_t id) {
   std::vector<Upload> out;
   for (const OdEntry& e : p.layout->entries()) out.push_back(upload(bus, id, e));
   return out;
+}
+
+// ---------------------------------------------------------------- what masters tolerate
+
+// Issue #26 (1): a flag in any CiA 306 number form, as every number.
+TEST(EdsTolerant, FlagsInAnyNumberForm) {
+  const config::Profile p = eds_profile(
+      eds("[2000]\nDataType=0x7\nAccessType=rw\nPDOMapping=0x1\n[2001]\nDataType=0x7\nAccessType=rw\nPDOMapping=0x0\n"
+          "[2002]\nDataType=0x7\nAccessType=rw\nPDOMapping=01\n[2003]\nDataType=0x7\nAccessType=rw\nPDOMapping=TRUE\n"
+          "[DummyUsage]\nDummy0005=0x1\n",
+          "LSS_Supported=0x1\nBaudRate_500=0x1\nBaudRate_250=0x0\n"));
+  EXPECT_TRUE(p.layout->find(0x2000, 0)->pdo_mappable);
+  EXPECT_FALSE(p.layout->find(0x2001, 0)->pdo_mappable);
+  EXPECT_TRUE(p.layout->find(0x2002, 0)->pdo_mappable);
+  EXPECT_TRUE(p.layout->find(0x2003, 0)->pdo_mappable);
+  EXPECT_TRUE(p.options->lss_supported);
+  EXPECT_EQ(p.options->lss_bit_rates, "2");
+  EXPECT_EQ(p.bit_rate_kbit, 500u);
+  EXPECT_TRUE(p.options->rpdo_dummy_mapping);
+  EXPECT_TRUE(p.warnings.empty());
+  EXPECT_THAT(eds_error("[1000]\nDataType=0x7\nAccessType=ro\nPDOMapping=0x2\n"),
+              HasSubstr("bad.eds:4: [1000] PDOMapping: expected 0 or 1, got '0x2'"));
+}
+
+// Issue #26 (2): "ParameterValue=" (CANopenEditor's unset value) is not
+// given: DefaultValue counts, $NODEID included; "2=" in [xxxxValue] too.
+TEST(EdsTolerant, EmptyKeysAreNotGiven) {
+  const config::Profile p = eds_profile(
+      eds("[1017]\nDataType=0x0006\nAccessType=rw\nDefaultValue=1000\nParameterValue=\n"
+          "[1008]\nDataType=0x0009\nAccessType=const\nDefaultValue=Gripper GX-2\nParameterValue=\n"
+          "[1014]\nDataType=0x0007\nAccessType=rw\nDefaultValue=$NODEID+0x80\nParameterValue=\n"
+          "[1015]\nDataType=0x0006\nAccessType=rw\nDefaultValue=\nParameterValue=\n"
+          "[1016]\nObjectType=0x8\nDataType=0x0007\nAccessType=rw\nCompactSubObj=2\nDefaultValue=0x10064\n"
+          "[1016Value]\nNrOfEntries=1\n2=\n"
+          "[DeviceComissioning]\nNodeID=\nBaudrate=\n"),
+      "editor.dcf");
+  EXPECT_EQ(default_u(p, 0x1017, 0), 1000u);
+  const auto& name = p.layout->find(0x1008, 0)->default_bytes;
+  EXPECT_EQ(std::string(name.begin(), name.end()), "Gripper GX-2");
+  EXPECT_EQ(default_u(p, 0x1014, 0), 0x80u);
+  EXPECT_TRUE(p.layout->find(0x1014, 0)->default_plus_node_id);
+  EXPECT_EQ(default_u(p, 0x1015, 0), 0u);
+  EXPECT_EQ(default_u(p, 0x1016, 2), 0x10064u);
+  EXPECT_EQ(p.node_id, 1);
+  EXPECT_TRUE(p.warnings.empty());
+}
+
+const char* const kSdoServer =
+    "[1200]\nObjectType=0x9\nSubNumber=3\n"
+    "[1200sub0]\nDataType=0x0005\nAccessType=ro\nDefaultValue=2\n"
+    "[1200sub1]\nDataType=0x0007\nAccessType=ro\nDefaultValue=%s\nParameterValue=%s\n"
+    "[1200sub2]\nDataType=0x0007\nAccessType=ro\nDefaultValue=%s\nParameterValue=%s\n";
+
+std::string sdo_server(const char* rx, const char* rx_pv, const char* tx, const char* tx_pv) {
+  char buf[512];
+  std::snprintf(buf, sizeof buf, kSdoServer, rx, rx_pv, tx, tx_pv);
+  return buf;
+}
+
+// Issue #26 (3): CiA 301 fixes the default SDO server at 600h / 580h +
+// node-ID. Line 14 is [1200sub1] DefaultValue, 15 its ParameterValue.
+TEST(EdsTolerant, DefaultSdoServerAtItsPredefinedCobIds) {
+  struct Case {
+    std::string text;
+    std::string warning;  // empty: none
+  } cases[] = {
+      {sdo_server("$NODEID+0x600", "", "$NODEID+0x580", ""), ""},
+      {sdo_server("0x610", "", "0x590", ""),
+       "t.dcf:14: [1200sub1] DefaultValue: expected $NODEID+0x600 (the default SDO server's COB-ID), got '0x610'; "
+       "the node uses 0x600 + its node-ID (and 1 more like it in this file)"},
+      {sdo_server("$NODEID+0x600", "0x620", "$NODEID+0x580", ""),
+       "t.dcf:15: [1200sub1] ParameterValue: expected $NODEID+0x600 (the default SDO server's COB-ID), got '0x620'; "
+       "the node uses 0x600 + its node-ID"},
+      {sdo_server("0x80000000", "", "0x80000000", ""),
+       "t.dcf:14: [1200sub1] DefaultValue: expected $NODEID+0x600 (the default SDO server's COB-ID), got '0x80000000'; "
+       "the node uses 0x600 + its node-ID (and 1 more like it in this file)"},
+      // A DCF's own node: 0x605 is 600h + its NodeID.
+      {sdo_server("$NODEID+0x600", "0x605", "$NODEID+0x580", "0x585") + "[DeviceComissioning]\nNodeID=5\n", ""},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.text);
+    const config::Profile p = eds_profile("[DeviceInfo]\nProductName=x\n\n" + c.text, "t.dcf");
+    if (c.warning.empty()) EXPECT_THAT(p.warnings, ::testing::IsEmpty());
+    else EXPECT_THAT(p.warnings, ::testing::ElementsAre(c.warning));
+    for (std::uint8_t sub : {1, 2}) {
+      EXPECT_TRUE(p.layout->find(0x1200, sub)->default_plus_node_id);
+      EXPECT_EQ(default_u(p, 0x1200, sub), sub == 1 ? 0x600u : 0x580u);
+    }
+    // Reachable at any node-ID: 0x1200:01 read back through 0x605 -> 0x585.
+    SimBus bus;
+    bus.add(p, 5);
+    bus.power_on_all();
+    bus.run_for(ms(10));
+    const Upload u = upload(bus, 5, *p.layout->find(0x1200, 1));
+    EXPECT_EQ(u.data, (std::vector<std::uint8_t>{0x05, 0x06, 0, 0}));
+  }
+}
+
+// Issue #26 (4), (5): DOMAIN "0", NodeID=0 / Baudrate=0 (not set).
+TEST(EdsTolerant, DomainZeroAndUnsetCommissioning) {
+  const config::Profile p = eds_profile(
+      eds("[1F50]\nDataType=0x000F\nAccessType=rw\nDefaultValue=0\n"
+          "[2000]\nDataType=0x000F\nAccessType=rw\nDefaultValue=0x0\n"
+          "[DeviceComissioning]\nNodeID=0\nNodeName=\nBaudrate=0\nNetNumber=0\n",
+          "BaudRate_125=1\n"),
+      "editor.dcf");
+  EXPECT_TRUE(p.layout->find(0x1F50, 0)->default_bytes.empty());
+  EXPECT_TRUE(p.layout->find(0x2000, 0)->default_bytes.empty());
+  EXPECT_EQ(p.node_id, 1);
+  EXPECT_EQ(p.bit_rate_kbit, 125u);  // from [DeviceInfo]
+  EXPECT_THAT(p.warnings,
+              ::testing::ElementsAre(
+                  "editor.dcf:8: [1F50] DefaultValue: expected hex bytes, e.g. 0A1B2C, got '0'; read as an empty DOMAIN "
+                  "(and 1 more like it in this file)",
+                  "editor.dcf:14: [DeviceComissioning] NodeID: expected a node-ID 1..127 or 255 (LSS-unconfigured), "
+                  "got '0'; taken as not set (node-ID 1) (and 1 more like it in this file)"));
+}
+
+// Issue #26 (6): what every master tolerates.
+TEST(EdsTolerant, InconsistenciesLoadWithOneWarningEach) {
+  const std::string text =
+      "[MandatoryObjects]\nSupportedObjects=3\n1=0x1000\n2=0x1001\n"     // lines 2-5
+      "[OptionalObjects]\nSupportedObjects=2\n1=0x1017\n2=0x1800\n"      // 6-9
+      "[1000]\nDataType=0x7\nAccessType=ro\n"                             // 10-12
+      "[1001]\nDataType=0x5\nAccessType=ro\n"                             // 13-15
+      "[1018]\nObjectType=0x9\nSubNumber=5\n"                             // 16-18
+      "[1018sub0]\nDataType=0x5\nAccessType=ro\nDefaultValue=1\n"        // 19-22
+      "[1018sub1]\nDataType=0x7\nAccessType=ro\nDefaultValue=0x1234\n"   // 23-26
+      "[6130]\nObjectType=0x8\nSubNumber=2\n"                             // 27-29
+      "[6130sub0]\nDataType=0x5\nAccessType=ro\nDefaultValue=1\n"        // 30-33
+      "[2100]\nDataType=0x8\nAccessType=rw\nDefaultValue=0x3e6b851f\n"   // 34-37
+      "[2101]\nDataType=0x11\nAccessType=rw\nDefaultValue=0x3FF8000000000000\n"
+      "[2102]\nDataType=0x7\nAccessType=rw\nLowLimit=$NODEID+0x180\nHighLimit=0x1FF\n";  // 42-46
+  const config::Profile p = eds_profile("[DeviceInfo]\n" + text, "vendor.eds");
+  EXPECT_EQ(default_u(p, 0x1018, 1), 0x1234u);
+  EXPECT_FLOAT_EQ(float(decode_f(DataType::kReal32, p.layout->find(0x2100, 0)->default_bytes.data())), 0.23f);
+  EXPECT_EQ(decode_f(DataType::kReal64, p.layout->find(0x2101, 0)->default_bytes.data()), 1.5);
+  EXPECT_FALSE(p.layout->find(0x2102, 0)->has_low);
+  EXPECT_TRUE(p.layout->find(0x2102, 0)->has_high);
+  EXPECT_THAT(
+      p.warnings,
+      ::testing::ElementsAre(
+          "vendor.eds:8: [OptionalObjects] 1: expected a section [1017] for this listed object, got '0x1017'; the entry "
+          "is ignored (and 1 more like it in this file)",
+          "vendor.eds:3: [MandatoryObjects] SupportedObjects: expected the number of object keys (2), got '3'; the 2 "
+          "keys are read",
+          "vendor.eds:18: [1018] SubNumber: expected the number of [1018subN] sections (2), got '5'; the 2 sections are "
+          "read (and 1 more like it in this file)",
+          "vendor.eds:37: [2100] DefaultValue: expected a decimal floating-point number, got '0x3e6b851f'; read as the "
+          "IEEE 754 bits of 0.230000004 (and 1 more like it in this file)",
+          "vendor.eds:45: [2102] LowLimit: expected an integer, got '$NODEID+0x180'; the limit is not applied"));
+}
+
+// `cansimd --strict-eds`: each repair is the error it was before.
+TEST(EdsTolerant, StrictEdsRefusesWhatItWouldRepair) {
+  struct Case {
+    std::string text;
+    std::string message;
+  } cases[] = {
+      {"[1000]\nDataType=0x7\nAccessType=ro\nLowLimit=$NODEID+1\n", "bad.eds:4: [1000] LowLimit: expected an integer, got '$NODEID+1'"},
+      {"[2000]\nDataType=0x8\nAccessType=ro\nDefaultValue=0x3F800000\n",
+       "bad.eds:4: [2000] DefaultValue: expected a decimal floating-point number, got '0x3F800000'"},
+      {"[1018]\nObjectType=0x9\nSubNumber=3\n[1018sub0]\nDataType=0x5\nAccessType=ro\n",
+       "bad.eds:3: [1018] SubNumber: expected the number of [1018subN] sections (1), got '3'"},
+      {"[OptionalObjects]\nSupportedObjects=1\n1=0x1017\n[1000]\nDataType=0x7\nAccessType=ro\n",
+       "bad.eds:3: [OptionalObjects] 1: expected a section [1017] for this listed object, got '0x1017'"},
+      {"[OptionalObjects]\nSupportedObjects=2\n1=0x1000\n[1000]\nDataType=0x7\nAccessType=ro\n",
+       "bad.eds:2: [OptionalObjects] SupportedObjects: expected the number of object keys (1), got '2'"},
+      {"[1000]\nDataType=0xF\nAccessType=ro\nDefaultValue=0\n", "bad.eds:4: [1000] DefaultValue: expected hex bytes"},
+      {"[1000]\nDataType=0x7\nAccessType=ro\n[DeviceComissioning]\nBaudrate=0\n",
+       "bad.eds:5: [DeviceComissioning] Baudrate: expected a CiA bit rate in kbit/s"},
+      {sdo_server("0x610", "", "0x590", ""),
+       "bad.eds:11: [1200sub1] DefaultValue: expected $NODEID+0x600 (the default SDO server's COB-ID), got '0x610'"},
+  };
+  for (const Case& c : cases) {
+    EXPECT_THAT(eds_error(c.text, "bad.eds", true), HasSubstr(c.message)) << c.text;
+    EXPECT_EQ(eds_error(c.text, "bad.eds", false), "no error") << c.text;
+  }
 }
 
 class EdsNodes : public ::testing::TestWithParam<const char*> {};
