@@ -165,17 +165,25 @@ class Repairs {
  public:
   explicit Repairs(bool strict) : strict_(strict) {}
   bool strict() const { return strict_; }
-  void note(Repair kind, std::string message) {
+  void note(Repair kind, int line, std::string message) {
     Seen& s = seen_[std::size_t(kind)];
-    if (s.first.empty()) s.first = std::move(message);
-    else ++s.more;
+    if (s.first.empty()) {
+      s.first = std::move(message);
+      s.line = line;
+    } else {
+      ++s.more;
+    }
   }
+  // In the order of their lines in the file.
   std::vector<std::string> warnings() const {
+    std::vector<const Seen*> order;
+    for (const Seen& s : seen_)
+      if (!s.first.empty()) order.push_back(&s);
+    std::stable_sort(order.begin(), order.end(), [](const Seen* a, const Seen* b) { return a->line < b->line; });
     std::vector<std::string> out;
-    for (const Seen& s : seen_) {
-      if (s.first.empty()) continue;
-      out.push_back(s.first);
-      if (s.more) out.back() += " (and " + std::to_string(s.more) + " more like it in this file)";
+    for (const Seen* s : order) {
+      out.push_back(s->first);
+      if (s->more) out.back() += " (and " + std::to_string(s->more) + " more like it in this file)";
     }
     return out;
   }
@@ -183,6 +191,7 @@ class Repairs {
  private:
   struct Seen {
     std::string first;
+    int line = 0;
     int more = 0;
   };
   bool strict_;
@@ -215,7 +224,7 @@ struct Field {
   // warning "<the error>; <what was done>".
   void tolerate(Repair kind, const std::string& expected, const std::string& done) const {
     if (src->repairs.strict()) fail(expected);
-    src->repairs.note(kind, message(expected) + "; " + done);
+    src->repairs.note(kind, key ? key->line : section->line, message(expected) + "; " + done);
   }
 };
 
@@ -513,6 +522,10 @@ class ObjectReader {
     count.access = Access::kRo;
     count.name = "Number of entries";
     count.default_bytes = {n};
+    if (index == 0x1003) {  // CiA 301 §7.5.2.5: the number of errors recorded, 0 at boot, 0 written clears
+      count.access = Access::kRw;
+      count.default_bytes = {0};
+    }
     add(count);
     const OdEntry shared = entry(s, index, 1, kind);
     for (int sub = 1; sub <= n; ++sub) {

@@ -60,7 +60,7 @@ class ProfileCache {
     }
     auto it = by_path_.find(path);
     if (it != by_path_.end()) return it->second;
-    auto p = std::make_shared<Profile>(load_any_profile(path, search_.strict));
+    auto p = std::make_shared<Profile>(load_any_profile(path, search_.strict, search_.strict_eds));
     by_path_[path] = p;
     text_[path] = read_text(path);
     out_.profiles.push_back(p);
@@ -301,8 +301,8 @@ FleetConfig parse_root(const YAML::Node& root, const std::string& file, const Pr
 
 }  // namespace
 
-Profile load_any_profile(const std::string& path, bool strict) {
-  return is_device_description(path) ? load_eds_profile(path, strict) : load_profile(path, strict);
+Profile load_any_profile(const std::string& path, bool strict, bool strict_eds) {
+  return is_device_description(path) ? load_eds_profile(path, strict, strict_eds) : load_profile(path, strict);
 }
 
 const InterfaceConfig* FleetConfig::interface(const std::string& name) const {
@@ -416,7 +416,7 @@ FleetConfig single_node_fleet(const std::string& profile_ref, const std::string&
   if (path.empty()) throw ConfigError(profile_ref + ": profile not found (expected a file or a profile name)");
   FleetConfig out;
   out.file = path;
-  auto profile = std::make_shared<Profile>(load_any_profile(path, search.strict));
+  auto profile = std::make_shared<Profile>(load_any_profile(path, search.strict, search.strict_eds));
   out.profiles.push_back(profile);
   InterfaceConfig ic;
   ic.name = interface;

@@ -9,6 +9,8 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <optional>
+#include <sstream>
 
 #include "config/eds_reader.hpp"
 #include "config/fleet.hpp"
@@ -499,10 +501,10 @@ TEST(EdsTolerant, InconsistenciesLoadWithOneWarningEach) {
   EXPECT_THAT(
       p.warnings,
       ::testing::ElementsAre(
-          "vendor.eds:8: [OptionalObjects] 1: expected a section [1017] for this listed object, got '0x1017'; the entry "
-          "is ignored (and 1 more like it in this file)",
           "vendor.eds:3: [MandatoryObjects] SupportedObjects: expected the number of object keys (2), got '3'; the 2 "
           "keys are read",
+          "vendor.eds:8: [OptionalObjects] 1: expected a section [1017] for this listed object, got '0x1017'; the entry "
+          "is ignored (and 1 more like it in this file)",
           "vendor.eds:18: [1018] SubNumber: expected the number of [1018subN] sections (2), got '5'; the 2 sections are "
           "read (and 1 more like it in this file)",
           "vendor.eds:37: [2100] DefaultValue: expected a decimal floating-point number, got '0x3e6b851f'; read as the "
@@ -535,6 +537,187 @@ TEST(EdsTolerant, StrictEdsRefusesWhatItWouldRepair) {
     EXPECT_THAT(eds_error(c.text, "bad.eds", true), HasSubstr(c.message)) << c.text;
     EXPECT_EQ(eds_error(c.text, "bad.eds", false), "no error") << c.text;
   }
+}
+
+// ---------------------------------------------------------------- foreign files
+
+// Device descriptions as other tools and vendors write them (tests/data/eds,
+// also seeds of eds_fuzz): a CANopenEditor DCF (every unset value an empty
+// key, Baudrate=0, a DOMAIN "0"), a commercial editor's EDS (every number in
+// hex, flags included) and a vendor's hand-written CiA 404 EDS (spaces, comments,
+// miscounts, the SDO server written for node 1, a REAL as bits, $NODEID in
+// a limit).
+const char* const kForeignFiles[] = {"editor-gripper.dcf", "vector-drive.eds", "vendor-transmitter.eds"};
+
+std::string foreign_file(const std::string& name) { return std::string(CANSIM_SOURCE_DIR) + "/tests/data/eds/" + name; }
+
+// The entries as the npm package `canopen` reads the file
+// (tests/master/eds_values.js); nullopt without node or the package.
+std::optional<std::vector<std::string>> npm_reading(const std::string& path) {
+  const std::string master = std::string(CANSIM_SOURCE_DIR) + "/tests/master";
+  if (!std::filesystem::exists(master + "/node_modules/canopen")) return std::nullopt;
+  const std::string command = "node '" + master + "/eds_values.js' '" + path + "' 2>&1";
+  FILE* pipe = popen(command.c_str(), "r");
+  if (!pipe) return std::nullopt;
+  std::vector<std::string> lines;
+  char buf[4096];
+  while (std::fgets(buf, sizeof buf, pipe)) {
+    std::string l(buf);
+    while (!l.empty() && (l.back() == '\n' || l.back() == '\r')) l.pop_back();
+    lines.push_back(l);
+  }
+  if (pclose(pipe) != 0) return std::nullopt;
+  return lines;
+}
+
+std::vector<std::uint8_t> hex_bytes(const std::string& hex) {
+  std::vector<std::uint8_t> out;
+  if (hex == "-") return out;
+  for (std::size_t i = 0; i + 1 < hex.size(); i += 2) out.push_back(std::uint8_t(std::stoul(hex.substr(i, 2), nullptr, 16)));
+  return out;
+}
+
+// A DCF's configured value (the package reads DefaultValue only).
+bool configured_in_dcf(const config::EdsDocument& doc, std::uint16_t index, std::uint8_t sub) {
+  char name[16];
+  std::snprintf(name, sizeof name, "%04Xsub%X", index, sub);
+  const config::EdsSection* s = doc.find(name);
+  if (!s && sub == 0) {
+    std::snprintf(name, sizeof name, "%04X", index);
+    s = doc.find(name);
+  }
+  const config::EdsKey* k = s ? s->find("ParameterValue") : nullptr;
+  return k && !k->value.empty();
+}
+
+class EdsForeign : public ::testing::TestWithParam<const char*> {};
+
+// Every entry the package evaluates: the node built from the file (at the
+// file's node-ID) answers an SDO upload with the package's bytes.
+TEST_P(EdsForeign, NodeAnswersWhatAnIndependentReaderReads) {
+  const std::string path = foreign_file(GetParam());
+  const config::Profile p = config::load_eds_profile(path);
+  const config::EdsDocument doc = config::load_eds_file(path);
+  const auto reading = npm_reading(path);
+  if (!reading) GTEST_SKIP() << "node or tests/master/node_modules missing (scripts/install-deps)";
+  SimBus bus;
+  bus.add(p, p.node_id);
+  bus.power_on_all();
+  bus.run_for(ms(500));
+  int compared = 0, skipped = 0;
+  for (const std::string& l : *reading) {
+    ASSERT_NE(l.rfind("ERROR", 0), 0u) << l;
+    std::istringstream in(l);
+    std::string index, sub, type, bytes;
+    in >> index >> sub >> type >> bytes;
+    if (index == "SKIP") {
+      ++skipped;
+      continue;
+    }
+    const auto i = std::uint16_t(std::stoul(index, nullptr, 16));
+    const auto si = std::uint8_t(std::stoul(sub, nullptr, 16));
+    const OdEntry* e = p.layout->find(i, si);
+    ASSERT_TRUE(e) << l;
+    if (configured_in_dcf(doc, i, si)) {
+      ++skipped;
+      continue;
+    }
+    EXPECT_EQ(int(e->type), std::stoi(type, nullptr, 16)) << l;
+    const Upload u = upload(bus, p.node_id, *e);
+    if (u.abort == 0x06010001) continue;  // write-only
+    EXPECT_EQ(u, (Upload{0, hex_bytes(bytes)})) << l;
+    ++compared;
+  }
+  std::printf("%s: %d entries compared with the npm canopen reading, %d skipped\n", GetParam(), compared, skipped);
+  EXPECT_GE(compared, 15);
+}
+
+INSTANTIATE_TEST_SUITE_P(Files, EdsForeign, ::testing::ValuesIn(kForeignFiles), [](const auto& info) {
+  std::string n = info.param;
+  for (char& c : n)
+    if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+  return n;
+});
+
+std::uint32_t uploaded_u32(SimBus& bus, const config::Profile& p, std::uint8_t id, std::uint16_t index, std::uint8_t sub) {
+  const OdEntry* e = p.layout->find(index, sub);
+  EXPECT_TRUE(e) << std::hex << index << "sub" << int(sub);
+  if (!e) return 0;
+  const Upload u = upload(bus, id, *e);
+  EXPECT_EQ(u.abort, 0u);
+  std::uint32_t v = 0;
+  for (std::size_t b = 0; b < u.data.size() && b < 4; ++b) v |= std::uint32_t(u.data[b]) << (8 * b);
+  return v;
+}
+
+// The 181 wrong objects of issue #26 (2) in small: what an empty
+// ParameterValue hid, and the configured values that are there.
+TEST(EdsForeign, EditorDcfAnswersItsValues) {
+  const config::Profile p = config::load_eds_profile(foreign_file("editor-gripper.dcf"));
+  EXPECT_EQ(p.node_id, 10);
+  EXPECT_EQ(p.bit_rate_kbit, 250u);  // Baudrate=0: [DeviceInfo]'s 250
+  EXPECT_THAT(p.warnings, ::testing::ElementsAre(HasSubstr("editor-gripper.dcf:345: [1F50] DefaultValue: expected hex "
+                                                           "bytes, e.g. 0A1B2C, got '0'; read as an empty DOMAIN"),
+                                                 HasSubstr("editor-gripper.dcf:387: [DeviceComissioning] Baudrate: "
+                                                           "expected a CiA bit rate in kbit/s")));
+  SimBus bus;
+  bus.add(p, 10);
+  bus.power_on_all();
+  bus.run_for(ms(10));
+  EXPECT_EQ(uploaded_u32(bus, p, 10, 0x1017, 0), 1000u);
+  EXPECT_EQ(uploaded_u32(bus, p, 10, 0x1014, 0), 0x8Au);
+  EXPECT_EQ(uploaded_u32(bus, p, 10, 0x1800, 1), 0x18Au);
+  EXPECT_EQ(uploaded_u32(bus, p, 10, 0x1400, 1), 0x20Au);
+  EXPECT_EQ(uploaded_u32(bus, p, 10, 0x1018, 4), 0x0012D687u);  // ParameterValue
+  EXPECT_EQ(uploaded_u32(bus, p, 10, 0x1800, 2), 1u);           // ParameterValue
+  const Upload name = upload(bus, 10, *p.layout->find(0x1008, 0));
+  EXPECT_EQ(std::string(name.data.begin(), name.data.end()), "GX-2 gripper");
+}
+
+TEST(EdsForeign, HexFlagsOfAVectorStyleEds) {
+  const config::Profile p = config::load_eds_profile(foreign_file("vector-drive.eds"));
+  EXPECT_THAT(p.warnings, ::testing::IsEmpty());
+  EXPECT_TRUE(p.layout->find(0x2100, 0)->pdo_mappable);
+  EXPECT_TRUE(p.layout->find(0x1001, 0)->pdo_mappable);
+  EXPECT_FALSE(p.layout->find(0x1000, 0)->pdo_mappable);
+  EXPECT_FALSE(p.options->lss_supported);
+  EXPECT_TRUE(p.options->rpdo_dummy_mapping);
+  EXPECT_EQ(p.options->lss_bit_rates, "4,3,2,0");  // 125, 250, 500, 1000 kbit/s
+  // A compact 0x1003: sub 0 counts the errors (none at boot), rw to clear them.
+  EXPECT_EQ(default_u(p, 0x1003, 0), 0u);
+  EXPECT_EQ(p.layout->find(0x1003, 0)->access, Access::kRw);
+  EXPECT_EQ(p.layout->find(0x1003, 4)->access, Access::kRo);
+}
+
+TEST(EdsForeign, VendorEdsLoadsWithOneWarningPerKind) {
+  const config::Profile p = config::load_eds_profile(foreign_file("vendor-transmitter.eds"));
+  const char* const expected[] = {
+      ":24: [MandatoryObjects] SupportedObjects: expected the number of object keys (3), got '4'",
+      ":35: [OptionalObjects] 5: expected a section [1010] for this listed object, got '0x1010'",
+      ":65: [1018] SubNumber: expected the number of [1018subN] sections (4), got '5'; the 4 sections are read (and 1 "
+      "more like it in this file)",
+      ":106: [1200sub1] DefaultValue: expected $NODEID+0x600 (the default SDO server's COB-ID), got '0x601'; the node "
+      "uses 0x600 + its node-ID (and 1 more like it in this file)",
+      ":175: [6130sub1] DefaultValue: expected a decimal floating-point number, got '0x3e6b851f'; read as the IEEE 754 "
+      "bits of 0.230000004",
+      ":212: [2F00] DefaultValue: expected hex bytes, e.g. 0A1B2C, got '0'; read as an empty DOMAIN",
+      ":219: [2F01] LowLimit: expected an integer, got '$NODEID+0x300'; the limit is not applied"};
+  ASSERT_EQ(p.warnings.size(), std::size(expected));
+  for (std::size_t i = 0; i < p.warnings.size(); ++i) {
+    EXPECT_THAT(p.warnings[i], ::testing::StartsWith(foreign_file("vendor-transmitter.eds") + ":"));
+    EXPECT_THAT(p.warnings[i], HasSubstr(expected[i]));
+  }
+  // At node-ID 5, not at the 0x601 the file wrote for its node 1.
+  SimBus bus;
+  bus.add(p, 5);
+  bus.power_on_all();
+  bus.run_for(ms(10));
+  EXPECT_EQ(uploaded_u32(bus, p, 5, 0x1200, 1), 0x605u);
+  EXPECT_EQ(uploaded_u32(bus, p, 5, 0x1200, 2), 0x585u);
+  EXPECT_EQ(uploaded_u32(bus, p, 5, 0x1017, 0), 500u);
+  EXPECT_EQ(uploaded_u32(bus, p, 5, 0x1000, 0), 0x00020194u);
+  EXPECT_EQ(uploaded_u32(bus, p, 5, 0x2F01, 0), 0x305u);
+  EXPECT_THROW(config::load_eds_profile(foreign_file("vendor-transmitter.eds"), false, true), config::ConfigError);
 }
 
 class EdsNodes : public ::testing::TestWithParam<const char*> {};
