@@ -3,6 +3,7 @@
 #include "config/eds_reader.hpp"
 #include "config/physics_config.hpp"
 #include "config/strict_mode.hpp"
+#include "config/vendor_params.hpp"
 #include "core/can_frame.hpp"
 
 #include <algorithm>
@@ -156,7 +157,8 @@ std::shared_ptr<Profile> make_variant(const Where& w, const YAML::Node& entry, c
     for (const auto& kv : v) vendor[kv.first.Scalar()] = YAML::Clone(kv.second);
   }
   merge_physics(w, entry, root);
-  parse_personality(*p, root, vendor);
+  const VendorLayer over{w.child("vendor"), entry["vendor"]};  // the entry's keys are reported in the fleet file
+  parse_personality(*p, root, vendor, entry["vendor"] ? &over : nullptr);
   return p;
 }
 
