@@ -345,10 +345,10 @@ void parse_number(const Field& f, DataType t, std::vector<std::uint8_t>& out, bo
   if (is_real(t)) {
     if (real_bits(f, t, text, out)) return;
     char* end = nullptr;
-    errno = 0;
     const double v = std::strtod(text.c_str(), &end);
     const bool hex = text.find_first_of("xX") != std::string::npos;
-    if (hex || *end || errno || !std::isfinite(v)) f.fail("expected a decimal floating-point number");
+    // Overflow is infinite; an underflow (ERANGE too) is the subnormal or 0 it gives.
+    if (hex || *end || !std::isfinite(v)) f.fail("expected a decimal floating-point number");
     // Halfway above the largest float rounds to infinity (and converting past it is undefined).
     const float top = std::numeric_limits<float>::max();
     const double real32_limit = double(top) + (double(top) - double(std::nextafter(top, 0.0f))) / 2;

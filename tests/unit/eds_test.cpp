@@ -496,6 +496,11 @@ TEST(EdsTolerant, InconsistenciesLoadWithOneWarningEach) {
   EXPECT_EQ(default_u(p, 0x1018, 1), 0x1234u);
   EXPECT_FLOAT_EQ(float(decode_f(DataType::kReal32, p.layout->find(0x2100, 0)->default_bytes.data())), 0.23f);
   EXPECT_EQ(decode_f(DataType::kReal64, p.layout->find(0x2101, 0)->default_bytes.data()), 1.5);
+  // Bits of a subnormal: exported in decimal, read back to the same bits.
+  const config::Profile tiny = eds_profile(eds("[2000]\nDataType=0x11\nAccessType=rw\nDefaultValue=0x85\n"));
+  const config::Profile back = eds_profile(export_eds(tiny));
+  EXPECT_EQ(back.layout->find(0x2000, 0)->default_bytes, tiny.layout->find(0x2000, 0)->default_bytes);
+  EXPECT_EQ(back.layout->find(0x2000, 0)->default_bytes, (std::vector<std::uint8_t>{0x85, 0, 0, 0, 0, 0, 0, 0}));
   EXPECT_FALSE(p.layout->find(0x2102, 0)->has_low);
   EXPECT_TRUE(p.layout->find(0x2102, 0)->has_high);
   EXPECT_THAT(
