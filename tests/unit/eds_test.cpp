@@ -15,6 +15,7 @@
 #include "config/eds_reader.hpp"
 #include "config/fleet.hpp"
 #include "config/eds_writer.hpp"
+#include "daemon/daemon.hpp"
 #include "personalities/registry.hpp"
 #include "support/sim.hpp"
 
@@ -841,6 +842,28 @@ TEST(EdsFleet, ErrorsInTheEdsNameTheEdsFile) {
     ADD_FAILURE() << "no error";
   } catch (const config::ConfigError& e) {
     EXPECT_THAT(e.what(), HasSubstr("broken.eds:3: [1000] AccessType: expected one of ro, wo, rw, rwr, rww, const, got 'rx'"));
+  }
+}
+
+// `cansimd --check` lists a file's warnings once, however many entries
+// (and variants) use it; --strict-eds refuses the file.
+TEST(EdsFleet, CheckListsTheFileWarningsOnce) {
+  const std::string dcf = foreign_file("editor-gripper.dcf");
+  const std::string fleet = "interfaces: {vcan0: {}}\nnodes:\n  - {profile: " + dcf +
+                            ", interface: vcan0, node_id: 5}\n  - {profile: " + dcf +
+                            ", interface: vcan0, node_id: 6, options: {sdo_expedited_only: true}}\n";
+  config::FleetConfig f = config::parse_fleet(fleet, "fleet.yaml", config::ProfileSearch{});
+  std::vector<std::string> warnings;
+  daemon::check_fleet(f, &warnings);
+  EXPECT_THAT(warnings, ::testing::ElementsAre(::testing::StartsWith(dcf + ":345: [1F50] DefaultValue:"),
+                                               ::testing::StartsWith(dcf + ":387: [DeviceComissioning] Baudrate:")));
+  config::ProfileSearch strict;
+  strict.strict_eds = true;
+  try {
+    config::parse_fleet(fleet, "fleet.yaml", strict);
+    ADD_FAILURE() << "no error";
+  } catch (const config::ConfigError& e) {
+    EXPECT_THAT(e.what(), ::testing::StartsWith(dcf + ":387: [DeviceComissioning] Baudrate: expected a CiA bit rate"));
   }
 }
 
