@@ -472,8 +472,8 @@ TEST(EdsTolerant, DomainZeroAndUnsetCommissioning) {
   EXPECT_EQ(p.bit_rate_kbit, 125u);  // from [DeviceInfo]
   EXPECT_THAT(p.warnings,
               ::testing::ElementsAre(
-                  "editor.dcf:8: [1F50] DefaultValue: expected hex bytes, e.g. 0A1B2C, got '0'; read as an empty DOMAIN "
-                  "(and 1 more like it in this file)",
+                  "editor.dcf:8: [1F50] DefaultValue: expected hex bytes, e.g. 0A1B2C, got '0'; read as an empty "
+                  "DOMAIN (and 1 more like it in this file)",
                   "editor.dcf:14: [DeviceComissioning] NodeID: expected a node-ID 1..127 or 255 (LSS-unconfigured), "
                   "got '0'; taken as not set (node-ID 1) (and 1 more like it in this file)"));
 }
@@ -509,10 +509,10 @@ TEST(EdsTolerant, InconsistenciesLoadWithOneWarningEach) {
       ::testing::ElementsAre(
           "vendor.eds:3: [MandatoryObjects] SupportedObjects: expected the number of object keys (2), got '3'; the 2 "
           "keys are read",
-          "vendor.eds:8: [OptionalObjects] 1: expected a section [1017] for this listed object, got '0x1017'; the entry "
-          "is ignored (and 1 more like it in this file)",
-          "vendor.eds:18: [1018] SubNumber: expected the number of [1018subN] sections (2), got '5'; the 2 sections are "
-          "read (and 1 more like it in this file)",
+          "vendor.eds:8: [OptionalObjects] 1: expected a section [1017] for this listed object, got '0x1017'; the "
+          "entry is ignored (and 1 more like it in this file)",
+          "vendor.eds:18: [1018] SubNumber: expected the number of [1018subN] sections (2), got '5'; the 2 sections "
+          "are read (and 1 more like it in this file)",
           "vendor.eds:37: [2100] DefaultValue: expected a decimal floating-point number, got '0x3e6b851f'; read as the "
           "IEEE 754 bits of 0.230000004 (and 1 more like it in this file)",
           "vendor.eds:45: [2102] LowLimit: expected an integer, got '$NODEID+0x180'; the limit is not applied"));
@@ -579,7 +579,8 @@ std::optional<std::vector<std::string>> npm_reading(const std::string& path) {
 std::vector<std::uint8_t> hex_bytes(const std::string& hex) {
   std::vector<std::uint8_t> out;
   if (hex == "-") return out;
-  for (std::size_t i = 0; i + 1 < hex.size(); i += 2) out.push_back(std::uint8_t(std::stoul(hex.substr(i, 2), nullptr, 16)));
+  for (std::size_t i = 0; i + 1 < hex.size(); i += 2)
+    out.push_back(std::uint8_t(std::stoul(hex.substr(i, 2), nullptr, 16)));
   return out;
 }
 
@@ -645,7 +646,8 @@ INSTANTIATE_TEST_SUITE_P(Files, EdsForeign, ::testing::ValuesIn(kForeignFiles), 
   return n;
 });
 
-std::uint32_t uploaded_u32(SimBus& bus, const config::Profile& p, std::uint8_t id, std::uint16_t index, std::uint8_t sub) {
+std::uint32_t uploaded_u32(SimBus& bus, const config::Profile& p, std::uint8_t id, std::uint16_t index,
+                           std::uint8_t sub) {
   const OdEntry* e = p.layout->find(index, sub);
   EXPECT_TRUE(e) << std::hex << index << "sub" << int(sub);
   if (!e) return 0;

@@ -142,7 +142,8 @@ TEST_F(FleetTest, EveryOverrideSectionNamesTheFleetFileLineAndColumn) {
       {"faults: [{kind: drift, at: soon}]}", "D/fleet.yaml:5:73: nodes[0].faults[0].at: expected a time"},
   };
   for (const Case& c : cases)
-    EXPECT_THAT(error_of(std::string(kIfaces) + "nodes:\n  - {profile: generic-404, interface: vcan0, " + c.entry + "\n"),
+    EXPECT_THAT(error_of(std::string(kIfaces) + "nodes:\n  - {profile: generic-404, interface: vcan0, " + c.entry +
+                         "\n"),
                 ::testing::StartsWith(c.error))
         << c.entry;
 }
