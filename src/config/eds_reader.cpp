@@ -541,10 +541,15 @@ class ObjectReader {
   }
 
   template <typename Apply>
+  // The key of sub `e.sub` in any number form ("2", "0x2", "02").
   void named_sub(const EdsSection& table, const OdEntry& e, Apply&& apply) {
-    const std::string key = std::to_string(e.sub);
-    const Field f = field(src_, table, key.c_str());
-    if (!f.empty()) apply(f);
+    for (const EdsKey& k : table.keys) {
+      std::int64_t sub = 0;
+      if (k.key == "nrofentries" || !parse_eds_integer(k.name, sub) || sub != e.sub) continue;
+      const Field f{&src_, &table, &k, k.name};
+      if (!f.empty()) apply(f);
+      return;
+    }
   }
 
   void check_table(const EdsSection& table, std::uint8_t n) {

@@ -393,7 +393,7 @@ TEST(EdsTolerant, EmptyKeysAreNotGiven) {
           "[1014]\nDataType=0x0007\nAccessType=rw\nDefaultValue=$NODEID+0x80\nParameterValue=\n"
           "[1015]\nDataType=0x0006\nAccessType=rw\nDefaultValue=\nParameterValue=\n"
           "[1016]\nObjectType=0x8\nDataType=0x0007\nAccessType=rw\nCompactSubObj=2\nDefaultValue=0x10064\n"
-          "[1016Value]\nNrOfEntries=1\n2=\n"
+          "[1016Value]\nNrOfEntries=2\n2=\n0x1=0x50064\n"
           "[DeviceComissioning]\nNodeID=\nBaudrate=\n"),
       "editor.dcf");
   EXPECT_EQ(default_u(p, 0x1017, 0), 1000u);
@@ -403,6 +403,7 @@ TEST(EdsTolerant, EmptyKeysAreNotGiven) {
   EXPECT_TRUE(p.layout->find(0x1014, 0)->default_plus_node_id);
   EXPECT_EQ(default_u(p, 0x1015, 0), 0u);
   EXPECT_EQ(default_u(p, 0x1016, 2), 0x10064u);
+  EXPECT_EQ(default_u(p, 0x1016, 1), 0x50064u);  // "0x1=": sub 1 in hex
   EXPECT_EQ(p.node_id, 1);
   EXPECT_TRUE(p.warnings.empty());
 }
