@@ -3,6 +3,7 @@
 #include "config/eds_reader.hpp"
 #include "config/physics_config.hpp"
 #include "config/strict_mode.hpp"
+#include "config/vendor_params.hpp"
 #include "core/can_frame.hpp"
 
 #include <algorithm>
@@ -60,7 +61,7 @@ class ProfileCache {
     }
     auto it = by_path_.find(path);
     if (it != by_path_.end()) return it->second;
-    auto p = std::make_shared<Profile>(load_any_profile(path, search_.strict));
+    auto p = std::make_shared<Profile>(load_any_profile(path, search_.strict, search_.strict_eds));
     by_path_[path] = p;
     text_[path] = read_text(path);
     out_.profiles.push_back(p);
@@ -156,7 +157,8 @@ std::shared_ptr<Profile> make_variant(const Where& w, const YAML::Node& entry, c
     for (const auto& kv : v) vendor[kv.first.Scalar()] = YAML::Clone(kv.second);
   }
   merge_physics(w, entry, root);
-  parse_personality(*p, root, vendor);
+  const VendorLayer over{w.child("vendor"), entry["vendor"]};  // the entry's keys are reported in the fleet file
+  parse_personality(*p, root, vendor, entry["vendor"] ? &over : nullptr);
   return p;
 }
 
@@ -326,8 +328,8 @@ FleetConfig parse_root(const YAML::Node& root, const std::string& file, const Pr
 
 }  // namespace
 
-Profile load_any_profile(const std::string& path, bool strict) {
-  return is_device_description(path) ? load_eds_profile(path, strict) : load_profile(path, strict);
+Profile load_any_profile(const std::string& path, bool strict, bool strict_eds) {
+  return is_device_description(path) ? load_eds_profile(path, strict, strict_eds) : load_profile(path, strict);
 }
 
 const InterfaceConfig* FleetConfig::interface(const std::string& name) const {
@@ -425,7 +427,7 @@ FleetConfig single_node_fleet(const std::string& profile_ref, const std::string&
   if (path.empty()) throw ConfigError(profile_ref + ": profile not found (expected a file or a profile name)");
   FleetConfig out;
   out.file = path;
-  auto profile = std::make_shared<Profile>(load_any_profile(path, search.strict));
+  auto profile = std::make_shared<Profile>(load_any_profile(path, search.strict, search.strict_eds));
   out.profiles.push_back(profile);
   InterfaceConfig ic;
   ic.name = interface;

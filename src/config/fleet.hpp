@@ -51,6 +51,7 @@ struct FleetConfig {
 struct ProfileSearch {
   std::vector<std::string> dirs;
   bool strict = false;  // `cansimd --strict`: every profile loads in strict mode
+  bool strict_eds = false;  // `cansimd --strict-eds`: what an EDS reader would repair is an error
 };
 // The default search: <config dir>/profiles, ./profiles, the installed folder.
 ProfileSearch default_search(const std::string& config_file, const std::string& installed_dir);
@@ -59,7 +60,7 @@ std::string find_profile(const std::string& ref, const std::string& config_dir, 
 
 // A YAML profile, or a CiA 306 EDS / DCF by its extension .eds / .dcf
 // (README, "Device descriptions (EDS/DCF)").
-Profile load_any_profile(const std::string& path, bool strict = false);
+Profile load_any_profile(const std::string& path, bool strict = false, bool strict_eds = false);
 
 FleetConfig load_fleet(const std::string& path, const ProfileSearch& search);
 FleetConfig parse_fleet(const std::string& text, const std::string& file, const ProfileSearch& search);

@@ -306,12 +306,12 @@ void check_requirements(const Profile& p, const YAML::Node& root, const personal
 
 }  // namespace
 
-void parse_personality(Profile& p, const YAML::Node& root, const YAML::Node& vendor) {
+void parse_personality(Profile& p, const YAML::Node& root, const YAML::Node& vendor, const VendorLayer* over) {
   const personalities::PersonalityInfo* info = personalities::find_personality(p.personality);
   if (!info)
     fail(Where{p.file, "personality"}, root["personality"],
          "unknown personality '" + p.personality + "' (expected: " + personalities::personality_names() + ")");
-  const VendorParams v(p.file, vendor);
+  const VendorParams v(p.file, vendor, over);
   const std::shared_ptr<model::Cia404Profile> chain = parse_cia404(v.where("cia404"), v.node("cia404"), *p.layout);
   p.cia404 = chain;
   p.identity = parse_identity(v);

@@ -19,7 +19,7 @@ bool parse_number(const std::string& text, std::int64_t& out) {
 std::string usage_text() {
   return "usage: cansimd --profile FILE|NAME [--interface IF] [--node-id N] [options]\n"
          "       cansimd --config FILE [options]\n"
-         "       cansimd --export-eds FILE|NAME [--node-id N] [--strict] [--output FILE]\n"
+         "       cansimd --export-eds FILE|NAME [--node-id N] [--strict] [--strict-eds] [--output FILE]\n"
          "\n"
          "Simulates CANopen (CiA 301/305/404) sensor nodes on SocketCAN interfaces.\n"
          "\n"
@@ -34,6 +34,8 @@ std::string usage_text() {
          "  --strict             every node in strict mode: each vendor deviation at its CiA value\n"
          "                       (options a fleet entry sets still win; with --export-eds: the\n"
          "                       strict device's EDS)\n"
+         "  --strict-eds         refuse what the EDS / DCF reader would repair with a warning\n"
+         "                       (miscounts, the SDO server's COB-IDs, NodeID=0, ...)\n"
          "  --quirks             with --profile: list the profile's deviations from CiA (option,\n"
          "                       manual reference, faithful and strict value) and exit\n"
          "  --state-dir DIR      stored parameters (default $STATE_DIRECTORY, else ./state)\n"
@@ -82,7 +84,8 @@ CliResult parse_cli(const std::vector<std::string>& args, const char* state_dire
     // Flags: options without a value.
     const std::pair<const char*, bool*> flags[] = {{"--help", &o.help},     {"-h", &o.help},
                                                    {"--version", &o.version}, {"--check", &o.check},
-                                                   {"--strict", &o.strict}, {"--quirks", &o.quirks}};
+                                                   {"--strict", &o.strict}, {"--quirks", &o.quirks},
+                                                   {"--strict-eds", &o.strict_eds}};
     const auto flag = std::find_if(std::begin(flags), std::end(flags), [&](const auto& f) { return arg == f.first; });
     if (flag != std::end(flags)) {
       if (!no_value()) return r;

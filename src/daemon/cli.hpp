@@ -18,6 +18,7 @@ struct CliOptions {
   std::string output;                  // --output FILE (with --export-eds; default stdout)
   bool check = false;                  // --check: validate and exit
   bool strict = false;                 // --strict: every node CiA-strict (entry options still win)
+  bool strict_eds = false;             // --strict-eds: what the EDS reader would repair is an error
   bool quirks = false;                 // --quirks: print the profile's quirk inventory and exit
   std::string state_dir;               // --state-dir, $STATE_DIRECTORY, ./state
   std::string log_level = "info";      // --log-level

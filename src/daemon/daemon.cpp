@@ -108,11 +108,21 @@ std::string describe(const BitRateMismatch& m) {
          "` on the node entry (or `bit_rate: " + std::to_string(m.node_kbit) + "` on interface " + m.interface + ")";
 }
 
+std::vector<std::string> load_warnings(const config::FleetConfig& fleet) {
+  std::vector<std::string> out;
+  std::set<std::string> seen;  // a fleet entry's variant carries its profile's
+  for (const auto& p : fleet.profiles)
+    for (const std::string& w : p->warnings)
+      if (seen.insert(w).second) out.push_back(w);
+  return out;
+}
+
 std::string check_fleet(config::FleetConfig& fleet, std::vector<std::string>* warnings) {
   for (config::NodeConfig n : fleet.nodes) {
     n.record_file.clear();  // --check must not truncate recordings
     make_node_application(n, fleet.seed);
   }
+  if (warnings) *warnings = load_warnings(fleet);
   if (warnings)
     for (const BitRateMismatch& m : bit_rate_mismatches(fleet, effective_bit_rate)) warnings->push_back(describe(m));
   return fleet.file + ": ok, " + std::to_string(fleet.nodes.size()) + " node(s) on " +
@@ -492,7 +502,9 @@ std::vector<std::string> Daemon::add_nodes(const std::string& yaml) {
   config::FleetConfig running = combined();
   config::ProfileSearch search = profile_search("");
   search.strict = settings_.strict;
+  search.strict_eds = settings_.strict_eds;
   config::FleetConfig extra = config::parse_fleet_fragment(yaml, label, search, running);
+  for (const std::string& w : load_warnings(extra)) spdlog::warn("{}", w);
   config::merge_fleet(running, extra);  // throws on a collision
   added_.push_back(extra);
   try {

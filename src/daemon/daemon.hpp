@@ -53,10 +53,14 @@ std::string describe(const BitRateMismatch& m);
 // The interface's effective rate: configured, else the kernel's (real CAN), else 250.
 std::uint32_t effective_bit_rate(const config::InterfaceConfig& ic);
 
+// What the loaders repaired in the fleet's profiles (EDS / DCF), each once.
+std::vector<std::string> load_warnings(const config::FleetConfig& fleet);
+
 // --check: loads, prepares and builds every node without touching the bus.
 // Returns a one-line summary; throws config::ConfigError. `warnings` (when
-// given) receives what is valid but probably not meant: nodes at another bit
-// rate than their bus (describe()).
+// given) receives what the loaders repaired (load_warnings()) and what is
+// valid but probably not meant: nodes at another bit rate than their bus
+// (describe()).
 std::string check_fleet(config::FleetConfig& fleet, std::vector<std::string>* warnings = nullptr);
 
 // How the core builds the node of a fleet entry: its profile's layout and
@@ -71,6 +75,7 @@ struct DaemonSettings {
   control::BusChoice bus = control::BusChoice::kAuto;
   std::string control_socket;                    // empty: the default path; "none": no socket
   bool strict = false;                           // --strict: nodes added at run time too
+  bool strict_eds = false;                       // --strict-eds: nodes added at run time too
 };
 
 class Daemon : public control::ControlHost {

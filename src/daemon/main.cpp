@@ -27,6 +27,7 @@ config::FleetConfig load(const daemon::CliOptions& o) {
   const bool single = o.config.empty();
   config::ProfileSearch search = daemon::profile_search(single ? "" : o.config);
   search.strict = o.strict;
+  search.strict_eds = o.strict_eds;
   config::FleetConfig fleet = single ? config::single_node_fleet(o.profile, o.interface, o.node_id, search)
                                      : config::load_fleet(o.config, search);
   config::apply_record_option(fleet, o.record, single);
@@ -39,7 +40,7 @@ int export_eds(const daemon::CliOptions& o) {
   try {
     const std::string path = config::find_profile(o.export_eds, ".", daemon::profile_search(""));
     if (path.empty()) throw config::ConfigError(o.export_eds + ": profile not found (expected a file or a profile name)");
-    const config::Profile profile = config::load_any_profile(path, o.strict);
+    const config::Profile profile = config::load_any_profile(path, o.strict, o.strict_eds);
     std::string text;
     if (o.node_id) {
       text = config::write_default_dcf(profile, std::uint8_t(*o.node_id));
@@ -115,9 +116,14 @@ int main(int argc, char** argv) {
     daemon::DaemonSettings settings;
     settings.state_dir = o.state_dir;
     settings.seed = o.seed;
-    settings.load = [o] { return load(o); };
+    settings.load = [o] {
+      config::FleetConfig fleet = load(o);
+      for (const std::string& w : daemon::load_warnings(fleet)) spdlog::warn("{}", w);
+      return fleet;
+    };
     settings.config_file = o.config.empty() ? o.profile : o.config;
     settings.strict = o.strict;
+    settings.strict_eds = o.strict_eds;
     settings.bus = o.bus == "system" ? control::BusChoice::kSystem
                    : o.bus == "user" ? control::BusChoice::kUser
                    : o.bus == "none" ? control::BusChoice::kNone

@@ -60,6 +60,10 @@ struct Profile {
   std::vector<std::pair<std::string, std::string>> quirks;  // name -> manual reference
   bool quirks_checked = false;     // has a `quirks:` map (checked against the deviations)
   std::vector<Quirk> setting_quirks;  // chain / device settings strict mode changes
+
+  // What the loader repaired in the file, "file:line: ..." (EDS / DCF:
+  // config/eds_reader.hpp); `cansimd --check` and the start log show them.
+  std::vector<std::string> warnings;
 };
 
 }  // namespace cansim::model

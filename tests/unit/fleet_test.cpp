@@ -123,6 +123,46 @@ TEST_F(FleetTest, PhysicsOverrideErrorsNameTheFleetFile) {
   }
 }
 
+// Issue #26: an entry's override is reported where the entry writes it
+// (fleet file, line, column, nodes[i].<section>...), never as the profile's.
+TEST(FleetOverrides, AMisspeltVendorKeyNamesTheFleetFile) {
+  ProfileSearch search;
+  search.dirs.push_back(std::string(CANSIM_SOURCE_DIR) + "/profiles");
+  try {
+    parse_fleet("interfaces:\n  vcan0: {bit_rate: 250}\nnodes:\n"
+                "  - {profile: p92c, interface: vcan0, node_id: 5, vendor: {serial_nmber_base: 9}}\n",
+                "that.yaml", search);
+    ADD_FAILURE() << "no error";
+  } catch (const ConfigError& e) {
+    EXPECT_THAT(e.what(), ::testing::StartsWith("that.yaml:4:60: nodes[0].vendor.serial_nmber_base: unknown key "
+                                                "(expected one of: cia404, serial_number_base, serial_part1,"));
+  }
+}
+
+TEST_F(FleetTest, EveryOverrideSectionNamesTheFleetFileLineAndColumn) {
+  struct Case {
+    std::string entry;  // after "  - {profile: generic-404, interface: vcan0, " (line 5, 45 columns)
+    std::string error;
+  } cases[] = {
+      {"options: {sdo_expedited_onl: true}}", "D/fleet.yaml:5:56: nodes[0].options.sdo_expedited_onl: unknown option"},
+      {"options: {heartbeat_jitter: x}}", "D/fleet.yaml:5:56: nodes[0].options.heartbeat_jitter: unknown option"},
+      {"vendor: {serial_nmber_base: 9}}", "D/fleet.yaml:5:55: nodes[0].vendor.serial_nmber_base: unknown key"},
+      {"vendor: {serial_number_base: -5}}",
+       "D/fleet.yaml:5:75: nodes[0].vendor.serial_number_base: expected an integer in 0..4294967295, got '-5'"},
+      {"vendor: {cia404: {chanels: []}}}", "D/fleet.yaml:5:64: nodes[0].vendor.cia404.chanels: unknown key"},
+      {"vendor: [1]}", "D/fleet.yaml:5:54: nodes[0].vendor: expected a mapping of vendor parameters"},
+      {"physics: {pressur: 1 bar}}", "D/fleet.yaml:5:56: nodes[0].physics.pressur: unknown key"},
+      {"sensor: {pressure: {nois: 1 mbar}}}", "D/fleet.yaml:5:66: nodes[0].sensor.pressure.nois: unknown key"},
+      {"faults: [{kin: drift}]}", "D/fleet.yaml:5:56: nodes[0].faults[0].kin: unknown key"},
+      {"faults: [{kind: drift, at: soon}]}", "D/fleet.yaml:5:73: nodes[0].faults[0].at: expected a time"},
+  };
+  for (const Case& c : cases)
+    EXPECT_THAT(error_of(std::string(kIfaces) + "nodes:\n  - {profile: generic-404, interface: vcan0, " + c.entry +
+                         "\n"),
+                ::testing::StartsWith(c.error))
+        << c.entry;
+}
+
 TEST_F(FleetTest, OptionAndVendorOverridesMakeAPrivateProfile) {
   FleetConfig f = parse(std::string("seed: 42\n") + kIfaces +
                         "nodes:\n"
