@@ -106,7 +106,8 @@ def test(ctx: it.Context) -> None:
             t = time.time()
             beats = it.collect(bus, it.scaled(1), after(t, it.is_heartbeat(SENSOR)))
             gaps = [b.timestamp - a.timestamp for a, b in zip(beats, beats[1:])]
-            assert len(beats) >= 4 and all(0.1 < g < 0.2 * it.SCALE + 0.1 for g in gaps), f"heartbeat gaps {gaps}"
+            # the median: one late wake-up of the guest makes one gap long and the next short
+            assert len(beats) >= 4 and 0.15 < sorted(gaps)[len(gaps) // 2] < 0.25, f"heartbeat gaps {gaps}"
             sdo = it.SdoClient(bus, SENSOR, timeout=it.scaled(1))
             assert sdo.upload_u16(0x1017) == pt.read(0x1017) == 200
             assert sdo.upload_u32(0x1018, 4) == pt.read(0x1018, 4)
@@ -114,7 +115,7 @@ def test(ctx: it.Context) -> None:
             sdo.download_u16(0x1017, 0, 1000)
             written = pt.wait_for("ObjectWritten", since=mark, index=0x1017, timeout=it.scaled(2))
             assert (written["sub"], written["value"], written["via"]) == (0, 1000, "sdo"), written
-            it.log(f"write 0x1017 = 200 -> heartbeat every {sum(gaps) / len(gaps) * 1000:.0f} ms; read = SDO upload; "
+            it.log(f"write 0x1017 = 200 -> heartbeat every {sorted(gaps)[len(gaps) // 2] * 1000:.0f} ms; read = SDO upload; "
                    "SDO download -> ObjectWritten")
 
             t = time.time()
