@@ -255,6 +255,9 @@ const sd_bus_vtable kNodeVtable[] = {
     SD_BUS_METHOD_WITH_NAMES("Write", "qyv", SD_BUS_PARAM(index) SD_BUS_PARAM(sub) SD_BUS_PARAM(value), "", ,
                              write_object, kCall),
     SD_BUS_METHOD_WITH_NAMES("GetDcf", "", , "s", SD_BUS_PARAM(dcf), get_dcf, kCall),
+    SD_BUS_METHOD_WITH_NAMES("ListObjects", "", , "a(qyssds)", SD_BUS_PARAM(objects), node_list_objects, kCall),
+    SD_BUS_METHOD_WITH_NAMES("GetPdoMapping", "", , "a(subya(qyyssds))", SD_BUS_PARAM(pdos), node_get_pdo_mapping,
+                             kCall),
     SD_BUS_METHOD_WITH_NAMES("StartRecording", "s", SD_BUS_PARAM(path), "", , node_start_recording, kCall),
     SD_BUS_METHOD("StopRecording", "", "", node_stop_recording, kCall),
     SD_BUS_SIGNAL_WITH_NAMES("NmtStateChanged", "xss", SD_BUS_PARAM(t) SD_BUS_PARAM(old) SD_BUS_PARAM(new), 0),
@@ -265,6 +268,7 @@ const sd_bus_vtable kNodeVtable[] = {
                              SD_BUS_PARAM(t) SD_BUS_PARAM(index) SD_BUS_PARAM(sub) SD_BUS_PARAM(value) SD_BUS_PARAM(via), 0),
     SD_BUS_SIGNAL_WITH_NAMES("FaultStarted", "xus", SD_BUS_PARAM(t) SD_BUS_PARAM(id) SD_BUS_PARAM(kind), 0),
     SD_BUS_SIGNAL_WITH_NAMES("FaultEnded", "xus", SD_BUS_PARAM(t) SD_BUS_PARAM(id) SD_BUS_PARAM(kind), 0),
+    SD_BUS_SIGNAL_WITH_NAMES("PdoMappingChanged", "x", SD_BUS_PARAM(t), 0),
     SD_BUS_VTABLE_END,
 };
 

@@ -235,6 +235,14 @@ void ControlService::on_power(io::NodeRef ref, bool, TimeUs) {
   emit_properties_changed(n->path, kNodeInterface, {"Powered"});
 }
 
+void ControlService::on_pdo_config(io::NodeRef ref, TimeUs t) {
+  NodeContext* n = context(ref);
+  if (!n || !has_subscribers()) return;
+  emit(n->path, kNodeInterface, "PdoMappingChanged", [&](sd_bus_message* m) {
+    return sd_bus_message_append(m, "x", std::int64_t(t));
+  });
+}
+
 void ControlService::fault_edge(NodeContext& n, std::uint32_t id, std::uint8_t kind, bool started, TimeUs t) {
   if (!has_subscribers()) return;
   const std::string name(physics::to_string(physics::FaultKind(kind)));

@@ -48,6 +48,7 @@ class ControlService : public io::LoopObserver {
   void on_emcy(io::NodeRef ref, std::uint16_t code, std::uint8_t reg, const std::uint8_t vendor[5], TimeUs t) override;
   void on_remote_write(io::NodeRef ref, const OdEntry& e, WriteVia via, TimeUs t) override;
   void on_power(io::NodeRef ref, bool powered, TimeUs t) override;
+  void on_pdo_config(io::NodeRef ref, TimeUs t) override;
 
   // Implementation detail shared by the handler files.
   struct NodeContext;

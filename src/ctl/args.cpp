@@ -208,6 +208,13 @@ Request build_watch(const Words& w) {
   return r;
 }
 
+Request build_monitor(const Words& w) {
+  Request r = on_fleet(fleet_call("Subscribe"), Output::kMonitor);
+  r.interfaces = w.positional;
+  if (const std::string* node = w.option("--node")) r.node = *node;
+  return r;
+}
+
 Request build_add(const Words& w) {
   Request r = on_fleet(fleet_call("AddNodes"), Output::kAdded);
   r.file = w[0];
@@ -279,6 +286,9 @@ const std::vector<VerbSpec>& verbs() {
       {"dcf", "NODE [--output FILE]", "the node's CiA 306 DCF (current values), printed or written to FILE", 1, 1,
        {{"--output", true}}, build_dcf},
       {"watch", "[NODE]", "print events and property changes until Ctrl-C", 0, 1, {}, build_watch},
+      {"monitor", "[IFACE...] [--node NODE]",
+       "print every frame decoded (PDO values in engineering units, SDO, NMT, EMCY...) until Ctrl-C", 0, kAny,
+       {{"--node", true}}, build_monitor},
       {"add", "FILE.yaml", "add the nodes of a fleet YAML fragment, print them", 1, 1, {}, build_add},
       {"remove", "NODE", "remove a node", 1, 1, {}, build_remove},
       {"reload", "", "re-read the configuration file (as SIGHUP)", 0, 0, {}, build_reload},

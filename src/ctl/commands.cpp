@@ -1,14 +1,13 @@
 #include "ctl/commands.hpp"
 
-#include <systemd/sd-event.h>
-
-#include <csignal>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 
+#include "ctl/client_loop.hpp"
 #include "ctl/decode.hpp"
+#include "ctl/monitor.hpp"
 
 #ifndef CANSIM_VERSION
 #define CANSIM_VERSION "unknown"
@@ -55,90 +54,27 @@ void print_reply(const Request& r, const std::string& path, sd_bus_message* repl
     case Output::kStats: return p.stats(read_bus_stats(reply));
     case Output::kDcf: return r.file.empty() ? p.document("dcf", read_text(reply)) : write_text_file(r.file, read_text(reply));
     case Output::kNothing:
-    case Output::kWatch: return;
+    case Output::kWatch:
+    case Output::kMonitor: return;
   }
 }
 
 // ---------------------------------------------------------------- watch
 
-struct EventUnref {
-  void operator()(sd_event* e) const { sd_event_unref(e); }
-};
-struct SlotUnref {
-  void operator()(sd_bus_slot* s) const { sd_bus_slot_unref(s); }
-};
-
 // Prints the signals of the fleet (or of one node) until SIGINT / SIGTERM.
-class Watch {
- public:
-  Watch(Connection& connection, Printer& printer) : connection_(connection), printer_(printer) {}
-  int run(const std::string& node_path);
-
- private:
-  static int on_message(sd_bus_message* m, void* self, sd_bus_error*);
-  static int on_stop(sd_event_source* source, const struct signalfd_siginfo*, void*);
-  void print(sd_bus_message* m);
-  void add_stop_signals();
-
-  Connection& connection_;
-  Printer& printer_;
-  std::unique_ptr<sd_event, EventUnref> event_;
-  std::string error_;
-};
-
-int Watch::on_stop(sd_event_source* source, const struct signalfd_siginfo*, void*) {
-  return sd_event_exit(sd_event_source_get_event(source), 0);
-}
-
-int Watch::on_message(sd_bus_message* m, void* self, sd_bus_error*) {
-  auto* watch = static_cast<Watch*>(self);
-  try {
-    watch->print(m);
-  } catch (const std::exception& e) {
-    watch->error_ = e.what();
-    sd_event_exit(watch->event_.get(), 1);
-  }
-  return 0;
-}
-
-void Watch::print(sd_bus_message* m) {
-  Event e = read_event(m);
-  // Property changes and fleet signals carry no time: the daemon's clock now
-  // is the time of the loop pass that sent them.
-  if (!e.time_us) e.time_us = connection_.simulated_time_us();
-  printer_.event(e);
-}
-
-// sd-event takes signals through a signalfd: they must be blocked first.
-void Watch::add_stop_signals() {
-  sigset_t set;
-  sigemptyset(&set);
-  for (int sig : {SIGINT, SIGTERM}) sigaddset(&set, sig);
-  expect(sigprocmask(SIG_BLOCK, &set, nullptr) < 0 ? -errno : 0, "cannot block signals");
-  for (int sig : {SIGINT, SIGTERM})
-    expect(sd_event_add_signal(event_.get(), nullptr, sig, on_stop, nullptr), "cannot watch signals");
-}
-
-int Watch::run(const std::string& node_path) {
-  sd_event* event = nullptr;
-  expect(sd_event_new(&event), "cannot create an event loop");
-  event_.reset(event);
-  add_stop_signals();
-  sd_bus* bus = connection_.bus();
-  expect(sd_bus_attach_event(bus, event, SD_EVENT_PRIORITY_NORMAL), "cannot attach the connection");
-  sd_bus_set_exit_on_disconnect(bus, 1);  // the loop ends with 1 when the daemon goes
+int watch(Connection& connection, Printer& printer, const std::string& node_path) {
+  ClientLoop loop(connection);
   std::string rule = "type='signal'," + (node_path.empty() ? "path_namespace='" + std::string(kFleetPath) + "'"
                                                            : "path='" + node_path + "'");
-  sd_bus_slot* slot = nullptr;
-  expect(sd_bus_add_match(bus, &slot, rule.c_str(), on_message, this), "cannot add a match rule");
-  std::unique_ptr<sd_bus_slot, SlotUnref> match(slot);
-  connection_.call(kFleetPath, kFleetInterface, "Subscribe");
-  int r = sd_event_loop(event);
-  sd_bus_detach_event(bus);
-  if (!error_.empty()) throw Failure(error_);
-  expect(r, "event loop failed");
-  if (r != 0) throw Failure("cansimd closed the connection");
-  return 0;
+  loop.on_signals(rule, [&](sd_bus_message* m) {
+    Event e = read_event(m);
+    // Property changes and fleet signals carry no time: the daemon's clock now
+    // is the time of the loop pass that sent them.
+    if (!e.time_us) e.time_us = connection.simulated_time_us();
+    printer.event(e);
+  });
+  connection.call(kFleetPath, kFleetInterface, "Subscribe");
+  return loop.run();
 }
 
 bool is_socket(const std::string& path) {
@@ -149,9 +85,11 @@ bool is_socket(const std::string& path) {
 }  // namespace
 
 int run_request(Connection& connection, const Request& request, Printer& printer) {
+  if (request.output == Output::kMonitor)
+    return run_monitor(connection, {request.interfaces, request.node, printer.json()}, printer.stream());
   if (request.output == Output::kWatch) {
     std::string node_path = request.node.empty() ? "" : connection.node_path(request.node);
-    return Watch(connection, printer).run(node_path);
+    return watch(connection, printer, node_path);
   }
   std::string path = request.call.target == Target::kNode ? connection.node_path(request.node) : kFleetPath;
   std::vector<Arg> args = request.call.args;

@@ -319,6 +319,51 @@ NodeStatus read_node_status(sd_bus_message* m) {
   return status;
 }
 
+namespace {
+
+// (s name, s type, d scale, s unit) of ListObjects and GetPdoMapping.
+void read_meaning(sd_bus_message* m, ObjectInfo& o) {
+  const char *name = "", *type = "", *unit = "";
+  expect_value(sd_bus_message_read(m, "ssds", &name, &type, &o.scale, &unit));
+  o.name = name, o.type = type, o.unit = unit;
+}
+
+PdoEntryInfo read_pdo_entry(sd_bus_message* m) {
+  PdoEntryInfo e;
+  enter(m, 'r', "qyyssds");
+  expect_value(sd_bus_message_read(m, "qyy", &e.object.index, &e.object.sub, &e.bits));
+  read_meaning(m, e.object);
+  leave(m);
+  return e;
+}
+
+PdoInfo read_pdo_info(sd_bus_message* m) {
+  PdoInfo p;
+  const char* name = "";
+  int valid = 0;
+  enter(m, 'r', "subya(qyyssds)");
+  expect_value(sd_bus_message_read(m, "suby", &name, &p.cob_id, &valid, &p.transmission_type));
+  p.name = name, p.valid = valid;
+  p.entries = read_array(m, "(qyyssds)", read_pdo_entry);
+  leave(m);
+  return p;
+}
+
+}  // namespace
+
+std::vector<PdoInfo> read_pdo_infos(sd_bus_message* m) { return read_array(m, "(subya(qyyssds))", read_pdo_info); }
+
+std::vector<ObjectInfo> read_object_infos(sd_bus_message* m) {
+  return read_array(m, "(qyssds)", [](sd_bus_message* m) {
+    ObjectInfo o;
+    enter(m, 'r', "qyssds");
+    expect_value(sd_bus_message_read(m, "qy", &o.index, &o.sub));
+    read_meaning(m, o);
+    leave(m);
+    return o;
+  });
+}
+
 std::string node_key_of_path(const std::string& path) {
   char *interface = nullptr, *name = nullptr, *index = nullptr;
   int r = sd_bus_path_decode_many(path.c_str(), (std::string(kNodePathPrefix) + "/%/%/%").c_str(), &interface, &name,

@@ -42,6 +42,9 @@ class Printer {
   void document(std::string_view name, const std::string& text);  // as it is; JSON: {"name": text}
   void event(const Event& e);  // one line, flushed
 
+  std::ostream& stream() const { return out_; }
+  bool json() const { return json_; }
+
  private:
   void status_text(const NodeStatus& s);
   void status_json(const NodeStatus& s);

@@ -57,6 +57,7 @@ enum class Output {
   kStats,    // GetBusStatistics
   kDcf,      // GetDcf: written to Request::file, or printed when it is ""
   kWatch,    // Subscribe, then print signals until SIGINT/SIGTERM (only Request::node's, if given)
+  kMonitor,  // decode the frames of Request::interfaces (all: none given) until SIGINT/SIGTERM
 };
 
 struct Request {
@@ -65,6 +66,7 @@ struct Request {
   Output output = Output::kNothing;
   std::string file;       // kAdded: read; kDcf: written
   ObjectAddress object;   // kValue
+  std::vector<std::string> interfaces;  // kMonitor
 };
 
 }  // namespace cansim::ctl
