@@ -211,6 +211,8 @@ void parse_objects(const Where& w, const YAML::Node& list, OdLayout& out) {
     for (int sub = first; sub <= last; ++sub) {
       OdEntry copy = e;
       copy.sub = std::uint8_t(sub);
+      // Names are unique within an object (EDS ParameterName): a range numbers its sub-indices.
+      if (first < last && !copy.name.empty()) copy.name += " " + std::to_string(sub);
       if (!out.add(std::move(copy))) {
         char buf[64];
         std::snprintf(buf, sizeof buf, "duplicate entry 0x%04X:%02X", e.index, sub);
