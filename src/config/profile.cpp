@@ -103,6 +103,15 @@ std::uint8_t parse_persist(const Where& w, const YAML::Node& n, std::uint16_t in
   fail(w, n, "expected yes, no, communication, application or a 0x1010 sub-index 2..127");
 }
 
+// Names are unique within an object (EDS ParameterName): a range numbers its
+// sub-indices, before a closing remark ("AI input PV 1", "AI input PV 1 (INTEGER16)").
+std::string numbered_name(const std::string& name, int sub) {
+  if (name.empty()) return name;
+  const std::size_t remark = name.back() == ')' ? name.rfind(" (") : std::string::npos;
+  if (remark == std::string::npos || remark == 0) return name + " " + std::to_string(sub);
+  return name.substr(0, remark) + " " + std::to_string(sub) + name.substr(remark);
+}
+
 // "0x02..0x08" or a single number.
 void parse_sub_range(const Where& w, const YAML::Node& n, int& first, int& last) {
   std::string s = get_string(w, n);
@@ -211,8 +220,7 @@ void parse_objects(const Where& w, const YAML::Node& list, OdLayout& out) {
     for (int sub = first; sub <= last; ++sub) {
       OdEntry copy = e;
       copy.sub = std::uint8_t(sub);
-      // Names are unique within an object (EDS ParameterName): a range numbers its sub-indices.
-      if (first < last && !copy.name.empty()) copy.name += " " + std::to_string(sub);
+      if (first < last) copy.name = numbered_name(e.name, sub);
       if (!out.add(std::move(copy))) {
         char buf[64];
         std::snprintf(buf, sizeof buf, "duplicate entry 0x%04X:%02X", e.index, sub);

@@ -11,6 +11,7 @@
 #include "config/fleet.hpp"
 #include "daemon/cli.hpp"
 #include "daemon/daemon.hpp"
+#include "daemon/dbc_export.hpp"
 #include "daemon/logging.hpp"
 #include "config/strict_mode.hpp"
 #include "personalities/registry.hpp"
@@ -33,6 +34,18 @@ config::FleetConfig load(const daemon::CliOptions& o) {
   return fleet;
 }
 
+// Writes an export to `path`, or to stdout when it is "".
+void write_output(const std::string& path, const std::string& text) {
+  if (path.empty()) {
+    std::fputs(text.c_str(), stdout);
+    return;
+  }
+  std::ofstream out(path, std::ios::binary);
+  out << text;
+  out.close();
+  if (!out) throw config::ConfigError(path + ": cannot write the file");
+}
+
 // cansimd --export-eds: the profile's EDS, or with --node-id the DCF of that
 // node at power-on. Exit 0, or 1 with the error on stderr.
 int export_eds(const daemon::CliOptions& o) {
@@ -48,14 +61,25 @@ int export_eds(const daemon::CliOptions& o) {
       id.created = config::eds_time_now();
       text = config::write_eds(*profile.layout, *profile.options, id);
     }
-    if (o.output.empty()) {
-      std::fputs(text.c_str(), stdout);
-      return 0;
-    }
-    std::ofstream out(o.output, std::ios::binary);
-    out << text;
-    out.close();
-    if (!out) throw config::ConfigError(o.output + ": cannot write the file");
+    write_output(o.output, text);
+    return 0;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "cansimd: %s\n", e.what());
+    return 1;
+  }
+}
+
+// cansimd --export-dbc: the DBC of one bus of a fleet file, or of one node
+// of a profile. Exit 0, or 1 with the error on stderr.
+int export_dbc(const daemon::CliOptions& o) {
+  try {
+    config::ProfileSearch search = daemon::profile_search(o.export_dbc);
+    search.strict = o.strict;
+    const bool fleet_file = config::is_fleet_file(o.export_dbc);
+    config::FleetConfig fleet = fleet_file ? config::load_fleet(o.export_dbc, search)
+                                           : config::single_node_fleet(o.export_dbc, o.interface, o.node_id, search);
+    const std::string text = daemon::export_dbc(fleet, fleet_file && o.interface_given ? o.interface : "");
+    write_output(o.output, text);
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "cansimd: %s\n", e.what());
@@ -98,6 +122,7 @@ int main(int argc, char** argv) {
     return 0;
   }
   if (!o.export_eds.empty()) return export_eds(o);
+  if (!o.export_dbc.empty()) return export_dbc(o);
   daemon::setup_logging(o.log_level);
   try {
     if (o.quirks) return print_quirks(o);
