@@ -59,6 +59,7 @@ CANSIM_GETTER(get_nmt_state, "s", nmt_state_name(n.node().state()))
 CANSIM_GETTER(get_powered, "b", int(n.node().powered()))
 CANSIM_GETTER(get_on_bus, "b", int(n.node().on_bus()))
 CANSIM_GETTER(get_emcy_count, "u", n.node().emcy().sent_count())
+CANSIM_GETTER(get_frames_sent, "t", std::uint64_t(n.node().frames_sent()))
 #undef CANSIM_GETTER
 int get_last_emcy(sd_bus*, const char*, const char*, const char*, sd_bus_message* reply, void* userdata,
                   sd_bus_error*) {
@@ -230,6 +231,7 @@ const sd_bus_vtable kNodeVtable[] = {
     SD_BUS_PROPERTY("Faults", "a(usb)", node_get_faults, 0, kEmits),
     SD_BUS_PROPERTY("EmcyCount", "u", get_emcy_count, 0, 0),
     SD_BUS_PROPERTY("LastEmcy", "(xqyay)", get_last_emcy, 0, 0),
+    SD_BUS_PROPERTY("FramesSent", "t", get_frames_sent, 0, 0),
     SD_BUS_PROPERTY("Recording", "s", node_get_recording, 0, 0),
     SD_BUS_METHOD_WITH_NAMES("Hold", "s", SD_BUS_PARAM(channel), "", , node_hold, kCall),
     SD_BUS_METHOD_WITH_NAMES("Step", "sds", SD_BUS_PARAM(channel) SD_BUS_PARAM(value) SD_BUS_PARAM(unit), "", ,

@@ -215,6 +215,13 @@ Request build_monitor(const Words& w) {
   return r;
 }
 
+Request build_top(const Words& w) {
+  Request r = on_fleet(fleet_call("Subscribe"), Output::kTop);
+  if (w.size() > 0) r.pattern = w[0];
+  r.once = w.has("--once");
+  return r;
+}
+
 Request build_add(const Words& w) {
   Request r = on_fleet(fleet_call("AddNodes"), Output::kAdded);
   r.file = w[0];
@@ -289,6 +296,9 @@ const std::vector<VerbSpec>& verbs() {
       {"monitor", "[IFACE...] [--node NODE]",
        "print every frame decoded (PDO values in engineering units, SDO, NMT, EMCY...) until Ctrl-C", 0, kAny,
        {{"--node", true}}, build_monitor},
+      {"top", "[GLOB] [--once]",
+       "the fleet at a glance, refreshed twice a second (GLOB: keys or names like 'generic/*'); --once: one table",
+       0, 1, {{"--once", false}}, build_top},
       {"add", "FILE.yaml", "add the nodes of a fleet YAML fragment, print them", 1, 1, {}, build_add},
       {"remove", "NODE", "remove a node", 1, 1, {}, build_remove},
       {"reload", "", "re-read the configuration file (as SIGHUP)", 0, 0, {}, build_reload},

@@ -8,6 +8,7 @@
 #include "ctl/client_loop.hpp"
 #include "ctl/decode.hpp"
 #include "ctl/monitor.hpp"
+#include "ctl/top.hpp"
 
 #ifndef CANSIM_VERSION
 #define CANSIM_VERSION "unknown"
@@ -55,7 +56,8 @@ void print_reply(const Request& r, const std::string& path, sd_bus_message* repl
     case Output::kDcf: return r.file.empty() ? p.document("dcf", read_text(reply)) : write_text_file(r.file, read_text(reply));
     case Output::kNothing:
     case Output::kWatch:
-    case Output::kMonitor: return;
+    case Output::kMonitor:
+    case Output::kTop: return;
   }
 }
 
@@ -87,6 +89,8 @@ bool is_socket(const std::string& path) {
 int run_request(Connection& connection, const Request& request, Printer& printer) {
   if (request.output == Output::kMonitor)
     return run_monitor(connection, {request.interfaces, request.node, printer.json()}, printer.stream());
+  if (request.output == Output::kTop)
+    return run_top(connection, {request.pattern, request.once, printer.json()}, printer.stream());
   if (request.output == Output::kWatch) {
     std::string node_path = request.node.empty() ? "" : connection.node_path(request.node);
     return watch(connection, printer, node_path);

@@ -157,6 +157,7 @@ constexpr PropertyReader kNodeProperties[] = {
     {"EmcyCount", "u", [](sd_bus_message* m, NodeStatus& s) { s.emcy_count = read_basic<std::uint32_t>(m, 'u'); }},
     {"LastEmcy", "(xqyay)", [](sd_bus_message* m, NodeStatus& s) { s.last_emcy = read_emcy(m); }},
     {"Recording", "s", [](sd_bus_message* m, NodeStatus& s) { s.recording = read_string(m); }},
+    {"FramesSent", "t", [](sd_bus_message* m, NodeStatus& s) { s.frames_sent = read_basic<std::uint64_t>(m, 't'); }},
 };
 
 // One a{sv} entry: a known property of the expected type is read, any other skipped.
@@ -317,6 +318,30 @@ NodeStatus read_node_status(sd_bus_message* m) {
   while (!at_end(m)) read_node_property(m, status);
   leave(m);
   return status;
+}
+
+std::vector<NodeStatus> read_managed_nodes(sd_bus_message* m) {
+  std::vector<NodeStatus> out;
+  enter(m, 'a', "{oa{sa{sv}}}");
+  while (!at_end(m)) {
+    enter(m, 'e', "oa{sa{sv}}");
+    const std::string path = read_object_path(m);
+    enter(m, 'a', "{sa{sv}}");
+    while (!at_end(m)) {
+      enter(m, 'e', "sa{sv}");
+      if (read_string(m) == kNodeInterface) {
+        out.push_back(read_node_status(m));
+        out.back().path = path;
+      } else {
+        expect(sd_bus_message_skip(m, "a{sv}"));
+      }
+      leave(m);
+    }
+    leave(m);
+    leave(m);
+  }
+  leave(m);
+  return out;
 }
 
 namespace {

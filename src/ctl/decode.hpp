@@ -26,6 +26,8 @@ std::vector<NodeRow> read_node_rows(sd_bus_message* m);
 std::vector<FaultRow> read_fault_rows(sd_bus_message* m);
 std::vector<BusStats> read_bus_stats(sd_bus_message* m);
 NodeStatus read_node_status(sd_bus_message* m);  // a{sv} of io.cansim.Node1
+// ObjectManager.GetManagedObjects of the fleet object: each node's io.cansim.Node1 properties.
+std::vector<NodeStatus> read_managed_nodes(sd_bus_message* m);
 std::vector<PdoInfo> read_pdo_infos(sd_bus_message* m);      // GetPdoMapping: a(subya(qyyssds))
 std::vector<ObjectInfo> read_object_infos(sd_bus_message* m);  // ListObjects: a(qyssds)
 

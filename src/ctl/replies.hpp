@@ -83,6 +83,7 @@ struct NodeStatus {
   std::uint32_t emcy_count = 0;
   EmcyRecord last_emcy;
   std::string recording;
+  std::uint64_t frames_sent = 0;
 };
 
 // One argument of a signal, or one changed property.

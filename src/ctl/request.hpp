@@ -58,6 +58,7 @@ enum class Output {
   kDcf,      // GetDcf: written to Request::file, or printed when it is ""
   kWatch,    // Subscribe, then print signals until SIGINT/SIGTERM (only Request::node's, if given)
   kMonitor,  // decode the frames of Request::interfaces (all: none given) until SIGINT/SIGTERM
+  kTop,      // the fleet table (Request::pattern, Request::once) until q / SIGINT / SIGTERM
 };
 
 struct Request {
@@ -67,6 +68,8 @@ struct Request {
   std::string file;       // kAdded: read; kDcf: written
   ObjectAddress object;   // kValue
   std::vector<std::string> interfaces;  // kMonitor
+  std::string pattern;    // kTop: GLOB
+  bool once = false;      // kTop
 };
 
 }  // namespace cansim::ctl

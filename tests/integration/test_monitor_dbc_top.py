@@ -174,7 +174,7 @@ def test(ctx: it.Context) -> None:
         dump.terminate()
         dump.wait(5)
         status = {n: ctl.json("status", n) for n in ("generic/0", "generic/1", "dps")}
-        top = ""
+        top = ctl.run("top", "--once")
     assert monitor.stop() == 0, f"monitor: {monitor.stderr()!r}"
     assert d.stop() == 0
 
@@ -249,13 +249,15 @@ def test(ctx: it.Context) -> None:
     it.log(f"monitor: {len(lines)} lines, kinds {sorted(kinds)}; generic/1 TPDO1 after the remap: {remapped[-1]}")
 
     # ---- top --once: one row per node with status's values
-    return
     rows = {line.split()[0]: line for line in top.splitlines()[1:] if line.strip()}
     it.log("top --once:\n" + top)
     for key in ("vcan0/generic/0", "vcan0/generic/1", "vcan0/dps/0"):
         assert key in rows, f"top: no row for {key}: {top}"
-    assert "3.456 bar" in rows["vcan0/generic/0"] and "49.664 psi" in rows["vcan0/dps/0"], top
-    assert "operational" in rows["vcan0/dps/0"], top
+    for key, pressure in (("vcan0/generic/0", "3.456 / "), ("vcan0/dps/0", "49.664 / ")):
+        cells = rows[key].split()
+        assert cells[2] == "operational" and pressure in rows[key], f"top: {key}: {rows[key]!r}"
+        assert float(cells[-1]) > 0, f"top: {key} sends no frames? {rows[key]!r}"
+    assert "21.35 degC" in rows["vcan0/generic/1"], f"top: {rows['vcan0/generic/1']!r}"
 
 
 it.main(test)
