@@ -53,6 +53,8 @@ class ControlHost {
   // Re-reads the configuration; throws config::ConfigError, changing nothing.
   virtual void reload() = 0;
   virtual std::vector<BusStatistics> bus_statistics() const = 0;
+  // The node's interface exists and is open (a node on a missing one is off the bus).
+  virtual bool interface_up(const std::string& /*name*/) const { return true; }
   virtual std::string config_file() const = 0;
 };
 

@@ -57,7 +57,7 @@ CANSIM_GETTER(get_interface, "s", n.handle->interface.c_str())
 CANSIM_GETTER(get_node_id, "y", n.node().node_id())
 CANSIM_GETTER(get_nmt_state, "s", nmt_state_name(n.node().state()))
 CANSIM_GETTER(get_powered, "b", int(n.node().powered()))
-CANSIM_GETTER(get_on_bus, "b", int(n.node().on_bus()))
+CANSIM_GETTER(get_on_bus, "b", int(n.node().on_bus() && n.service->host().interface_up(n.handle->interface)))
 CANSIM_GETTER(get_emcy_count, "u", n.node().emcy().sent_count())
 CANSIM_GETTER(get_frames_sent, "t", std::uint64_t(n.node().frames_sent()))
 #undef CANSIM_GETTER

@@ -1,5 +1,6 @@
 #include "ctl/commands.hpp"
 
+#include <algorithm>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -8,6 +9,7 @@
 #include "ctl/client_loop.hpp"
 #include "ctl/decode.hpp"
 #include "ctl/monitor.hpp"
+#include "ctl/targets.hpp"
 #include "ctl/top.hpp"
 
 #ifndef CANSIM_VERSION
@@ -39,9 +41,22 @@ std::vector<NodeRef> node_refs(const std::vector<std::string>& paths) {
   return refs;
 }
 
-void print_reply(const Request& r, const std::string& path, sd_bus_message* reply, Printer& p) {
+// The object's unit and scale (ListObjects) for `read`.
+std::unique_ptr<ObjectInfo> meaning_of(Connection& c, const std::string& path, const ObjectAddress& a) {
+  MessagePtr reply = c.call(path, kNodeInterface, "ListObjects");
+  for (ObjectInfo& o : read_object_infos(reply.get()))
+    if (o.index == a.index && o.sub == a.sub) return std::make_unique<ObjectInfo>(std::move(o));
+  return nullptr;
+}
+
+void print_reply(const Request& r, const std::string& path, sd_bus_message* reply, Printer& p,
+                 const std::unique_ptr<ObjectInfo>& meaning) {
   switch (r.output) {
-    case Output::kNodes: return p.nodes(read_node_rows(reply));
+    case Output::kNodes: {
+      std::vector<NodeRow> rows = read_node_rows(reply);
+      std::sort(rows.begin(), rows.end(), [](const NodeRow& a, const NodeRow& b) { return natural_less(a.key, b.key); });
+      return p.nodes(rows);
+    }
     case Output::kStatus: {
       NodeStatus status = read_node_status(reply);
       status.path = path;
@@ -49,7 +64,7 @@ void print_reply(const Request& r, const std::string& path, sd_bus_message* repl
     }
     case Output::kFaultId: return p.fault_id(read_uint32(reply));
     case Output::kFaults: return p.faults(read_fault_rows(reply));
-    case Output::kValue: return p.value(r.object, read_value(reply));
+    case Output::kValue: return p.value(r.object, read_value(reply), meaning.get());
     case Output::kAdded: return p.added(node_refs(read_object_paths(reply)));
     case Output::kTime: return p.time(read_int64(reply));
     case Output::kStats: return p.stats(read_bus_stats(reply));
@@ -79,6 +94,31 @@ int watch(Connection& connection, Printer& printer, const std::string& node_path
   return loop.run();
 }
 
+// ---------------------------------------------------------------- groups
+
+// An acting verb on each node of a group, one result per node; exit 1 when one refused.
+int run_on_group(Connection& connection, const Request& request, const std::vector<NodeRow>& targets,
+                 Printer& printer) {
+  if (targets.empty()) throw Failure("no node matches '" + request.node + "'", control::kErrorUnknownNode);
+  std::vector<GroupResult> results;
+  std::size_t refused = 0;
+  for (const NodeRow& n : targets) {
+    GroupResult r{n.key};
+    try {
+      MessagePtr reply = connection.call(n.path, request.call.interface, request.call.method, request.call.args);
+      if (request.output == Output::kFaultId) r.fault_id = read_uint32(reply.get());
+      r.ok = true;
+    } catch (const Failure& e) {
+      r.error = e.what();
+      ++refused;
+    }
+    results.push_back(std::move(r));
+  }
+  printer.group(results);
+  if (refused == 0) return 0;
+  throw Failure(std::to_string(refused) + " of " + std::to_string(results.size()) + " nodes refused");
+}
+
 bool is_socket(const std::string& path) {
   std::error_code ec;
   return std::filesystem::is_socket(path, ec);
@@ -95,11 +135,18 @@ int run_request(Connection& connection, const Request& request, Printer& printer
     std::string node_path = request.node.empty() ? "" : connection.node_path(request.node);
     return watch(connection, printer, node_path);
   }
+  if (request.group) {
+    MessagePtr list = connection.call(kFleetPath, kFleetInterface, "ListNodes");
+    if (auto targets = group_targets(request.node, read_node_rows(list.get())))
+      return run_on_group(connection, request, *targets, printer);
+  }
   std::string path = request.call.target == Target::kNode ? connection.node_path(request.node) : kFleetPath;
   std::vector<Arg> args = request.call.args;
   if (request.output == Output::kAdded) args = {Value(read_text_file(request.file))};
   MessagePtr reply = connection.call(path, request.call.interface, request.call.method, args);
-  print_reply(request, path, reply.get(), printer);
+  std::unique_ptr<ObjectInfo> meaning;
+  if (request.output == Output::kValue) meaning = meaning_of(connection, path, request.object);
+  print_reply(request, path, reply.get(), printer, meaning);
   return 0;
 }
 
@@ -108,11 +155,13 @@ int cansimctl_main(const std::vector<std::string>& args, std::ostream& out, std:
   try {
     line = parse_command_line(args);
   } catch (const UsageError& e) {
-    err << "cansimctl: " << e.what() << "\n\n" << usage_text();
+    const bool json = std::find(args.begin(), args.end(), "--json") != args.end();
+    Printer::error(err, json, e.what(), "", 2);
+    if (!json) err << '\n' << (e.verb.empty() ? usage_text() : verb_usage(e.verb));
     return 2;
   }
   if (line.global.help) {
-    out << usage_text();
+    out << (line.help_verb.empty() ? usage_text() : verb_help(line.help_verb));
     return 0;
   }
   if (line.global.version) {
@@ -125,7 +174,7 @@ int cansimctl_main(const std::vector<std::string>& args, std::ostream& out, std:
     return run_request(connection, line.request, printer);
   } catch (const Failure& e) {
     out.flush();
-    err << "cansimctl: " << e.what() << '\n';
+    Printer::error(err, line.global.json, e.what(), e.name, 1);
     return 1;
   }
 }

@@ -222,7 +222,8 @@ Value read_field(sd_bus_message* m) {
     return v;
   }
   if (t.type == 'a' && t.contents == "(usb)") return format_fault_briefs(read_array(m, "(usb)", read_fault_brief));
-  if (is_basic(t.type) || (t.type == 'a' && t.contents == "y")) return read_value(m);
+  if (t.type == 'a' && t.contents == "y") return read_value(m);
+  if (is_basic(t.type)) return read_value(m);
   expect(sd_bus_message_skip(m, nullptr));
   return std::string("…");
 }
@@ -233,7 +234,15 @@ void read_properties_changed(sd_bus_message* m, Event& e) {
   while (!at_end(m)) {
     enter(m, 'e', "sv");
     std::string name = read_string(m);
-    e.fields.push_back({name, read_field(m)});
+    PeekedType t = peek(m);  // a variant
+    if (t.contents == "a(usb)") {
+      enter(m, 'v', "a(usb)");
+      std::vector<FaultBrief> faults = read_array(m, "(usb)", read_fault_brief);
+      leave(m);
+      e.fields.push_back({name, format_fault_briefs(faults), IntegerStyle::kDecimal, faults});
+    } else {
+      e.fields.push_back({name, read_field(m)});
+    }
     leave(m);
   }
   leave(m);

@@ -267,6 +267,12 @@ std::string clock_text(double t) {
 
 }  // namespace
 
+std::string engineering_text(const Value& raw, double scale) {
+  ObjectInfo o;
+  o.scale = scale;
+  return format_field_value(scaled_field(o, raw));
+}
+
 Value typed_bytes(const std::string& type, const Bytes& data) {
   const TypeShape* t = shape_of(type);
   if (!t) return data;

@@ -123,6 +123,9 @@ std::string format_decoded(const DecodedFrame& f);
 // {"t": s, "id": n, "node": key|null, "kind": ..., "fields": [{"name", "index", "sub", "value", "unit"}]}
 void write_decoded_json(JsonWriter& json, const DecodedFrame& f);
 
+// raw x scale as text, with the decimals of a 10^-d scale ("3.50" for 350 x 0.01).
+std::string engineering_text(const Value& raw, double scale);
+
 // The typed value of little-endian bytes of a CiA 301 type name; bytes when
 // the type is unknown or the length does not fit it.
 Value typed_bytes(const std::string& type, const Bytes& data);

@@ -81,6 +81,19 @@ void write_reading(JsonWriter& json, std::string_view name, const Reading& r) {
   json.end_object();
 }
 
+// [{"id", "kind", "active"}]: status's faults and watch's Faults alike.
+void write_fault_briefs(JsonWriter& json, const std::vector<FaultBrief>& faults) {
+  json.begin_array();
+  for (const FaultBrief& f : faults) {
+    json.begin_object();
+    json.member("id", f.id);
+    json.member("kind", f.kind);
+    json.member("active", f.active);
+    json.end_object();
+  }
+  json.end_array();
+}
+
 void write_status_lists(JsonWriter& json, const NodeStatus& s) {
   json.key("overrides");
   json.begin_array();
@@ -93,15 +106,7 @@ void write_status_lists(JsonWriter& json, const NodeStatus& s) {
   }
   json.end_array();
   json.key("faults");
-  json.begin_array();
-  for (const FaultBrief& f : s.faults) {
-    json.begin_object();
-    json.member("id", f.id);
-    json.member("kind", f.kind);
-    json.member("active", f.active);
-    json.end_object();
-  }
-  json.end_array();
+  write_fault_briefs(json, s.faults);
 }
 
 void write_last_emcy(JsonWriter& json, const EmcyRecord& e) {
@@ -261,9 +266,17 @@ void Printer::faults(const std::vector<FaultRow>& rows) {
   table.print(out_);
 }
 
-void Printer::value(const ObjectAddress& object, const Value& v) {
+void Printer::value(const ObjectAddress& object, const Value& v, const ObjectInfo* meaning) {
+  const bool scaled = meaning && meaning->scale != 1.0 && !std::holds_alternative<double>(v);
+  const std::string unit = meaning ? meaning->unit : "";
   if (!json_) {
-    out_ << format_value(v) << '\n';
+    std::string text = format_value(v);
+    if (scaled) {
+      text += " = " + engineering_text(v, meaning->scale) + (unit.empty() ? "" : " " + unit);
+    } else if (!unit.empty()) {
+      text += " " + unit;
+    }
+    out_ << text << '\n';
     return;
   }
   JsonWriter json(out_);
@@ -273,8 +286,48 @@ void Printer::value(const ObjectAddress& object, const Value& v) {
   json.member("type", signature(v));
   json.key("value");
   write_json(json, v);
+  json.key("unit");
+  if (unit.empty()) json.null(); else json.value(unit);
+  json.member("scale", meaning ? meaning->scale : 1.0);
   json.end_object();
   out_ << '\n';
+}
+
+void Printer::group(const std::vector<GroupResult>& results) {
+  if (!json_) {
+    Table table({"NODE", "RESULT"});
+    for (const GroupResult& r : results)
+      table.add({r.key, r.ok ? (r.fault_id ? std::to_string(*r.fault_id) : "ok") : "refused: " + r.error});
+    table.print(out_);
+    return;
+  }
+  JsonWriter json(out_);
+  json.begin_array();
+  for (const GroupResult& r : results) {
+    json.begin_object();
+    json.member("node", r.key);
+    json.member("ok", r.ok);
+    if (r.fault_id) json.member("id", *r.fault_id);
+    if (!r.ok) json.member("error", r.error);
+    json.end_object();
+  }
+  json.end_array();
+  out_ << '\n';
+}
+
+void Printer::error(std::ostream& err, bool json, const std::string& what, const std::string& name, int status) {
+  if (!json) {
+    err << "cansimctl: " << what << '\n';
+    return;
+  }
+  JsonWriter w(err);
+  w.begin_object();
+  w.member("error", what);
+  w.key("name");
+  if (name.empty()) w.null(); else w.value(name);
+  w.member("exit_status", status);
+  w.end_object();
+  err << '\n';
 }
 
 void Printer::added(const std::vector<NodeRef>& nodes) {
@@ -365,7 +418,7 @@ void Printer::event(const Event& e) {
   json.member("event", e.name);
   for (const Field& f : e.fields) {
     json.key(f.name);
-    write_json(json, f.value);
+    if (f.faults) write_fault_briefs(json, *f.faults); else write_json(json, f.value);
   }
   json.end_object();
   out_ << std::endl;

@@ -70,6 +70,7 @@ struct Request {
   std::vector<std::string> interfaces;  // kMonitor
   std::string pattern;    // kTop: GLOB
   bool once = false;      // kTop
+  bool group = false;     // node may name several nodes (glob, ID range, count: group)
 };
 
 }  // namespace cansim::ctl

@@ -538,6 +538,12 @@ std::vector<control::BusStatistics> Daemon::bus_statistics() const {
   return out;
 }
 
+bool Daemon::interface_up(const std::string& name) const {
+  for (const auto& i : interfaces_)
+    if (i->configured && i->can.name() == name) return i->can.is_open();
+  return false;
+}
+
 void Daemon::start_control() {
   control_ = std::make_unique<control::ControlService>(*this);
   core_.set_observer(control_.get());

@@ -24,6 +24,9 @@ started, SYNCs sent (generic's TPDO2 is synchronous), and for about 2 s:
                               (PdoMappingChanged) and decodes it in degC.
   cansimctl top --once        one row per node: its pressure / temperature as
                               status reports it, its NMT state, frames/s.
+  cansimctl nmt vcan0/0x10-0x11 start   a group target, one result per node; a
+                              node added on a missing interface: status says
+                              off the bus.
 
 python-canopen (decoding with the exported EDS) is not in Debian 12; the DBC
 via canmatrix is the independent decoder here.
@@ -164,6 +167,10 @@ def test(ctx: it.Context) -> None:
         ctl.run("override", "generic/0", "pressure", "3.456", "bar")
         ctl.run("override", "generic/1", "temperature", "21.35", "degC")
         ctl.run("override", "dps", "pressure", "49.664", "psi")
+        group = ctl.run("nmt", "vcan0/0x10-0x11", "start")  # a group target: one line per node
+        assert group.split() == ["NODE", "RESULT", "vcan0/generic/0", "ok", "vcan0/generic/1", "ok"], group
+        it.expect(bus, lambda m: m.arbitration_id == 0x700 + G1 and bytes(m.data) == b"\x05", 3,
+                  "generic/1's heartbeat: operational")
         it.nmt(bus, 0x01)
         for _ in range(5):
             time.sleep(0.2)
@@ -175,6 +182,12 @@ def test(ctx: it.Context) -> None:
         dump.wait(5)
         status = {n: ctl.json("status", n) for n in ("generic/0", "generic/1", "dps")}
         top = ctl.run("top", "--once")
+        # A node on an interface the kernel does not have is off the bus.
+        fragment = os.path.join(ctx.tmp, "lost.yaml")
+        with open(fragment, "w") as f:
+            f.write(f"{{profile: {ctx.source('profiles', 'dps.yaml')}, interface: vcan9, name: lost, bit_rate: 250}}\n")
+        ctl.run("add", fragment)
+        lost_status, lost_json = ctl.run("status", "lost"), ctl.json("status", "lost")
     assert monitor.stop() == 0, f"monitor: {monitor.stderr()!r}"
     assert d.stop() == 0
 
@@ -258,6 +271,7 @@ def test(ctx: it.Context) -> None:
         assert cells[2] == "operational" and pressure in rows[key], f"top: {key}: {rows[key]!r}"
         assert float(cells[-1]) > 0, f"top: {key} sends no frames? {rows[key]!r}"
     assert "21.35 degC" in rows["vcan0/generic/1"], f"top: {rows['vcan0/generic/1']!r}"
+    assert "off the bus" in lost_status and lost_json["on_bus"] is False, (lost_status, lost_json)
 
 
 it.main(test)

@@ -140,7 +140,8 @@ def install(deb: str) -> None:
     for f in ["/usr/bin/cansimd", "/usr/bin/cansimctl", "/lib/systemd/system/cansimd.service",
               "/lib/systemd/system/cansimd@.service", "/usr/lib/sysusers.d/cansimd.conf",
               "/usr/share/dbus-1/system.d/io.cansim.Cansimd1.conf", "/etc/cansimd/cansimd.yaml",
-              "/usr/share/cansimd/profiles/generic-404.yaml", "/usr/share/man/man8/cansimd.8.gz"]:
+              "/usr/share/cansimd/profiles/generic-404.yaml", "/usr/share/man/man8/cansimd.8.gz",
+              "/usr/share/bash-completion/completions/cansimctl"]:
         assert os.path.exists(f), f"{f} not installed"
     assert "/etc/cansimd/cansimd.yaml" in run("dpkg-query", "-W", "-f=${Conffiles}", "cansimd").stdout
     for u in UNITS:
