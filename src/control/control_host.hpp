@@ -13,6 +13,8 @@
 
 namespace cansim::control {
 
+struct ActionRecord;  // control/audit.hpp
+
 // One node as the control API names it.
 struct NodeHandle {
   std::string key;          // "vcan0/dps/0": stable, also the object path
@@ -56,6 +58,9 @@ class ControlHost {
   // The node's interface exists and is open (a node on a missing one is off the bus).
   virtual bool interface_up(const std::string& /*name*/) const { return true; }
   virtual std::string config_file() const = 0;
+  // One control action's journal line (control/audit.hpp): the daemon logs it
+  // with the node's CANSIM_NODE= / CANSIM_IFACE=; the default logs the text.
+  virtual void log_action(const ActionRecord& r);
 };
 
 }  // namespace cansim::control

@@ -88,6 +88,19 @@ ControlService::ControlService(ControlHost& host) : host_(host) {}
 
 ControlService::~ControlService() {
   while (!connections_.empty()) detach(connections_.back()->bus);
+  if (auto line = action_limiter_.flush()) host_.log_action(*line);
+}
+
+void ControlService::audit(sd_bus_message* m, const std::string& key, const std::string& interface, int r,
+                           const sd_bus_error* e) {
+  const char* member = sd_bus_message_get_member(m);
+  const std::optional<uid_t> uid = callers_.of(m);
+  ActionRecord record{key, interface,
+                      "control: " + (key.empty() ? std::string("fleet") : key) + ": " + (member ? member : "?") +
+                          describe_arguments(m) + " " + action_outcome(uid, r, e),
+                      uid};
+  for (const ActionRecord& line : action_limiter_.admit(std::move(record), ActionLimiter::Clock::now()))
+    host_.log_action(line);
 }
 
 int ControlService::attach(sd_bus* bus, bool peer) {

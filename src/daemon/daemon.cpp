@@ -544,6 +544,11 @@ bool Daemon::interface_up(const std::string& name) const {
   return false;
 }
 
+void Daemon::log_action(const control::ActionRecord& r) {
+  LogSubject subject = LogSubject::action(r.interface, r.node, r.uid ? std::optional<unsigned>(*r.uid) : std::nullopt);
+  spdlog::info("{}", r.text);
+}
+
 void Daemon::start_control() {
   control_ = std::make_unique<control::ControlService>(*this);
   core_.set_observer(control_.get());

@@ -91,6 +91,7 @@ class Daemon : public control::ControlHost {
   void reload() override;
   std::vector<control::BusStatistics> bus_statistics() const override;
   bool interface_up(const std::string& name) const override;
+  void log_action(const control::ActionRecord& r) override;
   std::string config_file() const override { return settings_.config_file; }
 
  private:

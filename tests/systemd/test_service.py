@@ -23,7 +23,7 @@ Checked, in order:
     owned by cansim, mode 0600 (UMask=0077).
  5. The journal: `journalctl -u UNIT CANSIM_NODE=KEY` gives that node's
     lines only (its "parameters stored" among them), CANSIM_IFACE= an
-    interface's.
+    interface's; each cansimctl action one line with CANSIM_CALLER_UID=.
  6. systemctl reload (SIGHUP) with a node added to the config: its boot-up,
     no other node restarts, same main PID.
  7. The watchdog: SIGSTOP on both main PIDs; systemd kills and restarts them
@@ -238,6 +238,13 @@ def journal_fields() -> None:
         assert any("parameters stored" in m for m in messages(mine)), messages(mine)
         assert not journal("-u", unit, f"CANSIM_NODE={other}"), f"{other} has lines although nothing happened to it"
         step(f"journalctl -u {unit} CANSIM_NODE={key}: {messages(mine)}")
+    # Every control action: one line with its node, the caller's uid and the outcome (store() did these).
+    actions = journal("-u", BENCH, "CANSIM_NODE=vcan1/b/0", "CANSIM_CALLER_UID=0")
+    assert [m for m in messages(actions) if m.startswith("control: vcan1/b/0: ")] == [
+        "control: vcan1/b/0: Write 0x1017:00 700 by uid 0: done",
+        "control: vcan1/b/0: Store 1 by uid 0: done"], messages(actions)
+    assert all(e.get("CANSIM_IFACE") == "vcan1" for e in actions), actions
+    step(f"journalctl -u {BENCH} CANSIM_NODE=vcan1/b/0 CANSIM_CALLER_UID=0: {messages(actions)}")
     vcan1 = journal("-u", MAIN, "CANSIM_IFACE=vcan1")
     assert vcan1 and all(e.get("CANSIM_IFACE") == "vcan1" for e in vcan1)
     assert any(m.startswith("vcan1: open") for m in messages(vcan1)), messages(vcan1)
