@@ -136,7 +136,11 @@ Message heartbeat_message(const DbcNode& n, const std::string& node_name) {
 
 Message emcy_message(const DbcNode& n, const std::string& node_name) {
   Message m{kEmcyBase + n.node_id, node_name + "_EMCY", 8, node_name, "EMCY of " + n.label, {}};
-  m.signals.push_back({"error_code", 0, 16, false, 0, 1.0, 0, 65535, "", kMaster, "CiA 301 Table 21", {}});
+  Signal code{"error_code", 0, 16, false, 0, 1.0, 0, 65535, "", kMaster, "CiA 301 Table 21; the values as the device's manual names them", {}};
+  code.values.emplace_back(0, "error reset / no error");
+  for (const auto& [c, meaning] : n.emcy_codes)
+    if (c != 0) code.values.emplace_back(c, meaning);
+  m.signals.push_back(std::move(code));
   m.signals.push_back({"error_register", 16, 8, false, 0, 1.0, 0, 255, "", kMaster, "0x1001", {}});
   m.signals.push_back({"vendor", 24, 40, false, 0, 1.0, 0, 1099511627775.0, "", kMaster, "manufacturer-specific", {}});
   return m;

@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -23,6 +24,7 @@ struct DbcNode {
   std::string profile;  // profile name
   std::uint8_t node_id = 1;
   std::vector<personalities::PdoView> pdos;
+  std::map<std::uint16_t, std::string> emcy_codes;  // the profile's `emcy:` (the EMCY message's value table)
 };
 
 struct DbcBus {

@@ -259,12 +259,25 @@ void parse_options(const Where& w, const YAML::Node& map, NodeOptions& out) {
     fail(w.child("lss_bit_rates"), map["lss_bit_rates"], "expected ranges like '0-4,6-8'");
 }
 
+// `emcy: {0x3201: "Over flow / under flow (Table 24)", ...}`.
+void parse_emcy_codes(const Where& w, const YAML::Node& map, std::map<std::uint16_t, std::string>& out) {
+  if (!map) return;
+  if (!map.IsMap()) fail(w, map, "expected a mapping of EMCY error codes to their meaning");
+  for (const auto& kv : map) {
+    std::int64_t code = 0;
+    const std::string key = kv.first.as<std::string>();
+    if (!parse_int_literal(key, code) || code < 0 || code > 0xFFFF)
+      fail(w, kv.first, "expected an EMCY error code 0x0000..0xFFFF, got '" + key + "'");
+    out[std::uint16_t(code)] = get_string(w.child(key), kv.second);
+  }
+}
+
 Profile parse_profile(const YAML::Node& root, const std::string& file, bool strict) {
   Where w{file, ""};
   if (!root.IsMap()) fail(w, root, "expected a profile mapping");
   check_keys(w, root,
              {"name", "description", "personality", "node_id", "bit_rate", "options", "objects", "vendor",
-              "physics", "sensor", "faults", "strict", "quirks", "strict_objects"});
+              "physics", "sensor", "faults", "strict", "quirks", "strict_objects", "emcy"});
   Profile p;
   p.file = file;
   if (root["name"]) p.name = get_string(w.child("name"), root["name"]);
@@ -286,6 +299,7 @@ Profile parse_profile(const YAML::Node& root, const std::string& file, bool stri
   if (!root["objects"]) fail(w.child("objects"), root, "missing the object dictionary ('objects:' list)");
   parse_objects(w.child("objects"), root["objects"], *p.layout);
   p.layout->finalize();
+  parse_emcy_codes(w.child("emcy"), root["emcy"], p.emcy_codes);
   parse_strict_sections(w, root, p, strict);
   parse_personality(p, root, root["vendor"]);
   return p;

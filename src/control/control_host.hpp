@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -25,6 +26,8 @@ struct NodeHandle {
   std::string interface;
   io::NodeRef ref = io::kNoNode;
   Application* app = nullptr;  // the personality's application (unwrapped), may be null
+  // The profile's `emcy:` meanings (model::Profile::emcy_codes); null: none.
+  const std::map<std::uint16_t, std::string>* emcy_codes = nullptr;
 };
 
 struct BusStatistics {

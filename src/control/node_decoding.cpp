@@ -1,7 +1,8 @@
 // io.cansim.Node1: what a node's frames mean (the decoded bus monitor,
-// cansimctl monitor): its objects with their names, types and units, and its
-// PDOs as the engine runs them now (docs/control-api.md, ListObjects,
-// GetPdoMapping, PdoMappingChanged).
+// cansimctl monitor): its objects with their names, types and units, its
+// PDOs as the engine runs them now, its EMCY codes as its manual names them
+// (docs/control-api.md, ListObjects, GetPdoMapping, ListEmcyCodes,
+// PdoMappingChanged).
 #include "control/service_internal.hpp"
 #include "personalities/pdo_view.hpp"
 
@@ -44,6 +45,17 @@ int node_list_objects(sd_bus_message* m, void* userdata, sd_bus_error*) {
       if (r >= 0) r = append_meaning(reply, &e, personalities::object_meaning(node, e));
       if (r >= 0) r = sd_bus_message_close_container(reply);
     }
+    return r < 0 ? r : sd_bus_message_close_container(reply);
+  });
+}
+
+int node_list_emcy_codes(sd_bus_message* m, void* userdata, sd_bus_error*) {
+  const NodeHandle& h = *NodeContext::of(userdata).handle;
+  return reply_with(m, [&](sd_bus_message* reply) {
+    int r = sd_bus_message_open_container(reply, 'a', "(qs)");
+    if (h.emcy_codes)
+      for (const auto& [code, meaning] : *h.emcy_codes)
+        if (r >= 0) r = sd_bus_message_append(reply, "(qs)", code, meaning.c_str());
     return r < 0 ? r : sd_bus_message_close_container(reply);
   });
 }

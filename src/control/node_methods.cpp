@@ -260,6 +260,7 @@ const sd_bus_vtable kNodeVtable[] = {
     SD_BUS_METHOD_WITH_NAMES("ListObjects", "", , "a(qyssds)", SD_BUS_PARAM(objects), node_list_objects, kCall),
     SD_BUS_METHOD_WITH_NAMES("GetPdoMapping", "", , "a(subya(qyyssds))", SD_BUS_PARAM(pdos), node_get_pdo_mapping,
                              kCall),
+    SD_BUS_METHOD_WITH_NAMES("ListEmcyCodes", "", , "a(qs)", SD_BUS_PARAM(codes), node_list_emcy_codes, kCall),
     SD_BUS_METHOD_WITH_NAMES("StartRecording", "s", SD_BUS_PARAM(path), "", , audited_node<node_start_recording>, kCall),
     SD_BUS_METHOD("StopRecording", "", "", audited_node<node_stop_recording>, kCall),
     SD_BUS_SIGNAL_WITH_NAMES("NmtStateChanged", "xss", SD_BUS_PARAM(t) SD_BUS_PARAM(old) SD_BUS_PARAM(new), 0),

@@ -65,6 +65,7 @@ int node_stop_recording(sd_bus_message* m, void* userdata, sd_bus_error* e);
 // Node1 handlers defined in node_decoding.cpp (what the node's frames mean).
 int node_list_objects(sd_bus_message* m, void* userdata, sd_bus_error* e);
 int node_get_pdo_mapping(sd_bus_message* m, void* userdata, sd_bus_error* e);
+int node_list_emcy_codes(sd_bus_message* m, void* userdata, sd_bus_error* e);
 int node_get_channel(sd_bus* bus, const char* path, const char* iface, const char* property, sd_bus_message* reply,
                      void* userdata, sd_bus_error* e);
 int node_get_overrides(sd_bus* bus, const char* path, const char* iface, const char* property, sd_bus_message* reply,

@@ -398,6 +398,18 @@ std::vector<ObjectInfo> read_object_infos(sd_bus_message* m) {
   });
 }
 
+std::map<std::uint16_t, std::string> read_emcy_codes(sd_bus_message* m) {
+  std::map<std::uint16_t, std::string> out;
+  for (auto& [code, meaning] : read_array(m, "(qs)", [](sd_bus_message* m) {
+         std::uint16_t code = 0;
+         const char* meaning = "";
+         expect_value(sd_bus_message_read(m, "(qs)", &code, &meaning));
+         return std::make_pair(code, std::string(meaning));
+       }))
+    out[code] = std::move(meaning);
+  return out;
+}
+
 std::string node_key_of_path(const std::string& path) {
   char *interface = nullptr, *name = nullptr, *index = nullptr;
   int r = sd_bus_path_decode_many(path.c_str(), (std::string(kNodePathPrefix) + "/%/%/%").c_str(), &interface, &name,

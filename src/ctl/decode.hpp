@@ -5,6 +5,7 @@
 #include <systemd/sd-bus.h>
 
 #include <cstdint>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -30,6 +31,7 @@ NodeStatus read_node_status(sd_bus_message* m);  // a{sv} of io.cansim.Node1
 std::vector<NodeStatus> read_managed_nodes(sd_bus_message* m);
 std::vector<PdoInfo> read_pdo_infos(sd_bus_message* m);      // GetPdoMapping: a(subya(qyyssds))
 std::vector<ObjectInfo> read_object_infos(sd_bus_message* m);  // ListObjects: a(qyssds)
+std::map<std::uint16_t, std::string> read_emcy_codes(sd_bus_message* m);  // ListEmcyCodes: a(qs)
 
 // "vcan0/dps/0" for a node object path, "" for any other path.
 std::string node_key_of_path(const std::string& path);

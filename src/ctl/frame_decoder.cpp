@@ -190,12 +190,12 @@ void decode_heartbeat(const RawFrame& f, DecodedFrame& out) {
   if (f.data[0] & 0x80) out.fields.push_back(number_field("toggle", 1));
 }
 
-void decode_emcy(const RawFrame& f, DecodedFrame& out) {
+void decode_emcy(const RawFrame& f, const std::string& meaning, DecodedFrame& out) {
   out.kind = "EMCY";
   if (f.dlc < 3) return raw(f, out);
   const auto code = std::uint16_t(little_endian(f.data, 2));
   out.fields.push_back(hex_field("code", code, 4));
-  out.fields.push_back(text_field("meaning", emcy_meaning(code)));
+  out.fields.push_back(text_field("meaning", meaning));
   out.fields.push_back(hex_field("register", f.data[2], 2));
   if (f.dlc > 3) out.fields.push_back(bytes_field("vendor", f.data + 3, f.dlc - 3u));
 }
@@ -318,8 +318,20 @@ NodeInfo* FrameDecoder::by_id(const std::string& interface, std::uint8_t node_id
   return nullptr;
 }
 
+void FrameDecoder::load(NodeInfo& n) {
+  if ((!n.objects || !n.emcy_codes) && loader_) loader_(n);
+}
+
+// The device's meaning of the code, else CiA 301's.
+std::string FrameDecoder::emcy_text(NodeInfo& n, std::uint16_t code) {
+  load(n);
+  if (n.emcy_codes)
+    if (auto it = n.emcy_codes->find(code); it != n.emcy_codes->end()) return it->second;
+  return emcy_meaning(code);
+}
+
 const ObjectInfo* FrameDecoder::object(NodeInfo& n, std::uint16_t index, std::uint8_t sub) {
-  if (!n.objects && loader_) loader_(n);
+  load(n);
   if (!n.objects) return nullptr;
   for (const ObjectInfo& o : *n.objects) {
     if (o.index == index && o.sub == sub) return &o;
@@ -361,7 +373,7 @@ DecodedFrame FrameDecoder::decode(const RawFrame& f) {
   } else if (node_id == 0 || !attach(by_id(f.interface, node_id))) {
     raw(f, out);
   } else if (function == kEmcyBase) {
-    decode_emcy(f, out);
+    decode_emcy(f, f.dlc >= 2 ? emcy_text(*node(out.node), std::uint16_t(little_endian(f.data, 2))) : "", out);
   } else if (function == kHeartbeatBase) {
     decode_heartbeat(f, out);
   } else if (function == kSdoTxBase || function == kSdoRxBase) {

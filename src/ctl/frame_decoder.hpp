@@ -48,6 +48,9 @@ struct NodeInfo {
   std::uint8_t node_id = 0;
   std::vector<PdoInfo> pdos;
   std::optional<std::vector<ObjectInfo>> objects;  // loaded when an SDO frame needs them
+  // What the device's manual says its EMCY codes mean (ListEmcyCodes);
+  // loaded with the objects, when an EMCY or SDO frame needs them.
+  std::optional<std::map<std::uint16_t, std::string>> emcy_codes;
 };
 
 struct RawFrame {
@@ -86,8 +89,9 @@ struct DecodedFrame {
 
 class FrameDecoder {
  public:
-  // Called when an SDO frame needs a node's objects (node.objects unset);
-  // it may fill them. Without a loader SDO values print as bytes.
+  // Called when an SDO or EMCY frame needs what the daemon says of a node
+  // beyond its PDOs (node.objects or node.emcy_codes unset); it may fill
+  // them. Without a loader SDO values print as bytes, EMCY codes by CiA.
   using ObjectLoader = std::function<void(NodeInfo& node)>;
   explicit FrameDecoder(ObjectLoader loader = {}) : loader_(std::move(loader)) {}
 
@@ -107,6 +111,8 @@ class FrameDecoder {
   };
   NodeInfo* by_id(const std::string& interface, std::uint8_t node_id);
   const ObjectInfo* object(NodeInfo& n, std::uint16_t index, std::uint8_t sub);
+  std::string emcy_text(NodeInfo& n, std::uint16_t code);
+  void load(NodeInfo& n);
   void decode_pdo(NodeInfo& n, const PdoInfo& pdo, const RawFrame& f, DecodedFrame& out);
   void decode_sdo(NodeInfo& n, bool request, const RawFrame& f, DecodedFrame& out);
   void sdo_value(NodeInfo& n, std::uint16_t index, std::uint8_t sub, const Bytes& data, DecodedFrame& out);

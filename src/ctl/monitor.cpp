@@ -183,11 +183,12 @@ void Monitor::add(const std::string& path) {
   decoder_.set_node(describe(path, s.key, node_label(s.name, s.index, shared), s.interface, s.node_id));
 }
 
+// What SDO and EMCY frames need: the node's objects and its EMCY codes.
 void Monitor::load_objects(NodeInfo& n) {
   auto it = path_by_key_.find(n.key);
   if (it == path_by_key_.end()) return;
-  MessagePtr reply = connection_.call(it->second, kNodeInterface, "ListObjects");
-  n.objects = read_object_infos(reply.get());
+  if (!n.objects) n.objects = read_object_infos(connection_.call(it->second, kNodeInterface, "ListObjects").get());
+  if (!n.emcy_codes) n.emcy_codes = read_emcy_codes(connection_.call(it->second, kNodeInterface, "ListEmcyCodes").get());
 }
 
 void Monitor::on_signal(sd_bus_message* m) {

@@ -399,6 +399,7 @@ void Daemon::apply(config::FleetConfig cfg, TimeUs now) {
     e.handle.interface = n.interface;
     e.handle.ref = e.ref;
     e.handle.app = core_.app(e.ref);
+    e.handle.emcy_codes = &e.cfg.profile->emcy_codes;
     fresh.push_back(e.ref);
     NodeEntry& stored = nodes_[n.key] = std::move(e);
     {

@@ -49,6 +49,7 @@ std::string export_dbc(const config::FleetConfig& fleet, const std::string& inte
     d.profile = n.profile->name;
     d.node_id = node.node_id();
     d.pdos = personalities::pdo_views(node);
+    d.emcy_codes = n.profile->emcy_codes;
     bus.nodes.push_back(std::move(d));
   }
   return config::write_dbc(bus);

@@ -144,6 +144,15 @@ def check_profile(cansimd: str, profile: str, canmatrix_formats, errors: list) -
     emcy_id = (eds.value(0x1014, 0) or 0x80 + NODE_ID) & 0x7FF  # 0x1014 absent: the predefined set
     if emcy_id not in frames or frames[emcy_id].size != 8:
         fail(f"no 8-byte EMCY message 0x{emcy_id:03X}")
+    else:
+        # The EMCY codes as the profile (its manual) names them, as the code signal's value table.
+        import yaml
+        with open(os.path.join("profiles", profile + ".yaml")) as f:
+            named = {int(str(k), 0) if isinstance(k, str) else k: v for k, v in (yaml.safe_load(f).get("emcy") or {}).items()}
+        table = {int(k): v for k, v in frames[emcy_id].signal_by_name("error_code").values.items()}
+        missing = {c: t for c, t in named.items() if c != 0 and table.get(c) != t}
+        if missing:
+            fail(f"EMCY value table {table} lacks the profile's {missing}")
     if 0x080 not in frames or 0x000 not in frames:
         fail("no SYNC / NMT message")
     return checked

@@ -59,6 +59,7 @@ void ControlFleet::add(const config::FleetConfig& cfg) {
     e->handle.ref = core_.add_node(bus(n.interface).id, setup, daemon::make_node_application(n, cfg.seed),
                                    std::make_unique<MemoryStorage>());
     e->handle.app = core_.app(e->handle.ref);
+    e->handle.emcy_codes = &n.profile->emcy_codes;
     fresh.push_back(e->handle.ref);
     Entry& stored = *(entries_[n.key] = std::move(e));
     service_.node_added(stored.handle);

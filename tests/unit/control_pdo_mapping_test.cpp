@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cstring>
+#include <map>
 
 #include "control/service.hpp"
 #include "support/control_fleet.hpp"
@@ -166,6 +167,24 @@ TEST_F(ControlPdoMappingTest, ListObjectsNamesTypesAndUnitsEveryEntry) {
   EXPECT_EQ(by_address[0x913001].type, "INTEGER32");
   EXPECT_DOUBLE_EQ(by_address[0x913001].scale, 0.01);
   EXPECT_EQ(by_address[0x614901].unit, "bar");  // span end: a valued object
+}
+
+TEST_F(ControlPdoMappingTest, ListEmcyCodesGivesTheManualsMeanings) {
+  auto codes = [&](const std::string& node) {
+    std::map<int, std::string> out;
+    sd_bus_message* r = bus.call(bus.node_call(path_of(node), "ListEmcyCodes"));
+    if (!r) return out;
+    std::uint16_t code = 0;
+    const char* meaning = nullptr;
+    EXPECT_GT(sd_bus_message_enter_container(r, 'a', "(qs)"), 0);
+    while (sd_bus_message_read(r, "(qs)", &code, &meaning) > 0) out[code] = meaning;
+    sd_bus_message_unref(r);
+    return out;
+  };
+  const std::map<int, std::string> dps = codes("dps");
+  EXPECT_EQ(dps.size(), 5u);
+  EXPECT_EQ(dps.at(0x3201), "Over flow / under flow (PV outside the span)");
+  EXPECT_TRUE(codes("generic").empty()) << "generic-404 names no codes of its own";
 }
 
 // A unit change (0x6131), a digits change (0x6132) and a mapping change by

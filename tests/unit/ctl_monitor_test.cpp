@@ -176,6 +176,19 @@ TEST_F(MonitorDecoderTest, EmcyNamesTheCodeAndKeepsTheVendorBytes) {
   EXPECT_EQ(emcy_meaning(0xFF42), "device specific");
 }
 
+TEST_F(MonitorDecoderTest, EmcyCodesAsTheDevicesManualNamesThem) {
+  NodeInfo n = dps();
+  n.objects = std::vector<ObjectInfo>{};
+  n.emcy_codes = std::map<std::uint16_t, std::string>{{0x3201, "Over flow / under flow (PV outside the span)"}};
+  decoder.set_node(n);
+  EXPECT_EQ(text(decode(0x0FF, {0x01, 0x32, 0x05, 0, 0, 0, 0, 0})),
+            "vcan0 0FF dps EMCY code = 0x3201, meaning = Over flow / under flow (PV outside the span), "
+            "register = 0x05, vendor = 00 00 00 00 00");
+  // A code the manual does not list: CiA 301's meaning.
+  EXPECT_NE(text(decode(0x0FF, {0x40, 0x81, 0x11, 0, 0, 0, 0, 0})).find("meaning = recovered from bus off"),
+            std::string::npos);
+}
+
 TEST_F(MonitorDecoderTest, SdoIsTypedByTheObjectDictionary) {
   EXPECT_EQ(text(decode(0x610, {0x40, 0x18, 0x10, 0x04, 0, 0, 0, 0})),
             "vcan0 610 generic/0 SDO upload request 0x1018:04 Serial number");
@@ -212,6 +225,7 @@ TEST_F(MonitorDecoderTest, ObjectsAreLoadedOnlyWhenAnSdoNeedsThem) {
   FrameDecoder lazy([&loads](NodeInfo& n) {
     ++loads;
     n.objects = std::vector<ObjectInfo>{object(0x1017, 0, "Producer heartbeat time", "UNSIGNED16")};
+    n.emcy_codes = std::map<std::uint16_t, std::string>{};
   });
   NodeInfo n = generic();
   n.objects.reset();

@@ -91,5 +91,13 @@ TEST(ObjectNamesWriter, DuplicateNamesOfAnImportedProfileBecomeDistinct) {
                                                         "AI input PV (sub 2)"));
 }
 
+TEST(ProfileEmcyCodes, TheManualsMeaningsLoadAndBadCodesNameTheLine) {
+  EXPECT_EQ(prepared_repo_profile("p92c").emcy_codes.at(0xF011), "Error pressure");
+  EXPECT_TRUE(prepared_repo_profile("generic-404").emcy_codes.empty());
+  const std::string error = repo_yaml_error("dps", [](YAML::Node& root) { root["emcy"]["0x12345"] = "too big"; });
+  EXPECT_THAT(error, ::testing::HasSubstr("emcy"));
+  EXPECT_THAT(error, ::testing::HasSubstr("expected an EMCY error code 0x0000..0xFFFF, got '0x12345'"));
+}
+
 }  // namespace
 }  // namespace cansim::test
