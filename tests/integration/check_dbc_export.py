@@ -33,16 +33,20 @@ REAL = {0x08: 32, 0x11: 64}
 PV_INDICES = {0x6130, 0x7130, 0x8130, 0x9130}
 
 
-def number(text: str) -> int:
+def number(text: str, node_id: int = NODE_ID) -> int:
     text = text.strip()
     if "$NODEID" in text.upper():
         rest = text.upper().replace("$NODEID", "").replace("+", " ").split()
-        return NODE_ID + sum(int(t, 0) for t in rest)
+        return node_id + sum(int(t, 0) for t in rest)
     return int(text, 0)
 
 
 class Eds:
-    def __init__(self, text: str):
+    """A CiA 306 EDS or DCF read with configparser; values of a DCF are its
+    ParameterValue (what the node holds), $NODEID terms resolved for node_id."""
+
+    def __init__(self, text: str, node_id: int = NODE_ID):
+        self.node_id = node_id
         self.ini = configparser.ConfigParser(strict=False, interpolation=None)
         self.ini.optionxform = str
         self.ini.read_string(text)
@@ -57,7 +61,7 @@ class Eds:
         s = self.section(index, sub)
         if s is None:
             return None
-        return number(s.get("ParameterValue", s.get("DefaultValue", "0")))
+        return number(s.get("ParameterValue", s.get("DefaultValue", "0")), self.node_id)
 
     def data_type(self, index: int, sub: int) -> int:
         return int(self.section(index, sub)["DataType"], 0)

@@ -28,8 +28,10 @@ started, SYNCs sent (generic's TPDO2 is synchronous), and for about 2 s:
                               node added on a missing interface: status says
                               off the bus.
 
-python-canopen (decoding with the exported EDS) is not in Debian 12; the DBC
-via canmatrix is the independent decoder here.
+  cansimctl dcf NODE          each node's DCF (current mapping), read with
+                              configparser, decodes the same candump (what
+                              python-canopen would do with the exported EDS;
+                              python3-canopen is not in Debian 12).
 """
 
 # ctest-timeout: 180
@@ -45,6 +47,7 @@ import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "lib"))
 import cansim_it as it  # noqa: E402
+from check_dbc_export import REAL, SIGNED, Eds, expected_pdos  # noqa: E402  the EDS reading of dbc_export
 
 G0, G1, DPS = 0x10, 0x11, 0x7F
 JSON_KEYS = {"t", "id", "node", "kind", "fields"}
@@ -131,6 +134,33 @@ def candump_frames(path: str):
     return out
 
 
+def eds_decode(frames, dcf_text: str, node_id: int) -> dict:
+    """The last value of each object mapped into a TPDO of the node, decoded
+    from the frames with nothing but the node's DCF (cansimctl dcf): COB-IDs,
+    mappings and data types from its ParameterValues, integer process values
+    scaled by 0x6132. (index, sub) -> value."""
+    eds = Eds(dcf_text, node_id)
+    out = {}
+    for transmit, _, can_id, bits, entries in expected_pdos(eds):
+        if not transmit:
+            continue
+        for _, fid, data in frames:
+            if fid != can_id or len(data) * 8 < bits:
+                continue
+            raw = int.from_bytes(data, "little")
+            for index, sub, start, length, dtype in entries:
+                v = (raw >> start) & ((1 << length) - 1)
+                if dtype in REAL:
+                    v = struct.unpack("<f" if length == 32 else "<d", v.to_bytes(length // 8, "little"))[0]
+                else:
+                    if dtype in SIGNED and v >> (length - 1):
+                        v -= 1 << length
+                    if index in (0x6130, 0x7130, 0x8130, 0x9130):
+                        v = v / 10 ** (eds.value(0x6132, sub) or 0)
+                out[(index, sub)] = v
+    return out
+
+
 def close(a: float, b: float, step: float) -> bool:
     return abs(a - b) <= step * 1.0001
 
@@ -162,6 +192,8 @@ def test(ctx: it.Context) -> None:
         it.expect(bus, it.is_bootup(DPS), 10, "boot-up of the DPS")
         it.wait_for_path(sock, 5)
         monitor = Background(ctl.argv + ["--json", "monitor"], os.path.join(ctx.tmp, "monitor.err"))
+        only_dps = Background(ctl.argv + ["--json", "monitor", "vcan0", "--node", "dps"],
+                              os.path.join(ctx.tmp, "monitor-dps.err"))
         dump = subprocess.Popen(["candump", "-L", "vcan0"], stdout=open(dump_path, "w"), stderr=subprocess.DEVNULL)
         monitor.wait_lines(1, 5)  # subscribed and listening: it printed a heartbeat
         ctl.run("override", "generic/0", "pressure", "3.456", "bar")
@@ -181,6 +213,7 @@ def test(ctx: it.Context) -> None:
         dump.terminate()
         dump.wait(5)
         status = {n: ctl.json("status", n) for n in ("generic/0", "generic/1", "dps")}
+        dcfs = {n: ctl.run("dcf", n) for n in ("generic/0", "generic/1", "dps")}
         top = ctl.run("top", "--once")
         # A node on an interface the kernel does not have is off the bus.
         fragment = os.path.join(ctx.tmp, "lost.yaml")
@@ -189,6 +222,10 @@ def test(ctx: it.Context) -> None:
         ctl.run("add", fragment)
         lost_status, lost_json = ctl.run("status", "lost"), ctl.json("status", "lost")
     assert monitor.stop() == 0, f"monitor: {monitor.stderr()!r}"
+    assert only_dps.stop() == 0, f"monitor --node dps: {only_dps.stderr()!r}"
+    dps_lines = [json.loads(line) for line in only_dps.lines]
+    assert dps_lines and {e["node"] for e in dps_lines} == {"vcan0/dps/0"}, \
+        f"monitor --node dps: {len(dps_lines)} lines, nodes {sorted({str(e['node']) for e in dps_lines})}"
     assert d.stop() == 0
 
     reported = {
@@ -222,6 +259,23 @@ def test(ctx: it.Context) -> None:
             f"DBC: {message}.{signal} = {values[-1]}, status reports {reported[what]} (step {step})"
     it.log(f"DBC via canmatrix: {len(frames)} frames; " +
            ", ".join(f"{m}.{s}={decoded[(m, s)][-1]}" for m, s, _, _ in checks))
+
+    # ---- decoded with nothing but each node's DCF (python-canopen's way, which Debian 12 lacks)
+    after_remap = [f for f in frames if f[0] >= frames[-1][0] - 0.3]  # generic/1's TPDO1 maps 0x6130:02 by now
+    by_eds = {
+        "generic/0": eds_decode(frames, dcfs["generic/0"], G0),
+        "generic/1": eds_decode(after_remap, dcfs["generic/1"], G1),
+        "dps": eds_decode(frames, dcfs["dps"], DPS),
+    }
+    for node, index, sub, what, step in [
+            ("generic/0", 0x6130, 1, ("vcan0/generic/0", "pressure"), 1e-6),
+            ("generic/0", 0x7130, 1, ("vcan0/generic/0", "pressure"), 0.01),
+            ("generic/1", 0x6130, 2, ("vcan0/generic/1", "temperature"), 1e-5),
+            ("dps", 0x6130, 1, ("vcan0/dps/0", "pressure"), 0.001)]:
+        v = by_eds[node].get((index, sub))
+        assert v is not None and close(v, reported[what], step), \
+            f"DCF decoding: {node} 0x{index:04X}:{sub} = {v}, status reports {reported[what]}"
+    it.log(f"decoded with each node's DCF: {by_eds}")
 
     # ---- the monitor's JSON lines
     lines = [json.loads(line) for line in monitor.lines]
