@@ -83,28 +83,20 @@ void write_reading(JsonWriter& json, std::string_view name, const Reading& r) {
 
 // [{"id", "kind", "active"}]: status's faults and watch's Faults alike.
 void write_fault_briefs(JsonWriter& json, const std::vector<FaultBrief>& faults) {
-  json.begin_array();
-  for (const FaultBrief& f : faults) {
-    json.begin_object();
+  write_objects(json, faults, [](JsonWriter& json, const FaultBrief& f) {
     json.member("id", f.id);
     json.member("kind", f.kind);
     json.member("active", f.active);
-    json.end_object();
-  }
-  json.end_array();
+  });
 }
 
 void write_status_lists(JsonWriter& json, const NodeStatus& s) {
   json.key("overrides");
-  json.begin_array();
-  for (const OverrideRow& o : s.overrides) {
-    json.begin_object();
+  write_objects(json, s.overrides, [](JsonWriter& json, const OverrideRow& o) {
     json.member("channel", o.channel);
     json.member("value", o.value);
     json.member("unit", o.unit);
-    json.end_object();
-  }
-  json.end_array();
+  });
   json.key("faults");
   write_fault_briefs(json, s.faults);
 }
@@ -151,10 +143,7 @@ std::string format_event(const Event& e) {
 
 void Printer::nodes(const std::vector<NodeRow>& rows) {
   if (json_) {
-    JsonWriter json(out_);
-    json.begin_array();
-    for (const NodeRow& r : rows) {
-      json.begin_object();
+    return print_objects(out_, rows, [](JsonWriter& json, const NodeRow& r) {
       json.member("path", r.path);
       json.member("key", r.key);
       json.member("name", r.name);
@@ -163,11 +152,7 @@ void Printer::nodes(const std::vector<NodeRow>& rows) {
       json.member("profile", r.profile);
       json.member("personality", r.personality);
       json.member("nmt_state", r.nmt_state);
-      json.end_object();
-    }
-    json.end_array();
-    out_ << '\n';
-    return;
+    });
   }
   Table table({"KEY", "NAME", "INTERFACE", "ID", "PROFILE", "PERSONALITY", "NMT"});
   for (const NodeRow& r : rows)
@@ -239,10 +224,7 @@ void Printer::fault_id(std::uint32_t id) {
 
 void Printer::faults(const std::vector<FaultRow>& rows) {
   if (json_) {
-    JsonWriter json(out_);
-    json.begin_array();
-    for (const FaultRow& f : rows) {
-      json.begin_object();
+    return print_objects(out_, rows, [](JsonWriter& json, const FaultRow& f) {
       json.member("id", f.id);
       json.member("kind", f.kind);
       json.member("channel", f.channel);
@@ -251,11 +233,7 @@ void Printer::faults(const std::vector<FaultRow>& rows) {
       json.member("duration_us", f.duration_us);
       json.member("period_us", f.period_us);
       json.member("count", f.count);
-      json.end_object();
-    }
-    json.end_array();
-    out_ << '\n';
-    return;
+    });
   }
   Table table({"ID", "KIND", "CHANNEL", "ACTIVE", "START", "DURATION", "PERIOD", "COUNT"});
   for (const FaultRow& f : rows) {
@@ -301,18 +279,12 @@ void Printer::group(const std::vector<GroupResult>& results) {
     table.print(out_);
     return;
   }
-  JsonWriter json(out_);
-  json.begin_array();
-  for (const GroupResult& r : results) {
-    json.begin_object();
+  print_objects(out_, results, [](JsonWriter& json, const GroupResult& r) {
     json.member("node", r.key);
     json.member("ok", r.ok);
     if (r.fault_id) json.member("id", *r.fault_id);
     if (!r.ok) json.member("error", r.error);
-    json.end_object();
-  }
-  json.end_array();
-  out_ << '\n';
+  });
 }
 
 void Printer::error(std::ostream& err, bool json, const std::string& what, const std::string& name, int status) {
@@ -335,16 +307,10 @@ void Printer::added(const std::vector<NodeRef>& nodes) {
     for (const NodeRef& n : nodes) out_ << n.key << '\n';
     return;
   }
-  JsonWriter json(out_);
-  json.begin_array();
-  for (const NodeRef& n : nodes) {
-    json.begin_object();
+  print_objects(out_, nodes, [](JsonWriter& json, const NodeRef& n) {
     json.member("path", n.path);
     json.member("key", n.key);
-    json.end_object();
-  }
-  json.end_array();
-  out_ << '\n';
+  });
 }
 
 void Printer::document(std::string_view name, const std::string& text) {
@@ -374,10 +340,7 @@ void Printer::time(std::int64_t us) {
 
 void Printer::stats(const std::vector<BusStats>& rows) {
   if (json_) {
-    JsonWriter json(out_);
-    json.begin_array();
-    for (const BusStats& b : rows) {
-      json.begin_object();
+    return print_objects(out_, rows, [](JsonWriter& json, const BusStats& b) {
       json.member("interface", b.name);
       json.member("up", b.up);
       json.member("bit_rate_kbit", b.bit_rate_kbit);
@@ -387,11 +350,7 @@ void Printer::stats(const std::vector<BusStats>& rows) {
       json.member("frames_offline", b.frames_offline);
       json.member("offered_load", b.offered_load);
       json.member("measured_load", b.measured_load);
-      json.end_object();
-    }
-    json.end_array();
-    out_ << '\n';
-    return;
+    });
   }
   Table table({"INTERFACE", "UP", "KBIT/S", "IN", "OUT", "DROPPED", "OFFLINE", "OFFERED", "MEASURED"});
   for (const BusStats& b : rows) {

@@ -72,10 +72,7 @@ std::string fps_text(double fps) {
 }
 
 void write_rows_json(std::ostream& out, const std::vector<TopRow>& rows) {
-  JsonWriter json(out);
-  json.begin_array();
-  for (const TopRow& r : rows) {
-    json.begin_object();
+  print_objects(out, rows, [](JsonWriter& json, const TopRow& r) {
     json.member("key", r.key);
     json.member("node_id", r.node_id);
     json.member("nmt_state", r.state);
@@ -86,10 +83,7 @@ void write_rows_json(std::ostream& out, const std::vector<TopRow>& rows) {
     json.member("emcy_count", r.emcy);
     json.key("frames_per_second");
     if (r.fps < 0) json.null(); else json.value(std::round(r.fps * 10) / 10);
-    json.end_object();
-  }
-  json.end_array();
-  out << '\n';
+  });
 }
 
 // The terminal in raw mode and on its alternate screen while top runs.

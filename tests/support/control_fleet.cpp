@@ -211,6 +211,17 @@ sd_bus_message* BusPair::node_call(const std::string& path, const char* member) 
   return m;
 }
 
+std::string BusPair::node_path(const std::string& node) {
+  sd_bus_message* m = fleet_call("GetNode");
+  sd_bus_message_append(m, "s", node.c_str());
+  sd_bus_message* r = call(m);
+  const char* p = "";
+  if (r) sd_bus_message_read(r, "o", &p);
+  std::string out = p;
+  if (r) sd_bus_message_unref(r);
+  return out;
+}
+
 std::vector<std::pair<std::string, sd_bus_message*>> BusPair::take_signals() {
   std::vector<std::pair<std::string, sd_bus_message*>> out;
   out.swap(signals_);

@@ -38,16 +38,7 @@ class ControlAuditTest : public ::testing::Test {
 
   void SetUp() override { fleet.run_until(5000); }
 
-  std::string path_of(const std::string& node) {
-    sd_bus_message* m = bus.fleet_call("GetNode");
-    sd_bus_message_append(m, "s", node.c_str());
-    sd_bus_message* r = bus.call(m);
-    const char* p = "";
-    if (r) sd_bus_message_read(r, "o", &p);
-    std::string out = p;
-    if (r) sd_bus_message_unref(r);
-    return out;
-  }
+  std::string path_of(const std::string& node) { return bus.node_path(node); }
   template <typename... Args>
   void node_call(const std::string& node, const char* member, const char* sig, Args... args) {
     sd_bus_message* m = bus.node_call(path_of(node), member);

@@ -48,16 +48,7 @@ class ControlPdoMappingTest : public ::testing::Test {
     fleet.take("vcan0");
   }
 
-  std::string path_of(const std::string& node) {
-    sd_bus_message* m = bus.fleet_call("GetNode");
-    sd_bus_message_append(m, "s", node.c_str());
-    sd_bus_message* r = bus.call(m);
-    const char* p = "";
-    if (r) sd_bus_message_read(r, "o", &p);
-    std::string out = p;
-    if (r) sd_bus_message_unref(r);
-    return out;
-  }
+  std::string path_of(const std::string& node) { return bus.node_path(node); }
 
   static Entry read_entry(sd_bus_message* r) {
     Entry e{};
