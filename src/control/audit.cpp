@@ -102,20 +102,16 @@ std::string describe_value(sd_bus_message* m) {
 
 }  // namespace
 
-std::vector<ActionRecord> ActionLimiter::admit(ActionRecord r, Clock::time_point now) {
-  std::vector<ActionRecord> out;
+ActionLimiter::Admission ActionLimiter::admit(Clock::time_point now) {
+  Admission a;
   if (now - window_start_ >= window_) {
-    if (auto line = suppressed_line()) out.push_back(std::move(*line));
+    a.suppressed = suppressed_line();
     window_start_ = now;
     in_window_ = 0;
   }
-  if (in_window_ < burst_) {
-    ++in_window_;
-    out.push_back(std::move(r));
-  } else {
-    ++suppressed_;
-  }
-  return out;
+  a.log = in_window_ < burst_;
+  if (a.log) ++in_window_; else ++suppressed_;
+  return a;
 }
 
 std::optional<ActionRecord> ActionLimiter::suppressed_line() {

@@ -23,7 +23,6 @@
 #include <optional>
 #include <string>
 #include <unordered_map>
-#include <vector>
 
 namespace cansim::control {
 
@@ -40,10 +39,13 @@ class ActionLimiter {
   explicit ActionLimiter(std::size_t burst = 50, Clock::duration window = std::chrono::seconds(5))
       : burst_(burst), window_(window) {}
 
-  // What to log now for `r` at `now`: nothing (suppressed), the record, or
-  // a line with the count suppressed in the last window and then the record.
-  std::vector<ActionRecord> admit(ActionRecord r, Clock::time_point now);
-  // The count still owed, at the end ("" when none).
+  struct Admission {
+    bool log = false;  // the line may be logged (false: it is counted)
+    std::optional<ActionRecord> suppressed{};  // first: the count of the window that ended
+  };
+  // Asked before a line is built, so a flood costs a count, not a line.
+  Admission admit(Clock::time_point now);
+  // The count still owed, at the end.
   std::optional<ActionRecord> flush();
 
  private:

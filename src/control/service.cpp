@@ -93,14 +93,15 @@ ControlService::~ControlService() {
 
 void ControlService::audit(sd_bus_message* m, const std::string& key, const std::string& interface, int r,
                            const sd_bus_error* e) {
+  const ActionLimiter::Admission admission = action_limiter_.admit(ActionLimiter::Clock::now());
+  if (admission.suppressed) host_.log_action(*admission.suppressed);
+  if (!admission.log) return;
   const char* member = sd_bus_message_get_member(m);
   const std::optional<uid_t> uid = callers_.of(m);
-  ActionRecord record{key, interface,
-                      "control: " + (key.empty() ? std::string("fleet") : key) + ": " + (member ? member : "?") +
-                          describe_arguments(m) + " " + action_outcome(uid, r, e),
-                      uid};
-  for (const ActionRecord& line : action_limiter_.admit(std::move(record), ActionLimiter::Clock::now()))
-    host_.log_action(line);
+  host_.log_action({key, interface,
+                    "control: " + (key.empty() ? std::string("fleet") : key) + ": " + (member ? member : "?") +
+                        describe_arguments(m) + " " + action_outcome(uid, r, e),
+                    uid});
 }
 
 int ControlService::attach(sd_bus* bus, bool peer) {
