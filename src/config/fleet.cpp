@@ -459,4 +459,15 @@ void apply_record_option(FleetConfig& fleet, const std::string& path, bool singl
   }
 }
 
+bool is_fleet_file(const std::string& path) {
+  const std::string ext = std::filesystem::path(path).extension().string();
+  if (ext != ".yaml" && ext != ".yml") return false;
+  try {
+    const YAML::Node root = load_yaml_file(path);
+    return root.IsMap() && root["nodes"];
+  } catch (const std::exception&) {
+    return false;
+  }
+}
+
 }  // namespace cansim::config

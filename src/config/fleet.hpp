@@ -79,6 +79,10 @@ void merge_fleet(FleetConfig& into, const FleetConfig& extra);
 FleetConfig single_node_fleet(const std::string& profile_ref, const std::string& interface,
                               std::optional<int> node_id, const ProfileSearch& search);
 
+// A fleet configuration (a YAML mapping with `nodes:`) rather than a profile
+// or an EDS; false for what cannot be read (the profile loader says why).
+bool is_fleet_file(const std::string& path);
+
 // `cansimd --record PATH`: a single node records to PATH; in a fleet, PATH is a
 // folder and every node without its own `record:` records to
 // PATH/<interface>-<name>-<index>.csv.

@@ -88,6 +88,20 @@ ControlService::ControlService(ControlHost& host) : host_(host) {}
 
 ControlService::~ControlService() {
   while (!connections_.empty()) detach(connections_.back()->bus);
+  if (auto line = action_limiter_.flush()) host_.log_action(*line);
+}
+
+void ControlService::audit(sd_bus_message* m, const std::string& key, const std::string& interface, int r,
+                           const sd_bus_error* e) {
+  const ActionLimiter::Admission admission = action_limiter_.admit(ActionLimiter::Clock::now());
+  if (admission.suppressed) host_.log_action(*admission.suppressed);
+  if (!admission.log) return;
+  const char* member = sd_bus_message_get_member(m);
+  const std::optional<uid_t> uid = callers_.of(m);
+  host_.log_action({key, interface,
+                    "control: " + (key.empty() ? std::string("fleet") : key) + ": " + (member ? member : "?") +
+                        describe_arguments(m) + " " + action_outcome(uid, r, e),
+                    uid});
 }
 
 int ControlService::attach(sd_bus* bus, bool peer) {
@@ -233,6 +247,14 @@ void ControlService::on_power(io::NodeRef ref, bool, TimeUs) {
   NodeContext* n = context(ref);
   if (!n || !has_subscribers()) return;
   emit_properties_changed(n->path, kNodeInterface, {"Powered"});
+}
+
+void ControlService::on_pdo_config(io::NodeRef ref, TimeUs t) {
+  NodeContext* n = context(ref);
+  if (!n || !has_subscribers()) return;
+  emit(n->path, kNodeInterface, "PdoMappingChanged", [&](sd_bus_message* m) {
+    return sd_bus_message_append(m, "x", std::int64_t(t));
+  });
 }
 
 void ControlService::fault_edge(NodeContext& n, std::uint32_t id, std::uint8_t kind, bool started, TimeUs t) {

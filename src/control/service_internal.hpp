@@ -8,6 +8,7 @@
 #include <string>
 
 #include "control/names.hpp"
+#include "control/node_names.hpp"
 #include "control/service.hpp"
 #include "core/node.hpp"
 #include "personalities/cia404.hpp"
@@ -61,6 +62,10 @@ int node_cancel_fault(sd_bus_message* m, void* userdata, sd_bus_error* e);
 int node_list_faults(sd_bus_message* m, void* userdata, sd_bus_error* e);
 int node_start_recording(sd_bus_message* m, void* userdata, sd_bus_error* e);
 int node_stop_recording(sd_bus_message* m, void* userdata, sd_bus_error* e);
+// Node1 handlers defined in node_decoding.cpp (what the node's frames mean).
+int node_list_objects(sd_bus_message* m, void* userdata, sd_bus_error* e);
+int node_get_pdo_mapping(sd_bus_message* m, void* userdata, sd_bus_error* e);
+int node_list_emcy_codes(sd_bus_message* m, void* userdata, sd_bus_error* e);
 int node_get_channel(sd_bus* bus, const char* path, const char* iface, const char* property, sd_bus_message* reply,
                      void* userdata, sd_bus_error* e);
 int node_get_overrides(sd_bus* bus, const char* path, const char* iface, const char* property, sd_bus_message* reply,
@@ -69,6 +74,33 @@ int node_get_faults(sd_bus* bus, const char* path, const char* iface, const char
                     void* userdata, sd_bus_error* e);
 int node_get_recording(sd_bus* bus, const char* path, const char* iface, const char* property, sd_bus_message* reply,
                        void* userdata, sd_bus_error* e);
+
+// A node's acting method, logged with its outcome (audit.hpp).
+template <sd_bus_message_handler_t handler>
+int audited_node(sd_bus_message* m, void* userdata, sd_bus_error* e) {
+  const ControlService::NodeContext& n = ControlService::NodeContext::of(userdata);
+  ControlService* service = n.service;
+  const std::string key = n.handle->key, interface = n.handle->interface;
+  const int r = handler(m, userdata, e);
+  service->audit(m, key, interface, r, e);
+  return r;
+}
+
+// A fleet's acting method; RemoveNode's line names the node it removes.
+template <sd_bus_message_handler_t handler>
+int audited_fleet(sd_bus_message* m, void* userdata, sd_bus_error* e) {
+  auto* service = static_cast<ControlService*>(userdata);
+  std::string key, interface;
+  if (sd_bus_message_is_method_call(m, kFleetInterface, "RemoveNode")) {
+    const char* spec = nullptr;
+    if (sd_bus_message_read(m, "s", &spec) > 0)
+      if (const NodeHandle* h = resolve_node(service->host(), spec, nullptr)) key = h->key, interface = h->interface;
+    sd_bus_message_rewind(m, 1);
+  }
+  const int r = handler(m, userdata, e);
+  service->audit(m, key, interface, r, e);
+  return r;
+}
 
 // Answers `m` with what `fill` appends (returns sd-bus's result, negative on error).
 template <typename Fill>

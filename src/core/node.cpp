@@ -107,6 +107,7 @@ bool Node::allowed(Service s) const {
 bool Node::send(const CanFrame& frame) {
   if (!on_bus()) return false;
   sink_.send(frame);
+  ++frames_sent_;
   return true;
 }
 

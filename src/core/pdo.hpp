@@ -142,6 +142,7 @@ class PdoEngine : private NodeService {
   // (valid when the configuration is). The application is told of every
   // change by Application::on_pdo_config().
   std::span<const Tpdo> tpdos() const { return tpdos_; }
+  std::span<const Rpdo> rpdos() const { return rpdos_; }
   // The PDO exists: COB-ID bit 31 clear (or the vendor ignores the bit).
   bool valid(const PdoConfig& cfg) const;
 

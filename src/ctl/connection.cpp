@@ -155,7 +155,7 @@ MessagePtr Connection::call(const std::string& path, const std::string& interfac
   int r = sd_bus_call(bus_, m, timeout_us_, &e.error, &reply);
   if (r >= 0) return MessagePtr(reply);
   if (is_missing_service(e.error)) throw Failure("cansimd is not running on " + where_ + " (no " + kBusName + ")");
-  if (sd_bus_error_is_set(&e.error)) throw Failure(e.error.message ? e.error.message : e.error.name);
+  if (sd_bus_error_is_set(&e.error)) throw Failure(e.error.message ? e.error.message : e.error.name, e.error.name);
   throw Failure("no answer on " + where_ + ": " + std::strerror(-r));
 }
 

@@ -20,6 +20,7 @@ std::string usage_text() {
   return "usage: cansimd --profile FILE|NAME [--interface IF] [--node-id N] [options]\n"
          "       cansimd --config FILE [options]\n"
          "       cansimd --export-eds FILE|NAME [--node-id N] [--strict] [--strict-eds] [--output FILE]\n"
+         "       cansimd --export-dbc CONFIG|PROFILE [--interface IF] [--node-id N] [--strict] [--strict-eds] [--output FILE]\n"
          "\n"
          "Simulates CANopen (CiA 301/305/404) sensor nodes on SocketCAN interfaces.\n"
          "\n"
@@ -29,7 +30,10 @@ std::string usage_text() {
          "  --config FILE        run the fleet described in FILE\n"
          "  --export-eds FILE|NAME  write the profile's CiA 306 EDS (with --node-id: the DCF of\n"
          "                       that node at power-on) to --output FILE or stdout, and exit\n"
-         "  --output FILE        where --export-eds writes\n"
+         "  --export-dbc CONFIG|PROFILE  write a DBC of one bus of the fleet (a profile: of one node;\n"
+         "                       --interface: which bus, needed when the fleet has several;\n"
+         "                       --node-id: the profile's node) to --output FILE or stdout, and exit\n"
+         "  --output FILE        where --export-eds / --export-dbc write\n"
          "  --check              validate the configuration and exit (0 valid, 1 invalid)\n"
          "  --strict             every node in strict mode: each vendor deviation at its CiA value\n"
          "                       (options a fleet entry sets still win; with --export-eds: the\n"
@@ -99,6 +103,9 @@ CliResult parse_cli(const std::vector<std::string>& args, const char* state_dire
     } else if (arg == "--export-eds") {
       if (!need_value()) return r;
       o.export_eds = value;
+    } else if (arg == "--export-dbc") {
+      if (!need_value()) return r;
+      o.export_dbc = value;
     } else if (arg == "--output") {
       if (!need_value()) return r;
       o.output = value;
@@ -164,8 +171,15 @@ CliResult parse_cli(const std::vector<std::string>& args, const char* state_dire
     }
   }
   if (o.help || o.version) return r;
-  if (!o.output.empty() && o.export_eds.empty()) {
-    r.error = "--output goes with --export-eds";
+  o.interface_given = have_interface;
+  if (!o.output.empty() && o.export_eds.empty() && o.export_dbc.empty()) {
+    r.error = "--output goes with --export-eds or --export-dbc";
+    return r;
+  }
+  if (!o.export_dbc.empty()) {
+    if (!o.profile.empty() || !o.config.empty() || !o.export_eds.empty() || o.check)
+      r.error = "--export-dbc takes a fleet configuration or a profile of its own (no --profile, --config, "
+                "--export-eds or --check)";
     return r;
   }
   if (!o.export_eds.empty()) {

@@ -11,11 +11,13 @@ namespace cansim::daemon {
 
 struct CliOptions {
   std::string profile;                 // --profile FILE|NAME: one node
-  std::string interface = "vcan0";     // --interface IF (with --profile)
+  std::string interface = "vcan0";     // --interface IF (with --profile; --export-dbc: the bus)
+  bool interface_given = false;
   std::optional<int> node_id;          // --node-id N (with --profile)
   std::string config;                  // --config FILE: a fleet
   std::string export_eds;              // --export-eds FILE|NAME: write the profile's EDS and exit
-  std::string output;                  // --output FILE (with --export-eds; default stdout)
+  std::string export_dbc;              // --export-dbc CONFIG|PROFILE: write a bus's DBC and exit
+  std::string output;                  // --output FILE (with --export-eds / --export-dbc; default stdout)
   bool check = false;                  // --check: validate and exit
   bool strict = false;                 // --strict: every node CiA-strict (entry options still win)
   bool strict_eds = false;             // --strict-eds: what the EDS reader would repair is an error

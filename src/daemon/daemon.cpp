@@ -409,6 +409,7 @@ void Daemon::apply(config::FleetConfig cfg, TimeUs now) {
     e.handle.interface = n.interface;
     e.handle.ref = e.ref;
     e.handle.app = core_.app(e.ref);
+    e.handle.emcy_codes = &e.cfg.profile->emcy_codes;
     fresh.push_back(e.ref);
     NodeEntry& stored = nodes_[n.key] = std::move(e);
     {
@@ -548,6 +549,17 @@ std::vector<control::BusStatistics> Daemon::bus_statistics() const {
     out.push_back(b);
   }
   return out;
+}
+
+bool Daemon::interface_up(const std::string& name) const {
+  for (const auto& i : interfaces_)
+    if (i->configured && i->can.name() == name) return i->can.is_open();
+  return false;
+}
+
+void Daemon::log_action(const control::ActionRecord& r) {
+  LogSubject subject = LogSubject::action(r.interface, r.node, r.uid ? std::optional<unsigned>(*r.uid) : std::nullopt);
+  spdlog::info("{}", r.text);
 }
 
 void Daemon::start_control() {

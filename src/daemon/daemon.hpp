@@ -95,6 +95,8 @@ class Daemon : public control::ControlHost {
   void remove_node(const std::string& key) override;
   void reload() override;
   std::vector<control::BusStatistics> bus_statistics() const override;
+  bool interface_up(const std::string& name) const override;
+  void log_action(const control::ActionRecord& r) override;
   std::string config_file() const override { return settings_.config_file; }
 
  private:

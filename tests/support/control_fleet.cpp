@@ -59,6 +59,7 @@ void ControlFleet::add(const config::FleetConfig& cfg) {
     e->handle.ref = core_.add_node(bus(n.interface).id, setup, daemon::make_node_application(n, cfg.seed),
                                    std::make_unique<MemoryStorage>());
     e->handle.app = core_.app(e->handle.ref);
+    e->handle.emcy_codes = &n.profile->emcy_codes;
     fresh.push_back(e->handle.ref);
     Entry& stored = *(entries_[n.key] = std::move(e));
     service_.node_added(stored.handle);
@@ -208,6 +209,17 @@ sd_bus_message* BusPair::node_call(const std::string& path, const char* member) 
   sd_bus_message* m = nullptr;
   sd_bus_message_new_method_call(client_, &m, nullptr, path.c_str(), control::kNodeInterface, member);
   return m;
+}
+
+std::string BusPair::node_path(const std::string& node) {
+  sd_bus_message* m = fleet_call("GetNode");
+  sd_bus_message_append(m, "s", node.c_str());
+  sd_bus_message* r = call(m);
+  const char* p = "";
+  if (r) sd_bus_message_read(r, "o", &p);
+  std::string out = p;
+  if (r) sd_bus_message_unref(r);
+  return out;
 }
 
 std::vector<std::pair<std::string, sd_bus_message*>> BusPair::take_signals() {

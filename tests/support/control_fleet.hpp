@@ -88,6 +88,8 @@ class BusPair {
   // A new method call to the fleet object / a node object.
   sd_bus_message* fleet_call(const char* member);
   sd_bus_message* node_call(const std::string& path, const char* member);
+  // The object path of a node (Fleet1.GetNode), "" when there is none.
+  std::string node_path(const std::string& node);
   // Steps both ends until nothing is left to do.
   void pump();
   // Signals received since the last take: (member, message) — caller unrefs messages.

@@ -23,7 +23,7 @@ Checked, in order:
     owned by cansim, mode 0600 (UMask=0077).
  5. The journal: `journalctl -u UNIT CANSIM_NODE=KEY` gives that node's
     lines only (its "parameters stored" among them), CANSIM_IFACE= an
-    interface's.
+    interface's; each cansimctl action one line with CANSIM_CALLER_UID=.
  6. systemctl reload (SIGHUP) with a node added to the config: its boot-up,
     no other node restarts, same main PID.
  7. The watchdog: SIGSTOP on both main PIDs; systemd kills and restarts them
@@ -140,7 +140,8 @@ def install(deb: str) -> None:
     for f in ["/usr/bin/cansimd", "/usr/bin/cansimctl", "/lib/systemd/system/cansimd.service",
               "/lib/systemd/system/cansimd@.service", "/usr/lib/sysusers.d/cansimd.conf",
               "/usr/share/dbus-1/system.d/io.cansim.Cansimd1.conf", "/etc/cansimd/cansimd.yaml",
-              "/usr/share/cansimd/profiles/generic-404.yaml", "/usr/share/man/man8/cansimd.8.gz"]:
+              "/usr/share/cansimd/profiles/generic-404.yaml", "/usr/share/man/man8/cansimd.8.gz",
+              "/usr/share/bash-completion/completions/cansimctl"]:
         assert os.path.exists(f), f"{f} not installed"
     assert "/etc/cansimd/cansimd.yaml" in run("dpkg-query", "-W", "-f=${Conffiles}", "cansimd").stdout
     for u in UNITS:
@@ -258,6 +259,13 @@ def journal_fields() -> None:
         assert any("parameters stored" in m for m in messages(mine)), messages(mine)
         assert not journal("-u", unit, f"CANSIM_NODE={other}"), f"{other} has lines although nothing happened to it"
         step(f"journalctl -u {unit} CANSIM_NODE={key}: {messages(mine)}")
+    # Every control action: one line with its node, the caller's uid and the outcome (store() did these).
+    actions = journal("-u", BENCH, "CANSIM_NODE=vcan1/b/0", "CANSIM_CALLER_UID=0")
+    assert [m for m in messages(actions) if m.startswith("control: vcan1/b/0: ")] == [
+        "control: vcan1/b/0: Write 0x1017:00 700 by uid 0: done",
+        "control: vcan1/b/0: Store 1 by uid 0: done"], messages(actions)
+    assert all(e.get("CANSIM_IFACE") == "vcan1" for e in actions), actions
+    step(f"journalctl -u {BENCH} CANSIM_NODE=vcan1/b/0 CANSIM_CALLER_UID=0: {messages(actions)}")
     vcan1 = journal("-u", MAIN, "CANSIM_IFACE=vcan1")
     assert vcan1 and all(e.get("CANSIM_IFACE") == "vcan1" for e in vcan1)
     assert any(m.startswith("vcan1: open") for m in messages(vcan1)), messages(vcan1)

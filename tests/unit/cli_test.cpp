@@ -51,9 +51,23 @@ TEST(Cli, ExportEdsWithNodeIdAndOutput) {
   EXPECT_EQ(r.options.export_eds, "p92c");
   EXPECT_EQ(r.options.node_id, 5);
   EXPECT_EQ(r.options.output, "p92c.dcf");
-  EXPECT_EQ(parse({"--profile", "x", "--output", "f"}).error, "--output goes with --export-eds");
+  EXPECT_EQ(parse({"--profile", "x", "--output", "f"}).error, "--output goes with --export-eds or --export-dbc");
   EXPECT_EQ(parse({"--export-eds", "x", "--config", "f.yaml"}).error,
             "--export-eds takes a profile of its own (no --profile, --config, --interface or --check)");
+}
+
+TEST(Cli, ExportDbcOfAFleetBusOrAProfile) {
+  CliResult r = parse({"--export-dbc", "config/cansimd.yaml", "--interface", "vcan1", "--output", "bus.dbc"});
+  EXPECT_EQ(r.error, "");
+  EXPECT_EQ(r.options.export_dbc, "config/cansimd.yaml");
+  EXPECT_EQ(r.options.interface, "vcan1");
+  EXPECT_TRUE(r.options.interface_given);
+  EXPECT_EQ(r.options.output, "bus.dbc");
+  EXPECT_EQ(parse({"--export-dbc", "dps", "--node-id", "9", "--strict"}).options.node_id, 9);
+  EXPECT_FALSE(parse({"--export-dbc", "dps"}).options.interface_given);
+  EXPECT_EQ(parse({"--export-dbc", "x", "--config", "f.yaml"}).error,
+            "--export-dbc takes a fleet configuration or a profile of its own (no --profile, --config, --export-eds "
+            "or --check)");
 }
 
 TEST(Cli, StateDirectoryFromSystemd) {
