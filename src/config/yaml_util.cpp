@@ -124,7 +124,7 @@ int yaml_depth(std::string_view t, int stop_above) {
       if (token_start && (c == '"' || c == '\'')) {
         i = skip_quoted(t, i);
         token_start = false;
-      } else if (c == '[' || c == '{') {
+      } else if ((c == '[' || c == '{') && (flow > 0 || token_start)) {  // in a plain scalar, text
         ++flow;
         deeper(int(levels.size()) + flow);
         token_start = true;
