@@ -20,6 +20,10 @@ namespace cansim::control {
 namespace {
 constexpr int kMessagesPerPass = 32;     // per connection and loop pass
 constexpr int kAcceptsPerPass = 64;
+// A pass serves connections (and accepts new ones) for at most this long,
+// then the nodes run: a client whose calls are cheap gets many per pass, one
+// whose calls are costly (AddNodes loads a profile) one per pass.
+constexpr TimeUs kPassBudgetUs = 2'000;
 // Calls wake the loop at most once per this period; between such wake-ups a
 // call waits for the loop's next pass, at most this long. A busy fleet thus
 // serves a stream of calls with the passes it makes anyway; a single call
@@ -41,6 +45,12 @@ std::string describe_client(int fd) {
   socklen_t len = sizeof cred;
   if (::getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &cred, &len) != 0) return "client";
   return "client pid " + std::to_string(cred.pid) + " uid " + std::to_string(cred.uid);
+}
+
+// The client closed its end before it was accepted (nothing to read but the end).
+bool closed_already(int fd) {
+  char byte;
+  return ::recv(fd, &byte, 1, MSG_PEEK | MSG_DONTWAIT) == 0;
 }
 
 std::uint64_t queued(sd_bus* bus) {
@@ -158,12 +168,16 @@ void ControlEndpoints::listen(const std::string& path) {
 // A bounded number per pass: a connect flood must not hold the loop (the
 // rest wait in the listen backlog for the next passes).
 void ControlEndpoints::accept_clients() {
-  for (int accepted = 0; accepted < kAcceptsPerPass; ++accepted) {
+  for (int accepted = 0; accepted < kAcceptsPerPass && io::monotonic_now() < pass_end_; ++accepted) {
     int fd = ::accept4(listener_->fd, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
     if (fd < 0) {
       if (errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR)
         warn_failed_->warn(io::monotonic_now(), std::string("control socket: accept: ") + std::strerror(errno));
       return;
+    }
+    if (closed_already(fd)) {  // a connect / close loop costs an accept, not a connection
+      ::close(fd);
+      continue;
     }
     const std::size_t peers = std::count_if(connections_.begin(), connections_.end(),
                                             [](const auto& c) { return c->peer && !c->refusing; });
@@ -310,33 +324,40 @@ void ControlEndpoints::rearm(Connection& c) {
 // reported its fd or sd-bus says it has work (timeout due, e.g. 0 for a
 // message it already buffered): an idle connection costs no syscall.
 TimeUs ControlEndpoints::process() {
+  const TimeUs now = io::monotonic_now();
+  pass_end_ = now + kPassBudgetUs;
   loop_.poll_deferred();  // marks the connections with input, accepts new clients
   TimeUs next = kNever;
-  const TimeUs now = io::monotonic_now();
+  const Connection* spent = nullptr;  // the connection being served when the pass's time ran out
   for (std::size_t i = 0; i < connections_.size();) {
     Connection& c = *connections_[i];
     std::uint64_t timeout = UINT64_MAX;
     if (sd_bus_get_timeout(c.bus, &timeout) < 0) timeout = 0;
-    if (c.ready || TimeUs(timeout) <= now) {
+    if ((c.ready || TimeUs(timeout) <= now) && io::monotonic_now() >= pass_end_) {
+      c.ready = true;  // its turn comes after the nodes ran
+      next = 0;
+    } else if (c.ready || TimeUs(timeout) <= now) {
       c.ready = false;
       last_served_ = now;
       int r = 0;
       int n = 0;
-      while (n < kMessagesPerPass && (r = sd_bus_process(c.bus, nullptr)) > 0) ++n;
+      while (n < kMessagesPerPass && io::monotonic_now() < pass_end_ && (r = sd_bus_process(c.bus, nullptr)) > 0) ++n;
       if (r < 0 || !sd_bus_is_open(c.bus)) {
         if (!c.peer) spdlog::warn("control: lost the D-Bus connection: {}", std::strerror(r < 0 ? -r : ECONNRESET));
         drop(c);  // erases connections_[i]
         continue;
       }
-      if (n == kMessagesPerPass) {  // more queued: come back after the nodes ran
+      if (n == kMessagesPerPass || (r > 0 && io::monotonic_now() >= pass_end_)) {  // more: after the nodes ran
         c.ready = true;
         next = 0;
+        if (!spent && io::monotonic_now() >= pass_end_) spent = &c;
       }
       if (sd_bus_get_timeout(c.bus, &timeout) < 0) timeout = 0;
     }
     Throttle* warning = nullptr;
     if (const char* why = must_go(c, now, &warning)) {
       if (warning) warning->warn(now, "control: " + describe_client(c.fd) + " dropped: " + why);
+      if (spent == &c) spent = nullptr;
       drop(c);  // erases connections_[i]
       continue;
     }
@@ -347,6 +368,11 @@ TimeUs ControlEndpoints::process() {
     if (c.refusing) next = std::min(next, c.since + limits::kRefusalLingerUs);
     else if (c.peer && sd_bus_is_ready(c.bus) <= 0) next = std::min(next, c.since + limits::kAuthTimeoutUs);
     ++i;
+  }
+  // Round robin: the next pass starts with the connections after the one the time ran out on.
+  if (spent) {
+    auto it = std::find_if(connections_.begin(), connections_.end(), [&](const auto& p) { return p.get() == spent; });
+    if (it != connections_.end()) std::rotate(connections_.begin(), it + 1, connections_.end());
   }
   return next;
 }

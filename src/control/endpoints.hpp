@@ -48,9 +48,11 @@ class ControlEndpoints {
   // bus cannot be used.
   std::string connect_bus(BusChoice choice);
 
-  // Services every connection (at most a bounded number of messages each:
-  // a flooding client cannot starve the nodes). Returns the earliest time
-  // (CLOCK_MONOTONIC µs) at which process() must run again, or kNever.
+  // Services every connection (at most a bounded number of messages each,
+  // and all of them within a bounded time, round robin: neither a flooding
+  // client nor a stream of costly calls starves the nodes). Returns the
+  // earliest time (CLOCK_MONOTONIC µs) at which process() must run again
+  // (0: at once, after the nodes ran), or kNever.
   TimeUs process();
   // Before the loop sleeps until `next_pass` (CLOCK_MONOTONIC µs, kNever:
   // no deadline). A call wakes the loop unless the loop served calls within
@@ -85,6 +87,7 @@ class ControlEndpoints {
   std::string socket_path_;
   std::uint64_t next_id_ = 1;
   TimeUs last_served_ = 0;  // last pass that read a connection
+  TimeUs pass_end_ = 0;     // the current pass serves connections until then
 };
 
 }  // namespace cansim::control

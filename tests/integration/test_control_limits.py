@@ -17,7 +17,8 @@ also gets the answer README "Limits" documents:
     dropped with a journal line, the daemon's memory bounded.
  6. A connect/close flood: cansimctl calls meanwhile succeed, the journal gets
     a few lines, not one per connection.
- 7. 100 AddNodes / RemoveNode cycles: the daemon's memory stays flat.
+ 7. 40 AddNodes / RemoveNode cycles: the daemon's memory stays flat (1,000
+    in the unit tier: tests/unit/limits_test.cpp).
 """
 
 # ctest-timeout: 240
@@ -40,41 +41,46 @@ from jeepney.io.blocking import open_dbus_connection  # noqa: E402
 NODES = 100
 PERIOD = 0.2          # s, the heartbeat of every node
 SLACK = 0.25 * it.SCALE  # the VM's scheduling (TCG); an attack held the loop for seconds
+REFERENCE = 0x7F      # cangen's frames (0x77F every 50 ms): what the VM itself let through
+REFERENCE_PERIOD = 0.05
 E = "io.cansim.Error."
 SECRET = "SECRET-6d1f"
 
 
 class Heartbeats:
-    """candump of every heartbeat (0x701..0x764) with kernel time stamps."""
+    """candump of every heartbeat (0x701..0x764) with kernel time stamps, into
+    a socket buffer of 8 MB (the VM starves candump at times); -d reports any
+    frame the socket dropped all the same, which would fake a gap."""
 
     def __init__(self, path: str):
         self.path = path
         self.out = open(path, "w")
-        self.proc = subprocess.Popen(["candump", "-L", "vcan0,700:780"], stdout=self.out,
-                                     stderr=subprocess.DEVNULL)
+        self.proc = subprocess.Popen(["candump", "-L", "-d", "-r", str(8 << 20), "vcan0,700:780"], stdout=self.out,
+                                     stderr=subprocess.STDOUT)
+        # A process of its own beside the daemon: when the host stalls the
+        # whole VM (it does under load), its frames pause as the heartbeats do.
+        self.reference = subprocess.Popen(["cangen", "vcan0", "-g", str(int(REFERENCE_PERIOD * 1000)),
+                                           "-I", f"{0x700 + REFERENCE:X}", "-L", "0"], stdout=subprocess.DEVNULL)
 
     def stop(self) -> dict:
         time.sleep(PERIOD * 2)
-        self.proc.terminate()
-        self.proc.wait()
+        for p in (self.reference, self.proc):
+            p.terminate()
+            p.wait()
         self.out.close()
         beats = {}
         with open(self.path) as f:
             for line in f:
+                assert "DROPPED" not in line.upper(), f"candump lost frames: {line.strip()}"
                 m = re.match(r"\((\d+\.\d+)\) vcan0 7([0-9A-F]{2})#", line)
-                if m:
+                if m and (1 <= int(m.group(2), 16) <= NODES or int(m.group(2), 16) == REFERENCE):  # not added nodes
                     beats.setdefault(int(m.group(2), 16), []).append(float(m.group(1)))
         return beats
 
 
-def worst_gap(beats: dict, start: float, end: float) -> tuple:
-    """(gap, node) of the longest heartbeat gap overlapping [start, end]."""
-    worst = (0.0, 0)
-    for node, times in beats.items():
-        for a, b in zip(times, times[1:]):
-            if b >= start and a <= end:
-                worst = max(worst, (b - a, node))
-    return worst
+def worst_gap(times: list, start: float, end: float) -> float:
+    """The longest gap between two of `times` that overlaps [start, end]."""
+    return max((b - a for a, b in zip(times, times[1:]) if b >= start and a <= end), default=0.0)
 
 
 def rss_kib(pid: int) -> int:
@@ -86,7 +92,7 @@ class Raw:
     """jeepney calls on their own connection (reads only when asked to)."""
 
     def __init__(self, sock: str):
-        self.conn = open_dbus_connection(f"unix:path={sock}")
+        self.conn = open_dbus_connection(f"unix:path={sock}", auth_timeout=it.scaled(2))
 
     def call(self, path: str, iface: str, member: str, sig=None, args=()):
         addr = DBusAddress(path, bus_name=it.CONTROL_BUS_NAME, interface=iface)
@@ -225,12 +231,12 @@ def add_remove(c: it.ControlClient, d: it.Daemon, profile: str) -> str:
         for _ in range(n):
             c.fleet("AddNodes", "s", f"{{profile: {profile}, interface: vcan0, node_id: 0x70, name: cycle}}")
             c.fleet("RemoveNode", "s", "vcan0/cycle/0")
-    cycles(20)
+    cycles(10)
     before = rss_kib(d.proc.pid)
-    cycles(100)
+    cycles(40)
     grown = rss_kib(d.proc.pid) - before
-    assert grown < 2048, f"100 AddNodes / RemoveNode cycles grew the daemon by {grown} KiB (66 KB each before)"
-    return f"100 AddNodes / RemoveNode cycles: RSS +{grown} KiB"
+    assert grown < 1024, f"40 AddNodes / RemoveNode cycles grew the daemon by {grown} KiB (66 KB each before)"
+    return f"40 AddNodes / RemoveNode cycles: RSS +{grown} KiB"
 
 
 # --------------------------------------------------------------------------
@@ -247,7 +253,7 @@ def test(ctx: it.Context) -> None:
         dst.write(text.replace(hb, hb.replace("default: 1000", f"default: {int(PERIOD * 1000)}")))
     fleet_file = os.path.join(fleet_dir, "fleet.yaml")
     with open(fleet_file, "w") as f:
-        f.write(f"interfaces: {{vcan0: {{bit_rate: 1000}}}}\n"
+        f.write(f"interfaces: {{vcan0: {{bit_rate: 250}}}}\n"
                 f"nodes:\n  - {{profile: {profile}, interface: vcan0, node_id: 1, count: {NODES}, name: g}}\n")
     sock = os.path.join(ctx.tmp, "control")
     beats = Heartbeats(os.path.join(ctx.tmp, "heartbeats.log"))
@@ -274,12 +280,16 @@ def test(ctx: it.Context) -> None:
                 d.assert_alive()
         assert d.stop() == 0, "exit status after SIGTERM"
     heard = beats.stop()
-    assert len(heard) == NODES, f"heartbeats of {len(heard)} nodes recorded, expected {NODES}"
+    reference = heard.pop(REFERENCE, [])
+    assert len(heard) == NODES and reference, f"heartbeats of {len(heard)} nodes recorded, expected {NODES}"
     for name, t0, t1 in windows:
-        gap, n = worst_gap(heard, t0, t1)
-        it.log(f"{name}: {t1 - t0:.1f} s, longest heartbeat gap {gap * 1000:.0f} ms (node 0x{n:02X})")
-        assert gap <= PERIOD + SLACK, (f"{name}: node 0x{n:02X} kept silent {gap:.2f} s (heartbeat {PERIOD} s): "
-                                       f"the attack held the loop")
+        gap, n = max((worst_gap(times, t0, t1), node) for node, times in heard.items())
+        # What the VM stalled (the reference's longest gap beyond its period) is not the daemon's.
+        stall = max(0.0, worst_gap(reference, t0, t1) - REFERENCE_PERIOD)
+        it.log(f"{name}: {t1 - t0:.1f} s, longest heartbeat gap {gap * 1000:.0f} ms (node 0x{n:02X}), "
+               f"the VM stalled {stall * 1000:.0f} ms")
+        assert gap - stall <= PERIOD + SLACK, (f"{name}: node 0x{n:02X} kept silent {gap:.2f} s (heartbeat {PERIOD} s, "
+                                               f"VM stall {stall:.2f} s): the attack held the loop")
 
 
 it.main(test)
