@@ -12,8 +12,11 @@
 // Prints figures, asserts nothing but that each call got the answer it should.
 #include <systemd/sd-bus.h>
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cstdio>
+#include <fstream>
 #include <cstdlib>
 #include <functional>
 #include <string>
@@ -118,6 +121,22 @@ int main(int argc, char** argv) {
   table += "[1e6 s, 1 bar]]}";
   b.run("SetModel, a 16 KiB table (the bound)", "SetModel", true, model(padded(table, text)), "");
   b.run("SetModel, 4 MiB of '['", "SetModel", true, model(std::string(4 << 20, '[')), "io.cansim.Error.TooLarge");
+  for (std::size_t bytes : {std::size_t(64) << 10, limits::kTableFileBytes}) {
+    const std::string csv = "/tmp/limits_bench_" + std::to_string(getpid()) + ".csv";
+    {
+      std::ofstream out(csv);
+      std::size_t written = 0;
+      for (int i = 0; written + 32 < bytes; ++i) {
+        const std::string line = std::to_string(i) + "," + std::to_string(i % 9) + "\n";
+        out << line;
+        written += line.size();
+      }
+    }
+    const std::string label = "SetModel, a CSV table of " + std::to_string(bytes >> 10) + " KiB" +
+                              (bytes == limits::kTableFileBytes ? " (the bound)" : "");
+    b.run(label.c_str(), "SetModel", true, model("table: {csv: " + csv + ", value_unit: bar}"), "");
+    std::remove(csv.c_str());
+  }
   b.run("SetModel, '[' nested 33 deep", "SetModel", true, model(std::string(33, '[') + std::string(33, ']')),
         "io.cansim.Error.TooLarge");
 
@@ -136,12 +155,23 @@ int main(int argc, char** argv) {
   for (std::size_t i = 0; i < limits::kAddNodesEntries; ++i)
     many += "- {profile: generic-404, interface: vb" + std::to_string(i) + ", node_id: 1, count: " +
             std::to_string(limits::kAddNodesNodes / limits::kAddNodesEntries) + ", name: m}\n";
-  b.run("AddNodes, 16 entries, 128 nodes (the bounds)", "AddNodes", false, add(many), "", [&] {
+  b.run("AddNodes, 4 entries x 32 nodes (the bounds)", "AddNodes", false, add(many), "", [&] {
     for (std::size_t i = 0; i < limits::kAddNodesEntries; ++i)
       for (std::size_t k = 0; k < limits::kAddNodesNodes / limits::kAddNodesEntries; ++k)
         b.remove("vb" + std::to_string(i) + "/m/" + std::to_string(k));
   });
+  // Every entry a variant (its own copy of the profile, parsed again with the override).
+  std::string variants = "nodes:\n";
+  const char* kProfiles[] = {"generic-404", "dps", "p92c", "gems9000", "smc", "cmp"};
+  for (std::size_t i = 0; i < limits::kAddNodesEntries; ++i)
+    variants += "- {profile: " + std::string(kProfiles[i % 6]) + ", interface: vv" + std::to_string(i) +
+                ", node_id: 1, name: v, vendor: {serial_number_base: " + std::to_string(i) + "}}\n";
+  b.run("AddNodes, 4 entries of 4 profiles, with vendor: (the bounds)", "AddNodes", false, add(variants), "", [&] {
+    for (std::size_t i = 0; i < limits::kAddNodesEntries; ++i) b.remove("vv" + std::to_string(i) + "/v/0");
+  });
   b.run("AddNodes, 4 MiB", "AddNodes", false, add(std::string(4 << 20, ' ')), "io.cansim.Error.TooLarge");
+  b.run("AddNodes, 100 MiB (sd-bus takes up to 128 MiB)", "AddNodes", false, add(std::string(100 << 20, ' ')),
+        "io.cansim.Error.TooLarge");
   b.run("AddNodes, 4 MiB of '['", "AddNodes", false, add(std::string(4 << 20, '[')), "io.cansim.Error.TooLarge");
   b.run("AddNodes, '- ' nested 40 deep", "AddNodes", false, add(repeat("- ", 80) + "x"), "io.cansim.Error.TooLarge");
   return 0;

@@ -207,4 +207,4 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
 //   big-addnodes-vendor.bin AddNodes with a 15 KB vendor map (just under the bound)
 //   big-addnodes-dash.bin  AddNodes of "- " x 65,536 (compact block nesting)
 //   big-setmodel-deep.bin  SetModel("pressure", 64 KiB of '[')
-//   big-addnodes-entries.bin AddNodes of 17 entries (refused: 16 at most)
+//   big-addnodes-entries.bin AddNodes of 17 entries (refused: 4 at most)

@@ -77,8 +77,13 @@ class ProfileCache {
     if (it != by_path_.end()) return it->second;
     std::shared_ptr<Profile> p;
     try {
-      p = std::make_shared<Profile>(load_any_profile(path, search_.strict));
       text_[path] = read_text(path);
+      if (is_device_description(path)) {
+        p = std::make_shared<Profile>(load_any_profile(path, search_.strict));
+      } else {  // parsed once: the variants of its entries start from copies
+        docs_[path] = load_yaml_text(text_[path], path);
+        p = std::make_shared<Profile>(parse_profile(docs_[path], path, search_.strict));
+      }
     } catch (const TooLarge&) {
       throw;  // names the file and its size only
     } catch (const ConfigError&) {
@@ -90,6 +95,8 @@ class ProfileCache {
     return p;
   }
   const std::string& text(const std::string& path) { return text_[path]; }
+  // The profile's YAML document (an empty mapping for an EDS / DCF).
+  const YAML::Node& document(const std::string& path) { return docs_[path]; }
   bool strict() const { return search_.strict; }
   void add_variant(std::shared_ptr<Profile> p) { out_.profiles.push_back(std::move(p)); }
 
@@ -99,6 +106,7 @@ class ProfileCache {
   FleetConfig& out_;
   std::map<std::string, std::shared_ptr<Profile>> by_path_;
   std::map<std::string, std::string> text_;
+  std::map<std::string, YAML::Node> docs_;
 };
 
 void parse_interfaces(const Where& w, const YAML::Node& map, FleetConfig& out) {
@@ -186,12 +194,12 @@ void merge_keys(YAML::Node& into, const YAML::Node& over) {
 // document with the entry's `vendor:` keys merged over the profile's and its
 // physics sections laid over the profile's.
 std::shared_ptr<Profile> make_variant(const Where& w, const YAML::Node& entry, const Profile& base,
-                                      const std::string& base_text, bool strict) {
+                                      const YAML::Node& base_doc, bool strict) {
   auto p = std::make_shared<Profile>(base);
   if (entry["strict"]) p->strict = strict || get_bool(w.child("strict"), entry["strict"]);
   apply_mode(*p, w.child("options"), entry["options"]);  // strict mode first, the entry's options on top
   // A device description has no YAML sections: the entry's are the only ones.
-  YAML::Node root = is_device_description(base.file) ? YAML::Node(YAML::NodeType::Map) : YAML::Load(base_text);
+  YAML::Node root = is_device_description(base.file) ? YAML::Node(YAML::NodeType::Map) : YAML::Clone(base_doc);
   YAML::Node vendor = root["vendor"] ? YAML::Clone(root["vendor"]) : YAML::Node(YAML::NodeType::Map);
   if (entry["vendor"]) {
     const YAML::Node& v = entry["vendor"];
@@ -267,7 +275,7 @@ void parse_node_entry(const Where& w, const YAML::Node& entry, ProfileCache& cac
       fail(w.child("record"), entry["record"], "expected a CSV file name, e.g. recordings/dps-{id}.csv");
   }
   if (entry["options"] || entry["vendor"] || entry["physics"] || entry["sensor"] || entry["faults"] || entry["strict"]) {
-    profile = make_variant(w, entry, *profile, cache.text(path), cache.strict());
+    profile = make_variant(w, entry, *profile, cache.document(path), cache.strict());
     cache.add_variant(profile);
   }
   const std::string fingerprint_base = cache.text(path) + "\n---\n" + YAML::Dump(entry);

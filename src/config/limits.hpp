@@ -18,7 +18,7 @@ inline constexpr std::size_t kYamlTextBytes = 16 * 1024;
 inline constexpr int kYamlDepth = 32;
 
 // ---- AddNodes
-inline constexpr std::size_t kAddNodesEntries = 16;  // node entries in one call
+inline constexpr std::size_t kAddNodesEntries = 4;   // node entries in one call (each may load a profile)
 inline constexpr std::size_t kAddNodesNodes = 128;   // nodes in one call (`count:` included)
 inline constexpr std::size_t kFleetNodes = 4096;     // AddNodes refuses to grow the fleet beyond
 
@@ -31,9 +31,11 @@ inline constexpr std::size_t kFaultValueBytes = 256;   // each key and value
 // (which may quote them) is cut to this length.
 inline constexpr std::size_t kErrorMessageBytes = 4096;
 
-// ---- files the daemon reads: profiles, EDS/DCF, fleet files, CSV tables
-// (regular files only, opened without blocking)
-inline constexpr std::size_t kProfileFileBytes = 4 * 1024 * 1024;
+// ---- files the daemon reads (regular files only, opened without blocking):
+// profiles, EDS/DCF and fleet files (the shipped profiles are 10-24 KiB);
+// a process model's `csv:` table (about 90,000 points).
+inline constexpr std::size_t kProfileFileBytes = 1024 * 1024;
+inline constexpr std::size_t kTableFileBytes = 1024 * 1024;
 // Stored parameters (<state dir>/*.params); a node's blob is a few KiB.
 inline constexpr std::size_t kParameterFileBytes = 1024 * 1024;
 

@@ -135,7 +135,7 @@ TableSpec parse_table(const Where& w, const YAML::Node& m, Dim value_dim, const 
     }
     std::string error, text;
     try {
-      text = read_regular_file(path, limits::kProfileFileBytes);
+      text = read_regular_file(path, limits::kTableFileBytes);
     } catch (const ConfigError& e) {
       fail(w.child("csv"), m["csv"], std::string("cannot load table: ") + e.what());
     }
