@@ -1,6 +1,4 @@
 #include <gtest/gtest.h>
-#include <spdlog/sinks/ostream_sink.h>
-#include <spdlog/spdlog.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -11,6 +9,7 @@
 #include "config/limits.hpp"
 #include "daemon/file_storage.hpp"
 #include "io/loop_core.hpp"
+#include "support/captured_log.hpp"
 #include "support/sim.hpp"
 
 namespace cansim::daemon {
@@ -133,16 +132,7 @@ TEST_F(FileStorageTest, StoredHeartbeatSurvivesARestart) {
   EXPECT_EQ(sent[1].frame, F(0x710, {0x7F}));
 }
 
-// What spdlog writes while it lives.
-struct CapturedLog {
-  std::ostringstream text;
-  std::shared_ptr<spdlog::logger> previous = spdlog::default_logger();
-  CapturedLog() {
-    spdlog::set_default_logger(
-        std::make_shared<spdlog::logger>("test", std::make_shared<spdlog::sinks::ostream_sink_st>(text)));
-  }
-  ~CapturedLog() { spdlog::set_default_logger(previous); }
-};
+using test::CapturedLog;
 
 // Reading happens on the daemon's loop: a FIFO in place of the file would
 // hold it until a writer came (the alarm fails the test instead of hanging).

@@ -5,7 +5,6 @@
 // handshake and what they leave unread; removed nodes give their memory back.
 #include <gtest/gtest.h>
 #include <malloc.h>
-#include <spdlog/sinks/ostream_sink.h>
 #include <spdlog/spdlog.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
@@ -24,6 +23,7 @@
 #include "config/physics_config.hpp"
 #include "control/endpoints.hpp"
 #include "daemon/daemon.hpp"
+#include "support/captured_log.hpp"
 #include "support/control_fleet.hpp"
 
 namespace cansim {
@@ -42,22 +42,7 @@ struct TempDir {
   ~TempDir() { fs::remove_all(path); }
 };
 
-// What spdlog writes while it lives.
-struct CapturedLog {
-  std::ostringstream text;
-  std::shared_ptr<spdlog::logger> previous = spdlog::default_logger();
-  CapturedLog() {
-    spdlog::set_default_logger(
-        std::make_shared<spdlog::logger>("test", std::make_shared<spdlog::sinks::ostream_sink_st>(text)));
-  }
-  ~CapturedLog() { spdlog::set_default_logger(previous); }
-  std::size_t count(const std::string& what) const {
-    const std::string s = text.str();
-    std::size_t n = 0;
-    for (auto at = s.find(what); at != std::string::npos; at = s.find(what, at + 1)) ++n;
-    return n;
-  }
-};
+using test::CapturedLog;
 
 std::string repeat(const std::string& piece, std::size_t times) {
   std::string out;
