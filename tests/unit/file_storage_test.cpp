@@ -4,7 +4,6 @@
 
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 
 #include "config/limits.hpp"
 #include "daemon/file_storage.hpp"
