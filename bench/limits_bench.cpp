@@ -137,6 +137,13 @@ int main(int argc, char** argv) {
     b.run(label.c_str(), "SetModel", true, model("table: {csv: " + csv + ", value_unit: bar}"), "");
     std::remove(csv.c_str());
   }
+  std::string aliased = "- &t {table: {interpolation: linear, points: [";
+  for (int i = 0; i < 300; ++i) aliased += "[" + std::to_string(i) + " s, " + std::to_string(i % 9) + " bar], ";
+  aliased += "[1e6 s, 1 bar]]}}\n";
+  const std::size_t head = aliased.size();
+  while (aliased.size() + 5 <= text) aliased += "- *t\n";
+  b.run(("SetModel, a table and " + std::to_string((aliased.size() - head) / 5) + " aliases of it").c_str(), "SetModel",
+        true, model(aliased), "io.cansim.Error.TooLarge");
   b.run("SetModel, '[' nested 33 deep", "SetModel", true, model(std::string(33, '[') + std::string(33, ']')),
         "io.cansim.Error.TooLarge");
 

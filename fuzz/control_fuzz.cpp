@@ -79,6 +79,7 @@ std::string Input::big() {
       {"table: {points: [", "[1 s, 2 bar], ", "[9 s, 1 bar]]}"},
       {"", "- {profile: generic-404, interface: vb, node_id: 1, count: 3, name: n}\n", ""},
       {"", " ", ""},
+      {"- &t {table: {points: [[0 s, 1 bar], [1 s, 2 bar]]}}\n", "- *t\n", ""},
   };
   const auto& b = kBig[byte() % (sizeof kBig / sizeof *kBig)];
   const std::size_t pieces = ((std::size_t(byte()) << 8) | byte()) + 1;
@@ -208,3 +209,4 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
 //   big-addnodes-dash.bin  AddNodes of "- " x 65,536 (compact block nesting)
 //   big-setmodel-deep.bin  SetModel("pressure", 64 KiB of '[')
 //   big-addnodes-entries.bin AddNodes of 17 entries (refused: 4 at most)
+//   big-setmodel-aliases.bin SetModel of a table and 4,097 aliases of it

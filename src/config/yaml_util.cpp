@@ -27,6 +27,11 @@ void fail(const Where& w, const YAML::Node& n, const std::string& expected) {
 }
 
 namespace {
+void check_yaml_depth(std::string_view text, const std::string& source, std::size_t* aliases) {
+  if (yaml_depth(text, limits::kYamlDepth, aliases) > limits::kYamlDepth)
+    throw TooLarge(source + ": YAML nested more than " + std::to_string(limits::kYamlDepth) + " levels deep");
+}
+
 template <typename Source>
 YAML::Node load_yaml(Source& source, const std::string& file) {
   try {
@@ -44,7 +49,7 @@ YAML::Node load_yaml_file(const std::string& path) {
 }
 
 YAML::Node load_yaml_text(const std::string& text, const std::string& file) {
-  check_yaml_size(text, file, text.size());
+  check_yaml_depth(text, file, nullptr);
   return load_yaml(text, file);
 }
 
@@ -74,7 +79,10 @@ std::size_t skip_quoted(std::string_view t, std::size_t i) {
 // stop_above + 1 deep). In block context a level opens at each column where a
 // node starts to the right of the enclosing one; compact entries ("- - x")
 // and a mapping after "- " open theirs on the same line.
-int yaml_depth(std::string_view t, int stop_above) {
+int yaml_depth(std::string_view t, int stop_above, std::size_t* alias_count) {
+  std::size_t no_count = 0;
+  std::size_t* aliases = alias_count ? alias_count : &no_count;
+  *aliases = 0;
   std::vector<std::size_t> levels;  // block context: the columns of the open levels
   int flow = 0, deepest = 0;
   int block_parent = -1;  // inside a block scalar: lines indented deeper than this are text
@@ -139,8 +147,12 @@ int yaml_depth(std::string_view t, int stop_above) {
       } else if (flow == 0 && token_start && (c == '|' || c == '>')) {
         block_parent = int(levels.size() > 1 ? levels[levels.size() - 2] : 0);
         while (i < t.size() && t[i] != '\n') ++i;
-      } else if (token_start && (c == '&' || c == '!')) {  // an anchor or tag: the node follows
-        while (i < t.size() && !blank(t[i])) ++i;
+      } else if (token_start && (c == '&' || c == '!' || c == '*')) {  // anchor, tag (the node follows), alias
+        if (c == '*') {
+          ++*aliases;
+          token_start = false;
+        }
+        while (i < t.size() && !blank(t[i]) && !(flow > 0 && std::strchr(",[]{}", t[i]))) ++i;
       } else {
         token_start = false;
         ++i;
@@ -154,8 +166,12 @@ void check_yaml_size(std::string_view text, const std::string& source, std::size
   if (text.size() > max_bytes)
     throw TooLarge(source + ": " + std::to_string(text.size()) + " bytes of YAML; expected at most " +
                    std::to_string(max_bytes));
-  if (yaml_depth(text, limits::kYamlDepth) > limits::kYamlDepth)
-    throw TooLarge(source + ": YAML nested more than " + std::to_string(limits::kYamlDepth) + " levels deep");
+  std::size_t aliases = 0;
+  check_yaml_depth(text, source, &aliases);
+  // An alias stands for its whole anchored node: each one more is parsed again.
+  if (aliases > limits::kYamlAliases)
+    throw TooLarge(source + ": " + std::to_string(aliases) + " YAML aliases (*name); expected at most " +
+                   std::to_string(limits::kYamlAliases));
 }
 
 std::string read_regular_file(const std::string& path, std::size_t max_bytes) {

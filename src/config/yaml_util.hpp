@@ -40,11 +40,13 @@ YAML::Node load_yaml_text(const std::string& text, const std::string& file);
 // A cheap upper bound of a YAML text's nesting depth, without parsing it:
 // block indentation levels (and compact "- " / "? " entries) plus open flow
 // brackets, outside quoted scalars, block scalars and comments. Counting
-// stops above `stop_above`.
-int yaml_depth(std::string_view text, int stop_above);
-// Throws TooLarge naming `source` when `text` is longer than `max_bytes` or
-// nests deeper than limits::kYamlDepth: what a client sends is checked so,
-// before yaml-cpp (whose memory grows with the nesting) sees it.
+// stops above `stop_above`. `aliases` (when given) receives the number of
+// aliases (*name) seen.
+int yaml_depth(std::string_view text, int stop_above, std::size_t* aliases = nullptr);
+// Throws TooLarge naming `source` when `text` is longer than `max_bytes`,
+// nests deeper than limits::kYamlDepth or has more than limits::kYamlAliases
+// aliases: what a client sends is checked so, before yaml-cpp (whose memory
+// grows with the nesting) sees it. (Files are checked for their nesting.)
 void check_yaml_size(std::string_view text, const std::string& source, std::size_t max_bytes);
 
 // A file's bytes, read without blocking the loop: opened O_NONBLOCK, refused

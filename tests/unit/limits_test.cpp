@@ -72,6 +72,29 @@ TEST(YamlDepth, QuotesCommentsAndBlockScalarsAreText) {
   EXPECT_EQ(yaml_depth("a: [it's, [x]]\n", 99), 4);  // a quote inside a plain scalar opens nothing
 }
 
+TEST(YamlDepth, CountsAliases) {
+  std::size_t aliases = 0;
+  EXPECT_EQ(config::yaml_depth("a: &x [1, 2]\nb: [*x,*x, {c: *x}]\nd: *x\n", 99, &aliases), 4);
+  EXPECT_EQ(aliases, 4u);
+  EXPECT_EQ(config::yaml_depth("a: '*x'\nb: 2*3\n", 99, &aliases), 2);
+  EXPECT_EQ(aliases, 0u);
+}
+
+// Each alias is its anchored node parsed again: 2,253 of them made a 16 KiB
+// SetModel take 865 ms; more than the bound are refused before parsing.
+TEST(YamlSize, AliasesAreBounded) {
+  std::string text = "- &t {table: {points: [[0 s, 1 bar], [1 s, 2 bar]]}}\n";
+  for (std::size_t i = 0; i < limits::kYamlAliases; ++i) text += "- *t\n";
+  EXPECT_NO_THROW(config::check_yaml_size(text, "<t>", limits::kYamlTextBytes));
+  text += "- *t\n";
+  try {
+    config::check_yaml_size(text, "<t>", limits::kYamlTextBytes);
+    FAIL() << "no error";
+  } catch (const config::TooLarge& e) {
+    EXPECT_EQ(std::string(e.what()), "<t>: 17 YAML aliases (*name); expected at most 16");
+  }
+}
+
 // Everything shipped nests far below the bound.
 TEST(YamlDepth, ShippedProfilesAndConfigsAreWithinTheBound) {
   for (const char* folder : {"profiles", "config"})
@@ -276,6 +299,7 @@ TEST_F(ControlLimits, AddNodesTextOverTheBoundsIsTooLarge) {
 
 TEST_F(ControlLimits, SetModelTextOverTheBoundsIsTooLarge) {
   EXPECT_EQ(set_model(std::string(limits::kYamlTextBytes + 1, ' ')), kTooLarge);
+  EXPECT_EQ(set_model("- &t {table: {points: [[0 s, 1 bar]]}}\n" + repeat("- *t\n", 100)), kTooLarge);
   EXPECT_EQ(set_model(std::string(40, '[') + std::string(40, ']')), kTooLarge);
   EXPECT_EQ(set_model("5 bar"), "");
 }
