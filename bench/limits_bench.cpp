@@ -176,6 +176,20 @@ int main(int argc, char** argv) {
   b.run("AddNodes, 4 entries of 4 profiles, with vendor: (the bounds)", "AddNodes", false, add(variants), "", [&] {
     for (std::size_t i = 0; i < limits::kAddNodesEntries; ++i) b.remove("vv" + std::to_string(i) + "/v/0");
   });
+  // One entry's text copied into every node of its `count:` group.
+  std::string faults = "{profile: generic-404, interface: vf, node_id: 1, count: 127, name: f, faults: [";
+  for (int i = 0; faults.size() + 50 < text; ++i) faults += "{kind: drift, drift: 1 bar, at: " + std::to_string(i) + " s}, ";
+  faults += "{kind: open}]}";
+  b.run("AddNodes, 127 nodes with 16 KiB of faults each", "AddNodes", false, add(faults), "", [&] {
+    for (int k = 0; k < 127; ++k) b.remove("vf/f/" + std::to_string(k));
+  });
+  std::string physics = "{profile: generic-404, interface: vp, node_id: 1, count: 127, name: p, physics: {pressure: "
+                        "{table: {interpolation: linear, points: [";
+  for (int i = 0; physics.size() + 50 < text; ++i) physics += "[" + std::to_string(i) + " s, " + std::to_string(i % 9) + " bar], ";
+  physics += "[1e6 s, 1 bar]]}}}}";
+  b.run("AddNodes, 127 nodes with a 16 KiB table each", "AddNodes", false, add(physics), "", [&] {
+    for (int k = 0; k < 127; ++k) b.remove("vp/p/" + std::to_string(k));
+  });
   b.run("AddNodes, 4 MiB", "AddNodes", false, add(std::string(4 << 20, ' ')), "io.cansim.Error.TooLarge");
   b.run("AddNodes, 100 MiB (sd-bus takes up to 128 MiB)", "AddNodes", false, add(std::string(100 << 20, ' ')),
         "io.cansim.Error.TooLarge");
