@@ -1,5 +1,6 @@
 #include "config/eds_reader.hpp"
 
+#include "config/limits.hpp"
 #include "config/strict_mode.hpp"
 #include "core/cob_id.hpp"
 
@@ -822,11 +823,7 @@ bool parse_eds_integer(std::string_view raw, std::int64_t& out) {
 EdsDocument parse_eds(const std::string& text, const std::string& file) { return LineParser(text, file).run(); }
 
 EdsDocument load_eds_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw ConfigError(path + ": cannot open file: " + std::strerror(errno));
-  std::ostringstream os;
-  os << in.rdbuf();
-  return parse_eds(os.str(), path);
+  return parse_eds(read_regular_file(path, limits::kProfileFileBytes), path);
 }
 
 Profile profile_from_eds(const EdsDocument& doc, bool strict, bool strict_eds) {

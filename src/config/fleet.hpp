@@ -52,6 +52,10 @@ struct ProfileSearch {
   std::vector<std::string> dirs;
   bool strict = false;  // `cansimd --strict`: every profile loads in strict mode
   bool strict_eds = false;  // `cansimd --strict-eds`: what an EDS reader would repair is an error
+  // Set for what a client names (AddNodes): a profile file must lie in one of
+  // these folders (symbolic links resolved) or it is refused unopened, and one
+  // that does not load is named by its path alone, never by its bytes.
+  std::vector<std::string> confined_to;
 };
 // The default search: <config dir>/profiles, ./profiles, the installed folder.
 ProfileSearch default_search(const std::string& config_file, const std::string& installed_dir);
@@ -67,7 +71,8 @@ FleetConfig parse_fleet(const std::string& text, const std::string& file, const 
 // Nodes added at run time (control API AddNodes): `text` is one node entry,
 // a list of entries, or a whole fleet document. Interfaces the fragment does
 // not declare take their setting from `running` (else the kernel's / 250).
-// Errors name `file`:line:column of the fragment.
+// Errors name `file`:line:column of the fragment; more entries or nodes than
+// config/limits.hpp allows (for one call, or `running` with them) throw TooLarge.
 FleetConfig parse_fleet_fragment(const std::string& text, const std::string& file, const ProfileSearch& search,
                                  const FleetConfig& running);
 // Appends `extra`'s nodes, interfaces and profiles to `into`. A duplicate

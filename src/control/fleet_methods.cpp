@@ -1,6 +1,7 @@
 // io.cansim.Fleet1 on /io/cansim/Cansimd1.
 #include <exception>
 
+#include "config/limits.hpp"
 #include "config/profile.hpp"
 #include "control/node_names.hpp"
 #include "control/service_internal.hpp"
@@ -55,7 +56,10 @@ int add_nodes(sd_bus_message* m, void* userdata, sd_bus_error* e) {
   if (r < 0) return r;
   std::vector<std::string> keys;
   try {
+    config::check_yaml_size(yaml, "<AddNodes>", limits::kYamlTextBytes);
     keys = s.host().add_nodes(yaml);
+  } catch (const config::TooLarge& ex) {
+    return fail(e, kErrorTooLarge, ex.what());
   } catch (const std::exception& ex) {
     return fail(e, kErrorConfig, ex.what());
   }

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cstdlib>
 
+#include "config/limits.hpp"
 #include "control/od_values.hpp"
 #include "control/service_internal.hpp"
 
@@ -60,7 +61,11 @@ int enumerate_nodes(sd_bus*, const char*, void* userdata, char*** nodes, sd_bus_
 }  // namespace
 
 int fail(sd_bus_error* e, const char* name, const std::string& message) {
-  return sd_bus_error_set(e, name, message.c_str());
+  if (message.size() <= limits::kErrorMessageBytes) return sd_bus_error_set(e, name, message.c_str());
+  std::string cut = message.substr(0, limits::kErrorMessageBytes);
+  while (!cut.empty() && (static_cast<unsigned char>(cut.back()) & 0xC0) == 0x80) cut.pop_back();  // whole UTF-8 characters
+  if (!cut.empty() && static_cast<unsigned char>(cut.back()) >= 0xC0) cut.pop_back();
+  return sd_bus_error_set(e, name, (cut + "...").c_str());
 }
 
 const char* nmt_state_name(NmtState s) {
@@ -199,7 +204,7 @@ void ControlService::emit_properties_changed(const std::string& path, const char
   for (const char* s : names) list.push_back(const_cast<char*>(s));
   list.push_back(nullptr);
   for (auto& c : connections_)
-    if (c->subscribed()) sd_bus_emit_properties_changed_strv(c->bus, path.c_str(), interface, list.data());
+    if (c->wants_signals()) sd_bus_emit_properties_changed_strv(c->bus, path.c_str(), interface, list.data());
 }
 
 // ---------------------------------------------------------------- core events

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <string>
 
+#include "config/limits.hpp"
 #include "control/names.hpp"
 #include "control/node_names.hpp"
 #include "control/service.hpp"
@@ -38,6 +39,12 @@ struct ControlService::Connection {
   sd_bus_track* track = nullptr;  // bus: subscribed unique names
   std::vector<sd_bus_slot*> slots;
   bool subscribed() const { return peer ? peer_subscribed : (track && sd_bus_track_count(track) > 0); }
+  // Signals go to a subscriber while fewer than limits::kQueuedMessages wait
+  // for it (the endpoints drop a peer that falls further behind).
+  bool wants_signals() const {
+    std::uint64_t queued = 0;
+    return subscribed() && (sd_bus_get_n_queued_write(bus, &queued) < 0 || queued < limits::kQueuedMessages);
+  }
 };
 
 // Fills `e` and returns the negative errno sd-bus expects from a handler.
@@ -116,7 +123,7 @@ int reply_with(sd_bus_message* m, Fill&& fill) {
 template <typename Build>
 void ControlService::emit(const std::string& path, const char* interface, const char* member, Build&& build) {
   for (auto& c : connections_) {
-    if (!c->subscribed()) continue;
+    if (!c->wants_signals()) continue;
     sd_bus_message* m = nullptr;
     if (sd_bus_message_new_signal(c->bus, &m, path.c_str(), interface, member) < 0) continue;
     if (build(m) >= 0) sd_bus_send(c->bus, m, nullptr);

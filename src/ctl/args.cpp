@@ -195,9 +195,12 @@ Request build_record(const Words& w) {
   return on_node(w, node_call("StartRecording", {text(path)}));
 }
 
-// Store and Restore: the 0x1010 / 0x1011 sub-index, 1 (all parameters) by default.
+// Store and Restore: the 0x1010 / 0x1011 sub-index, 1 (all parameters) by
+// default; 1..127 as the daemon takes them (CiA 301: 128..254 reserved).
 Request build_store_call(const Words& w, const char* method) {
-  auto sub = w.size() > 1 ? unsigned_word(w[1], 0xFF, "a sub-index 1..255") : 1;
+  constexpr const char* kWhat = "a sub-index 1..127 (1: all parameters)";
+  auto sub = w.size() > 1 ? unsigned_word(w[1], 127, kWhat) : 1;
+  if (sub == 0) throw UsageError(std::string("expected ") + kWhat + ", got " + quoted(w[1]));
   return on_node(w, node_call(method, {Value(std::uint8_t(sub))}));
 }
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 
+#include "config/limits.hpp"
 #include "config/yaml_util.hpp"
 
 namespace cansim::daemon {
@@ -52,6 +53,8 @@ std::string usage_text() {
          "  --control-socket PATH  the control API's private socket, or none (default\n"
          "                       $RUNTIME_DIRECTORY/control, $XDG_RUNTIME_DIR/cansimd/control,\n"
          "                       /run/cansimd/control as root, else /tmp/cansimd-UID/control)\n"
+         "  --max-clients N      clients the private socket serves at once, 1..4096 (default 64);\n"
+         "                       one more is told why and closed\n"
          "  --version            print the version and exit\n"
          "  --help               print this help and exit\n"
          "\n"
@@ -154,6 +157,14 @@ CliResult parse_cli(const std::vector<std::string>& args, const char* state_dire
         return r;
       }
       o.control_socket = value;
+    } else if (arg == "--max-clients") {
+      if (!need_value()) return r;
+      std::int64_t v = 0;
+      if (!parse_number(value, v) || v < 1 || std::uint64_t(v) > limits::kMaxClientsCeiling) {
+        r.error = "--max-clients: expected 1.." + std::to_string(limits::kMaxClientsCeiling) + ", got '" + value + "'";
+        return r;
+      }
+      o.max_clients = std::size_t(v);
     } else if (arg == "--seed") {
       if (!need_value()) return r;
       std::int64_t v = 0;

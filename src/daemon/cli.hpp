@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "config/limits.hpp"
+
 namespace cansim::daemon {
 
 struct CliOptions {
@@ -28,6 +30,7 @@ struct CliOptions {
   std::string record;                  // --record FILE (--profile) | DIR (--config)
   std::string bus = "auto";            // --bus auto|system|user|none: the control API's bus
   std::string control_socket;          // --control-socket PATH|none (empty: the default path)
+  std::size_t max_clients = limits::kDefaultMaxClients;  // --max-clients N: peers served at once
   bool version = false;
   bool help = false;
 };

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "config/fleet.hpp"
+#include "config/limits.hpp"
 #include "control/control_host.hpp"
 #include "control/endpoints.hpp"
 #include "control/service.hpp"
@@ -29,8 +30,10 @@ namespace cansim::daemon {
 config::ProfileSearch profile_search(const std::string& config_file);
 
 // The node's Application: the personality's, wrapped so the configured serial
-// number (0x1018:04) survives every reset. May return nullptr.
-std::unique_ptr<Application> make_node_application(const config::NodeConfig& node, std::uint64_t seed);
+// number (0x1018:04) survives every reset. May return nullptr. Its recordings
+// never go into `state_dir` (when given).
+std::unique_ptr<Application> make_node_application(const config::NodeConfig& node, std::uint64_t seed,
+                                                   const std::string& state_dir = {});
 
 // Nodes of one fleet entry (same interface and name) whose own bit rate is not
 // their bus's: they neither hear nor speak until it matches.
@@ -74,6 +77,7 @@ struct DaemonSettings {
   std::string config_file;                       // the fleet file or the single profile
   control::BusChoice bus = control::BusChoice::kAuto;
   std::string control_socket;                    // empty: the default path; "none": no socket
+  std::size_t max_clients = limits::kDefaultMaxClients;  // private-socket clients served at once
   bool strict = false;                           // --strict: nodes added at run time too
   bool strict_eds = false;                       // --strict-eds: nodes added at run time too
 };
@@ -114,6 +118,7 @@ class Daemon : public control::ControlHost {
   // The running fleet: the file's nodes plus those added at run time, less
   // those removed at run time.
   config::FleetConfig combined() const;
+  std::vector<std::string> profile_folders() const;
   void apply(config::FleetConfig cfg, TimeUs now);
   void reload(TimeUs now);
   void start_control();

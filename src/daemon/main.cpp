@@ -145,6 +145,7 @@ int main(int argc, char** argv) {
                    : o.bus == "none" ? control::BusChoice::kNone
                                      : control::BusChoice::kAuto;
     settings.control_socket = o.control_socket;
+    settings.max_clients = o.max_clients;
     spdlog::info("cansimd {} starting, stored parameters in {}", CANSIM_VERSION, o.state_dir);
     daemon::Daemon d(std::move(settings));
     return d.run();

@@ -1,6 +1,7 @@
 #include "support/control_fleet.hpp"
 
 #include <sys/socket.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <stdexcept>
@@ -164,9 +165,18 @@ BusPair::~BusPair() {
   sd_bus_close_unref(server_);
 }
 
+int BusPair::serve() {
+  timespec t0, t1;
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t0);
+  const int r = sd_bus_process(server_, nullptr);
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t1);
+  server_cpu_ms_ += double(t1.tv_sec - t0.tv_sec) * 1e3 + double(t1.tv_nsec - t0.tv_nsec) / 1e6;
+  return r;
+}
+
 void BusPair::pump() {
   for (int idle = 0; idle < 3;) {
-    int a = sd_bus_process(server_, nullptr);
+    int a = serve();
     int b = sd_bus_process(client_, nullptr);
     idle = (a > 0 || b > 0) ? 0 : idle + 1;
   }
@@ -185,7 +195,7 @@ sd_bus_message* BusPair::call(sd_bus_message* m, std::string* error_name, std::s
   }, &result, 0);
   sd_bus_message_unref(m);
   for (int i = 0; i < 10000 && !result.done; ++i) {
-    sd_bus_process(server_, nullptr);
+    serve();
     sd_bus_process(client_, nullptr);
   }
   pump();

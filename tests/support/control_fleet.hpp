@@ -95,12 +95,17 @@ class BusPair {
   // Signals received since the last take: (member, message) — caller unrefs messages.
   std::vector<std::pair<std::string, sd_bus_message*>> take_signals();
   sd_bus* client() { return client_; }
+  // Thread CPU time spent in the server's sd_bus_process() so far: what a
+  // daemon's loop would have spent on these calls (ms).
+  double server_cpu_ms() const { return server_cpu_ms_; }
 
  private:
   control::ControlService& service_;
   sd_bus* server_ = nullptr;
   sd_bus* client_ = nullptr;
   sd_bus_slot* filter_ = nullptr;
+  double server_cpu_ms_ = 0;
+  int serve();  // one sd_bus_process() of the server, timed
   std::vector<std::pair<std::string, sd_bus_message*>> signals_;
 };
 

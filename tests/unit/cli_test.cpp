@@ -29,6 +29,17 @@ TEST(Cli, FleetWithEveryOptionInBothSpellings) {
   EXPECT_EQ(r.options.seed, 16u);
 }
 
+TEST(Cli, MaxClientsIsBounded) {
+  EXPECT_EQ(parse({"--config", "f.yaml"}).options.max_clients, 64u);
+  CliResult r = parse({"--config", "f.yaml", "--max-clients", "4096"});
+  ASSERT_EQ(r.error, "");
+  EXPECT_EQ(r.options.max_clients, 4096u);
+  EXPECT_EQ(parse({"--config", "f.yaml", "--max-clients=1"}).options.max_clients, 1u);
+  EXPECT_EQ(parse({"--config", "f.yaml", "--max-clients", "0"}).error, "--max-clients: expected 1..4096, got '0'");
+  EXPECT_EQ(parse({"--config", "f.yaml", "--max-clients", "4097"}).error, "--max-clients: expected 1..4096, got '4097'");
+  EXPECT_NE(usage_text().find("--max-clients N"), std::string::npos);
+}
+
 TEST(Cli, StrictAndQuirks) {
   CliResult r = parse({"--config", "f.yaml", "--strict"});
   EXPECT_EQ(r.error, "");

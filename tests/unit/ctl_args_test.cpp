@@ -136,6 +136,7 @@ TEST(CtlArgs, RecordStoreRestore) {
   EXPECT_EQ(parse({"store", "dps"}).call, node_call("Store", {Value(std::uint8_t(1))}));
   EXPECT_EQ(parse({"store", "dps", "2"}).call, node_call("Store", {Value(std::uint8_t(2))}));
   EXPECT_EQ(parse({"restore", "dps", "0x4"}).call, node_call("Restore", {Value(std::uint8_t(4))}));
+  EXPECT_EQ(parse({"store", "dps", "127"}).call, node_call("Store", {Value(std::uint8_t(127))}));
 }
 
 TEST(CtlArgs, WatchSubscribesForTheFleetOrOneNode) {
@@ -203,6 +204,8 @@ TEST(CtlArgs, BadLinesAreUsageErrors) {
   expect_usage_error({"record", "dps"});
   expect_usage_error({"record", "dps", "f.csv", "--stop"});
   expect_usage_error({"store", "dps", "256"});
+  expect_usage_error({"store", "dps", "128"});  // the daemon takes 1..127: said here, not after the call
+  expect_usage_error({"restore", "dps", "0"});
   expect_usage_error({"watch", "a", "b"});
   expect_usage_error({"add"});
   expect_usage_error({"list", "--socket"});

@@ -299,6 +299,7 @@ TEST_F(FleetTest, TheDaemonLogsAMismatchOncePerEntryWithTheCountAndTheFix) {
   {
     daemon::DaemonSettings settings;
     settings.state_dir = dir + "/state";
+    settings.config_file = dir + "/fleet.yaml";  // AddNodes takes profiles from its folder
     settings.bus = control::BusChoice::kNone;
     settings.control_socket = "none";
     daemon::Daemon d(settings);
