@@ -42,6 +42,14 @@ bool VendorParams::time_us(const char* key, TimeUs& out, double lo_s, double hi_
   return true;
 }
 
+std::optional<YAML::Node> VendorParams::last_given(const std::string& key) const {
+  std::optional<YAML::Node> found;
+  if (!has_over_) return found;
+  for (const auto& kv : over_.section)
+    if (kv.first.Scalar() == key) found = kv.second;
+  return found;
+}
+
 void VendorParams::reject_unknown_keys() const {
   if (!section_ || section_.IsNull()) return;
   if (!is_map_) fail(where_, section_, "expected a mapping");

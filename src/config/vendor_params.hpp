@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <initializer_list>
 #include <limits>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -46,7 +47,7 @@ class VendorParams {
     return is_map_ && section_[key];
   }
   YAML::Node node(const char* key) const {
-    if (overrides(key)) return over_.section[key];
+    if (auto given = last_given(key)) return *given;
     return is_map_ ? section_[key] : YAML::Node();
   }
   Where where(const char* key) const { return overrides(key) ? over_.where.child(key) : where_.child(key); }
@@ -70,7 +71,10 @@ class VendorParams {
   void reject_unknown_keys() const;
 
  private:
-  bool overrides(const std::string& key) const { return has_over_ && over_.section[key]; }
+  bool overrides(const std::string& key) const { return last_given(key).has_value(); }
+  // The entry's value of `key`, the last where it is repeated (as the merge
+  // took it); none when the entry does not give it.
+  std::optional<YAML::Node> last_given(const std::string& key) const;
 
   const YAML::Node section_;
   const bool is_map_;
