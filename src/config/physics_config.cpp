@@ -5,6 +5,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "config/limits.hpp"
 #include "physics/table.hpp"
 #include "physics/units.hpp"
 
@@ -132,9 +133,14 @@ TableSpec parse_table(const Where& w, const YAML::Node& m, Dim value_dim, const 
       value_scale = one - zero;
       value_offset = zero;
     }
-    std::string error;
-    if (!load_table_csv(path, t.points, &error, time_scale, value_scale, value_offset))
-      fail(w.child("csv"), m["csv"], "cannot load table: " + error);
+    std::string error, text;
+    try {
+      text = read_regular_file(path, limits::kTableFileBytes);
+    } catch (const ConfigError& e) {
+      fail(w.child("csv"), m["csv"], std::string("cannot load table: ") + e.what());
+    }
+    if (!parse_table_csv(text, t.points, &error, time_scale, value_scale, value_offset))
+      fail(w.child("csv"), m["csv"], "cannot load table: " + path + ": " + error);
   } else {
     fail(w, m, "expected 'points' or 'csv'");
   }
@@ -430,6 +436,12 @@ void parse_channel_sensor(const Where& w, const YAML::Node& m, bool pressure, Ch
 
 // ---------------------------------------------------------------- faults
 
+// The keys of a `faults:` entry.
+void check_fault_key(const Where& w, const YAML::Node& key) {
+  check_key(w, key, {"kind", "channel", "at", "after", "duration", "period", "count", "value", "drift", "amplitude",
+                     "rate", "noise", "over_temperature", "sdo_delay", "drop_every", "drop_probability", "id"});
+}
+
 FaultChannel parse_fault_channel(const Where& w, const YAML::Node& n) {
   std::string s = get_string(w, n);
   if (s == "pressure") return FaultChannel::Pressure;
@@ -441,9 +453,8 @@ FaultChannel parse_fault_channel(const Where& w, const YAML::Node& n) {
 }  // namespace
 
 FaultSpec parse_fault(const Where& w, const YAML::Node& m) {
-  check_keys(w, m, {"kind", "channel", "at", "after", "duration", "period", "count", "value", "drift",
-                    "amplitude", "rate", "noise", "over_temperature", "sdo_delay", "drop_every",
-                    "drop_probability", "id"});
+  if (!m.IsMap()) fail(w, m, "expected a mapping");
+  for (const auto& kv : m) check_fault_key(w, kv.first);
   FaultSpec f;
   if (!m["kind"]) fail(w.child("kind"), m, "missing required key 'kind'");
   auto kind = parse_fault_kind(get_string(w.child("kind"), m["kind"]));
@@ -488,6 +499,9 @@ double get_quantity(const Where& w, const YAML::Node& n, Dim dim) {
   std::string unit;
   if (!split_number(n.Scalar(), v, unit) || !convert_quantity(v, unit, dim, out) || !std::isfinite(out))
     fail(w, n, std::string("expected ") + expected_units(dim));
+  // Times become µs in 64 bits: a bound keeps `at: 1e20 s` from wrapping to "now".
+  if (dim == Dim::kTime && std::abs(out) > limits::kMaxSeconds)
+    fail(w, n, "expected a time of at most 1e9 s (about 31 years)");
   return out;
 }
 
@@ -581,18 +595,24 @@ std::vector<physics::TermSpec> parse_channel_model_text(const std::string& sourc
   return parse_channel_model(Where{source, channel_name}, load_yaml_text(text, source), channel);
 }
 
+// Each key is checked before it goes into the entry: only known keys do, so
+// the entry's lookups stay short whatever the caller sends.
 physics::FaultSpec parse_fault_text(const std::string& source, const std::string& kind,
                                     const std::vector<std::pair<std::string, std::string>>& keys) {
   YAML::Node entry(YAML::NodeType::Map);
   entry["kind"] = kind;
+  const Where w{source, ""};
   for (const auto& [key, value] : keys) {
+    YAML::Node name(key);
+    check_fault_key(w, name);
+    check_yaml_size(value, source + ": " + key, limits::kFaultValueBytes);
     try {
       entry[key] = YAML::Load(value);
     } catch (const YAML::ParserException& ex) {
       throw ConfigError(key + ": " + ex.msg);
     }
   }
-  return parse_fault(Where{source, ""}, entry);
+  return parse_fault(w, entry);
 }
 
 }  // namespace cansim::config

@@ -36,7 +36,10 @@ Profile parse_profile(const YAML::Node& root, const std::string& file, bool stri
 // and `faults:` of `root` into the typed settings; binds the CiA 404 chain to
 // profile.layout. parse_profile() calls it; a fleet entry's variant (own
 // layout and options) calls it again.
-void parse_personality(Profile& profile, const YAML::Node& root, const YAML::Node& vendor);
+// `over`: a fleet entry's `vendor:` merged into `vendor`, for its errors' places.
+struct VendorLayer;
+void parse_personality(Profile& profile, const YAML::Node& root, const YAML::Node& vendor,
+                       const VendorLayer* over = nullptr);
 
 // Parses an `objects:` list into a layout (not finalized).
 void parse_objects(const Where& w, const YAML::Node& list, OdLayout& out);

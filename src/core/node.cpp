@@ -113,6 +113,7 @@ bool Node::allowed_in(NmtState state, Service s) const {
 bool Node::send(const CanFrame& frame) {
   if (!on_bus()) return false;
   sink_.send(frame);
+  ++frames_sent_;
   return true;
 }
 

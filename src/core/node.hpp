@@ -111,6 +111,8 @@ class Node {
 
   // Sends a frame if the node is on the bus; true when it was handed to the sink.
   bool send(const CanFrame& frame);
+  // Frames handed to the sink since the node was built (the control API's FramesSent).
+  std::uint64_t frames_sent() const { return frames_sent_; }
 
   // ---- observation: one observer per node (null: none, zero cost)
   void set_observer(NodeObserver* observer) { observer_ = observer; }
@@ -239,6 +241,7 @@ class Node {
   Application* app_;
   NodeStorage* storage_;
   NodeObserver* observer_ = nullptr;
+  std::uint64_t frames_sent_ = 0;
   // The state: every member from here on is in NodeSnapshot (add new ones
   // there and to restore() too), rx_epoch_ excepted (restore() moves it on).
   OdValues values_;

@@ -159,6 +159,7 @@ void PdoEngine::reset(TimeUs now) {
 // mapping modes); they are told instead of polling the OD.
 void PdoEngine::config_changed(TimeUs now) {
   if (Application* app = node_.app()) app->on_pdo_config(node_, now);
+  if (NodeObserver* o = node_.observer()) o->on_pdo_config(node_, now);
 }
 
 void PdoEngine::index_active() {

@@ -138,6 +138,7 @@ class PdoEngine : private NodeService {
   std::span<const Tpdo> tpdos() const { return tpdos_; }
   // TPDO `number` (1-based, 0x1800 + number - 1), null when the profile has none.
   const Tpdo* tpdo(unsigned number) const;
+  std::span<const Rpdo> rpdos() const { return rpdos_; }
   // The PDO exists: COB-ID bit 31 clear (or the vendor ignores the bit).
   bool valid(const PdoConfig& cfg) const;
   // The mapping TPDO `number` holds now (sub 0 and its entries) as CiA 301's

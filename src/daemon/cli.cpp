@@ -4,6 +4,7 @@
 #include <iterator>
 #include <optional>
 
+#include "config/limits.hpp"
 #include "config/yaml_util.hpp"
 
 namespace cansim::daemon {
@@ -21,7 +22,8 @@ bool parse_number(const std::string& text, std::int64_t& out) {
 std::string usage_text() {
   return "usage: cansimd --profile FILE|NAME [--interface IF] [--node-id N] [options]\n"
          "       cansimd --config FILE [options]\n"
-         "       cansimd --export-eds FILE|NAME [--node-id N] [--strict] [--output FILE]\n"
+         "       cansimd --export-eds FILE|NAME [--node-id N] [--strict] [--strict-eds] [--output FILE]\n"
+         "       cansimd --export-dbc CONFIG|PROFILE [--interface IF] [--node-id N] [--strict] [--strict-eds] [--output FILE]\n"
          "\n"
          "Simulates CANopen (CiA 301/305/404) sensor nodes on SocketCAN interfaces.\n"
          "\n"
@@ -31,11 +33,16 @@ std::string usage_text() {
          "  --config FILE        run the fleet described in FILE\n"
          "  --export-eds FILE|NAME  write the profile's CiA 306 EDS (with --node-id: the DCF of\n"
          "                       that node at power-on) to --output FILE or stdout, and exit\n"
-         "  --output FILE        where --export-eds writes\n"
+         "  --export-dbc CONFIG|PROFILE  write a DBC of one bus of the fleet (a profile: of one node;\n"
+         "                       --interface: which bus, needed when the fleet has several;\n"
+         "                       --node-id: the profile's node) to --output FILE or stdout, and exit\n"
+         "  --output FILE        where --export-eds / --export-dbc write\n"
          "  --check              validate the configuration and exit (0 valid, 1 invalid)\n"
          "  --strict             every node in strict mode: each vendor deviation at its CiA value\n"
          "                       (options a fleet entry sets still win; with --export-eds: the\n"
          "                       strict device's EDS)\n"
+         "  --strict-eds         refuse what the EDS / DCF reader would repair with a warning\n"
+         "                       (miscounts, the SDO server's COB-IDs, NodeID=0, ...)\n"
          "  --quirks             with --profile: list the profile's deviations from CiA (option,\n"
          "                       manual reference, faithful and strict value) and exit\n"
          "  --state-dir DIR      stored parameters (default $STATE_DIRECTORY, else ./state)\n"
@@ -48,6 +55,8 @@ std::string usage_text() {
          "  --control-socket PATH  the control API's private socket, or none (default\n"
          "                       $RUNTIME_DIRECTORY/control, $XDG_RUNTIME_DIR/cansimd/control,\n"
          "                       /run/cansimd/control as root, else /tmp/cansimd-UID/control)\n"
+         "  --max-clients N      clients the private socket serves at once, 1..4096 (default 64);\n"
+         "                       one more is told why and closed\n"
          "  --version            print the version and exit\n"
          "  --help               print this help and exit\n"
          "\n"
@@ -61,7 +70,8 @@ namespace {
 bool* flag_of(CliOptions& o, const std::string& arg) {
   const std::pair<const char*, bool*> flags[] = {{"--help", &o.help},     {"-h", &o.help},
                                                  {"--version", &o.version}, {"--check", &o.check},
-                                                 {"--strict", &o.strict}, {"--quirks", &o.quirks}};
+                                                 {"--strict", &o.strict}, {"--quirks", &o.quirks},
+                                                 {"--strict-eds", &o.strict_eds}};
   for (const auto& [name, field] : flags)
     if (arg == name) return field;
   return nullptr;
@@ -71,14 +81,14 @@ bool* flag_of(CliOptions& o, const std::string& arg) {
 std::string* text_of(CliOptions& o, const std::string& arg) {
   const std::pair<const char*, std::string*> texts[] = {
       {"--profile", &o.profile},     {"--config", &o.config}, {"--export-eds", &o.export_eds},
-      {"--output", &o.output},       {"--state-dir", &o.state_dir}, {"--record", &o.record}};
+      {"--export-dbc", &o.export_dbc}, {"--output", &o.output},       {"--state-dir", &o.state_dir}, {"--record", &o.record}};
   for (const auto& [name, field] : texts)
     if (arg == name) return field;
   return nullptr;
 }
 
 bool is_checked_option(const std::string& arg) {
-  for (const char* name : {"--interface", "--node-id", "--log-level", "--bus", "--control-socket", "--seed"})
+  for (const char* name : {"--interface", "--node-id", "--log-level", "--bus", "--control-socket", "--max-clients", "--seed"})
     if (arg == name) return true;
   return false;
 }
@@ -104,6 +114,10 @@ std::string set_checked(CliOptions& o, const std::string& arg, const std::string
   } else if (arg == "--control-socket") {
     if (value.empty() || value.size() > 107) return "--control-socket: expected a socket path of 1..107 characters or none";
     o.control_socket = value;
+  } else if (arg == "--max-clients") {
+    if (!parse_number(value, v) || v < 1 || std::uint64_t(v) > limits::kMaxClientsCeiling)
+      return "--max-clients: expected 1.." + std::to_string(limits::kMaxClientsCeiling) + ", got '" + value + "'";
+    o.max_clients = std::size_t(v);
   } else if (arg == "--seed") {
     if (!parse_number(value, v) || value[0] == '-') return "--seed: expected a non-negative integer, got '" + value + "'";
     o.seed = std::uint64_t(v);
@@ -113,7 +127,14 @@ std::string set_checked(CliOptions& o, const std::string& arg, const std::string
 
 // What the options say together: "" or the error.
 std::string check_combination(const CliOptions& o, bool have_interface) {
-  if (!o.output.empty() && o.export_eds.empty()) return "--output goes with --export-eds";
+  if (!o.output.empty() && o.export_eds.empty() && o.export_dbc.empty())
+    return "--output goes with --export-eds or --export-dbc";
+  if (!o.export_dbc.empty()) {
+    if (!o.profile.empty() || !o.config.empty() || !o.export_eds.empty() || o.check)
+      return "--export-dbc takes a fleet configuration or a profile of its own (no --profile, --config, "
+             "--export-eds or --check)";
+    return {};
+  }
   if (!o.export_eds.empty()) {
     if (!o.profile.empty() || !o.config.empty() || have_interface || o.check)
       return "--export-eds takes a profile of its own (no --profile, --config, --interface or --check)";
@@ -155,8 +176,9 @@ CliResult parse_cli(const std::vector<std::string>& args, const char* state_dire
     if (!r.error.empty()) return r;
   }
   if (o.help || o.version) return r;
+  o.interface_given = have_interface;
   r.error = check_combination(o, have_interface);
-  if (!r.error.empty() || !o.export_eds.empty()) return r;
+  if (!r.error.empty() || !o.export_eds.empty() || !o.export_dbc.empty()) return r;
   if (o.state_dir.empty()) {
     std::string env = state_directory_env ? state_directory_env : "";
     // systemd passes a colon-separated list when several StateDirectory= are set.

@@ -50,12 +50,14 @@ NodeSetup node_setup(const config::NodeConfig& node) {
   return setup;
 }
 
-std::unique_ptr<Application> make_node_application(const config::NodeConfig& node, std::uint64_t seed) {
+std::unique_ptr<Application> make_node_application(const config::NodeConfig& node, std::uint64_t seed,
+                                                   const std::string& state_dir) {
   personalities::NodeContext ctx;
   ctx.fleet_seed = seed;
   ctx.index = node.index;
   ctx.key = node.key;
   ctx.record_file = node.record_file;
+  ctx.state_dir = state_dir;
   if (!ctx.record_file.empty()) {
     std::error_code ec;  // a failure shows when the file is opened
     std::filesystem::create_directories(std::filesystem::path(ctx.record_file).parent_path(), ec);
@@ -108,11 +110,21 @@ std::string describe(const BitRateMismatch& m) {
          "` on the node entry (or `bit_rate: " + std::to_string(m.node_kbit) + "` on interface " + m.interface + ")";
 }
 
+std::vector<std::string> load_warnings(const config::FleetConfig& fleet) {
+  std::vector<std::string> out;
+  std::set<std::string> seen;  // a fleet entry's variant carries its profile's
+  for (const auto& p : fleet.profiles)
+    for (const std::string& w : p->warnings)
+      if (seen.insert(w).second) out.push_back(w);
+  return out;
+}
+
 std::string check_fleet(config::FleetConfig& fleet, std::vector<std::string>* warnings) {
   for (config::NodeConfig n : fleet.nodes) {
     n.record_file.clear();  // --check must not truncate recordings
     make_node_application(n, fleet.seed);
   }
+  if (warnings) *warnings = load_warnings(fleet);
   if (warnings)
     for (const BitRateMismatch& m : bit_rate_mismatches(fleet, effective_bit_rate)) warnings->push_back(describe(m));
   return fleet.file + ": ok, " + std::to_string(fleet.nodes.size()) + " node(s) on " +
@@ -386,7 +398,7 @@ std::vector<Daemon::Pending> Daemon::plan(const config::FleetConfig& cfg, std::u
     if (it != nodes_.end() && it->second.cfg.fingerprint == n.fingerprint && it->second.seed == seed &&
         it->second.cfg.interface == n.interface && it->second.bus_rate == bus_rate(n.interface))
       continue;
-    to_add.push_back({&n, make_node_application(n, seed)});
+    to_add.push_back({&n, make_node_application(n, seed, settings_.state_dir)});
   }
   return to_add;
 }
@@ -434,6 +446,7 @@ io::NodeRef Daemon::add_node(Pending& p, std::uint64_t seed, std::vector<BitRate
   e.handle.interface = n.interface;
   e.handle.ref = e.ref;
   e.handle.app = core_.app(e.ref);
+  e.handle.emcy_codes = &e.cfg.profile->emcy_codes;
   NodeEntry& stored = nodes_[n.key] = std::move(e);
   {
     const auto subject = LogSubject::node(n.key);
@@ -513,9 +526,12 @@ const control::NodeHandle* Daemon::find(const std::string& key) const {
 std::vector<std::string> Daemon::add_nodes(const std::string& yaml) {
   const std::string label = "<AddNodes #" + std::to_string(++fragments_) + ">";
   config::FleetConfig running = combined();
-  config::ProfileSearch search = profile_search("");
+  config::ProfileSearch search = profile_search(settings_.config_file);
   search.strict = settings_.strict;
+  search.strict_eds = settings_.strict_eds;
+  search.confined_to = profile_folders();
   config::FleetConfig extra = config::parse_fleet_fragment(yaml, label, search, running);
+  for (const std::string& w : load_warnings(extra)) spdlog::warn("{}", w);
   config::merge_fleet(running, extra);  // throws on a collision
   added_.push_back(extra);
   try {
@@ -535,7 +551,23 @@ void Daemon::remove_node(const std::string& key) {
   for (config::FleetConfig& extra : added_)
     runtime |= std::erase_if(extra.nodes, [&](const config::NodeConfig& n) { return n.key == key; }) > 0;
   if (!runtime) removed_.insert(key);
+  std::erase_if(added_, [](const config::FleetConfig& f) { return f.nodes.empty(); });  // and their profiles
   apply(combined(), clock_now());
+}
+
+// Where AddNodes may take profiles from: the profile search folders, the
+// fleet file's folder and every folder the running fleet took one from.
+std::vector<std::string> Daemon::profile_folders() const {
+  std::vector<std::string> dirs = profile_search(settings_.config_file).dirs;
+  const auto folder = [](const std::string& file) {
+    const std::string dir = std::filesystem::path(file).parent_path().string();
+    return dir.empty() ? std::string(".") : dir;
+  };
+  if (!settings_.config_file.empty()) dirs.push_back(folder(settings_.config_file));
+  for (const auto& p : file_config_.profiles) dirs.push_back(folder(p->file));
+  std::sort(dirs.begin(), dirs.end());
+  dirs.erase(std::unique(dirs.begin(), dirs.end()), dirs.end());
+  return dirs;
 }
 
 std::vector<control::BusStatistics> Daemon::bus_statistics() const {
@@ -561,10 +593,21 @@ std::vector<control::BusStatistics> Daemon::bus_statistics() const {
   return out;
 }
 
+bool Daemon::interface_up(const std::string& name) const {
+  for (const auto& i : interfaces_)
+    if (i->configured && i->can.name() == name) return i->can.is_open();
+  return false;
+}
+
+void Daemon::log_action(const control::ActionRecord& r) {
+  LogSubject subject = LogSubject::action(r.interface, r.node, r.uid ? std::optional<unsigned>(*r.uid) : std::nullopt);
+  spdlog::info("{}", r.text);
+}
+
 void Daemon::start_control() {
   control_ = std::make_unique<control::ControlService>(*this);
   core_.set_observer(control_.get());
-  endpoints_ = std::make_unique<control::ControlEndpoints>(loop_, *control_);
+  endpoints_ = std::make_unique<control::ControlEndpoints>(loop_, *control_, settings_.max_clients);
   if (settings_.control_socket != "none") {
     const std::string path =
         settings_.control_socket.empty() ? control::default_control_socket() : settings_.control_socket;

@@ -69,6 +69,14 @@ int Cia404Chain::digits(const Node& node, std::size_t ch) const {
   return d ? int(std::min<std::uint64_t>(node.values().get_u(*d), 18)) : 0;
 }
 
+Cia404Chain::EntryScale Cia404Chain::entry_scale(const Node& node, const OdEntry& e) const {
+  const Cia404Profile::Binding& b = profile_->binding(e);
+  const bool in_unit = b.role == Role::kPv || model::is_valued(b.role);
+  if (!in_unit || b.channel >= state_.size()) return {};
+  const double scale = is_real(e.type) ? 1.0 : std::pow(10.0, -digits(node, b.channel));
+  return {scale, unit(b.channel).name};
+}
+
 double Cia404Chain::param_value(const Node& node, const Param& p, int dd) const {
   if (!p.present()) return 0.0;
   const OdEntry& e = *p.views[0];
@@ -386,6 +394,7 @@ void Cia404Chain::after_write(Node& node, const OdEntry& e, TimeUs now) {
       if (model::is_valued(b.role)) after_param_write(node, ch, c.param(b.role), e);
       break;
   }
+  if ((b.role == Role::kUnit || b.role == Role::kDigits) && node.observer()) node.observer()->on_pdo_config(node, now);
   if (b.role >= Role::kDelta && b.role <= Role::kHysteresis) {
     st.have_ref = false;
     st.upper_armed = st.lower_armed = true;

@@ -149,6 +149,14 @@ class Cia404Chain {
   double get(const Node& node, std::size_t ch, Role role) const;
   void set(Node& node, std::size_t ch, Role role, double value);
   const UnitScale& unit(std::size_t ch) const { return state_[ch].unit.scale; }
+  // What a raw value of entry `e` means: a valued object of a channel (PV,
+  // offset, span, limits) is in the channel's current unit, its integer views
+  // x 10^digits (0x6132); anything else has no unit (scale 1, unit "").
+  struct EntryScale {
+    double scale = 1.0;        // engineering value = raw value x scale
+    std::string_view unit;     // as the control API names it ("bar", "degC"); "" for none
+  };
+  EntryScale entry_scale(const Node& node, const OdEntry& e) const;
   const Cia404Profile& profile() const { return *profile_; }
   MeasurementSource& source() { return *source_; }
   const MeasurementSource& source() const { return *source_; }

@@ -44,6 +44,7 @@ std::uint64_t node_seed(const NodeContext& ctx) {
 std::unique_ptr<SensorSource> make_sensor_source(const model::Profile& profile, const NodeContext& ctx) {
   const model::PhysicsConfig& c = profile.physics;
   auto source = std::make_unique<SensorSource>(c.sensor, c.process, c.faults, node_seed(ctx));
+  source->set_state_dir(ctx.state_dir);
   std::string error;
   if (!ctx.record_file.empty() && !source->record_to(ctx.record_file, &error))
     throw std::runtime_error(ctx.key + ": cannot record to " + ctx.record_file + ": " + error);
