@@ -3,7 +3,9 @@
 // signature and argument values chosen by the input, often a real method with
 // fuzzed values, sometimes garbage) sent over a real sd-bus peer connection
 // to a fake-clock fleet, with time steps between them. No crash, no sanitizer
-// report, no hang; the fleet keeps running.
+// report, no hang; the fleet keeps running. Texts and maps reach far past the
+// bounds of config/limits.hpp (Input::big, long a{ss}): the seeds
+// big-*.bin in corpus-control start from those (see the end of this file).
 #include <systemd/sd-bus.h>
 
 #include <cstdint>
@@ -43,6 +45,7 @@ struct Input {
       default: return 0.0;
     }
   }
+  std::string big();
   std::string text() {
     static const char* const kWords[] = {
         "pressure", "temperature", "bar", "psi", "degC", "K", "nonsense", "", "generic/0", "dps", "vcan0/0x10",
@@ -51,11 +54,39 @@ struct Input {
         "/tmp/cansim-fuzz.csv", "duration", "at", "channel", "value", "\xff\xfe"};
     std::uint8_t k = byte();
     if (k < 200) return kWords[k % (sizeof kWords / sizeof *kWords)];
+    if (k < 204) return big();
     std::string s;
     for (std::uint8_t len = byte() % 24; len > 0; --len) s.push_back(char(byte() | 1));
     return s;
   }
 };
+
+// A large text from three bytes (config/limits.hpp's bounds, and far past
+// them): a head, a piece repeated up to 65,536 times, a tail.
+// Deep flow and block nesting, long vendor maps of unknown or repeated keys,
+// long tables.
+std::string Input::big() {
+  static constexpr struct {
+    const char* head;
+    const char* piece;
+    const char* tail;
+  } kBig[] = {
+      {"", "[", ""},
+      {"", "- ", "x"},
+      {"a: ", "{a: ", "1"},
+      {"{profile: generic-404, interface: vcan0, node_id: 0x30, name: x, vendor: {", "k: 1, ", "}}"},
+      {"{profile: dps, interface: vcan0, node_id: 0x31, name: y, vendor: {", "span_check_period: 1 ms, ", "}}"},
+      {"table: {points: [", "[1 s, 2 bar], ", "[9 s, 1 bar]]}"},
+      {"", "- {profile: generic-404, interface: vb, node_id: 1, count: 3, name: n}\n", ""},
+      {"", " ", ""},
+      {"- &t {table: {points: [[0 s, 1 bar], [1 s, 2 bar]]}}\n", "- *t\n", ""},
+  };
+  const auto& b = kBig[byte() % (sizeof kBig / sizeof *kBig)];
+  const std::size_t pieces = ((std::size_t(byte()) << 8) | byte()) + 1;
+  std::string s = b.head;
+  for (std::size_t i = 0; i < pieces; ++i) s += b.piece;
+  return s + b.tail;
+}
 
 struct Method {
   const char* interface;
@@ -99,7 +130,10 @@ int append_args(sd_bus_message* m, const char* sig, Input& in) {
     int r = 0;
     if (std::strncmp(c, "a{ss}", 5) == 0) {
       r = sd_bus_message_open_container(m, 'a', "{ss}");
-      for (std::uint8_t k = in.byte() % 4; r >= 0 && k > 0; --k) {
+      // Mostly a few entries; sometimes up to 65,535 (ArmFault's bound is 32).
+      const std::uint8_t n = in.byte();
+      std::size_t entries = n < 252 ? n % 4 : (std::size_t(in.byte()) << 8) | in.byte();
+      for (std::size_t k = entries; r >= 0 && k > 0; --k) {
         std::string key = in.text(), value = in.text();
         r = sd_bus_message_append(m, "{ss}", key.c_str(), value.c_str());
       }
@@ -163,3 +197,16 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   }
   return 0;
 }
+
+// The seeds big-*.bin (fuzz/corpus-control), one call each: byte 0 the call
+// kind (0: a method), byte 1 the method (index in kMethods), for a node
+// method a node byte (0: the first node), then the arguments: a text is a
+// word (< 200), a big() text (200..203: pattern byte, two count bytes), a
+// map of strings a count byte (>= 252: two more for up to 65,535 entries).
+//   big-armfault-map.bin   ArmFault("open", 50,000 x {"pressure": "pressure"})
+//   big-addnodes-deep.bin  AddNodes of 64 KiB of '['
+//   big-addnodes-vendor.bin AddNodes with a 15 KB vendor map (just under the bound)
+//   big-addnodes-dash.bin  AddNodes of "- " x 65,536 (compact block nesting)
+//   big-setmodel-deep.bin  SetModel("pressure", 64 KiB of '[')
+//   big-addnodes-entries.bin AddNodes of 17 entries (refused: 4 at most)
+//   big-setmodel-aliases.bin SetModel of a table and 4,097 aliases of it

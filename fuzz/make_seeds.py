@@ -1,11 +1,16 @@
 #!/usr/bin/env python3
 """Writes the seed corpus of fuzz/node_fuzz.cpp into fuzz/corpus/.
 
-Each seed is a meaningful master-side conversation with the generic-404 node
-(node-ID 0x10) in the record format documented in node_fuzz.cpp.
-Run: python3 fuzz/make_seeds.py   (the seeds are committed)."""
+Each seed is a meaningful master-side conversation in the record format
+documented in node_fuzz.cpp: most with the generic-404 node (node-ID 0x10),
+one per device profile (device_<profile>.bin: start, then reads and writes
+of its vendor objects, addressed by whatever node-ID the variant has). The
+fuzz run puts the variant byte in front (scripts/fuzz-run).
+Run: /usr/bin/python3 fuzz/make_seeds.py   (the seeds are committed)."""
 import os
 import struct
+
+import yaml
 
 NMT, SYNC, SDO, LSS, RPDO, TPDO, HB, RAW, SDO_ANY, EMCY, FAULT, POWER = 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 14, 15
 SILENT, POWER_CYCLE, BUS_OFF, HEARTBEAT_STOP, SLOW_SDO, SDO_BLOCK_DROP = range(6)
@@ -134,7 +139,43 @@ seeds["comm_faults"] = b"".join(
      fault(POWER_CYCLE, 50), rec(100, SYNC, []), fault(SILENT, 200), sdo(0x40, 0x17, 0x10, 0x00),
      rec(300, SYNC, [])])
 
+def default_bytes(row, size):
+    """A profile default as little-endian bytes ($NODEID terms dropped)."""
+    d = str(row.get("default", 0)).replace("$NODEID", "0").replace(" ", "")
+    try:
+        v = sum(int(t, 0) for t in d.split("+") if t)
+    except ValueError:
+        return None
+    return list((v & ((1 << (8 * size)) - 1)).to_bytes(size, "little"))
+
+
+SIZES = {"UNSIGNED8": 1, "INTEGER8": 1, "BOOLEAN": 1, "UNSIGNED16": 2, "INTEGER16": 2,
+         "UNSIGNED32": 4, "INTEGER32": 4, "REAL32": 4}
+
+
+# Vendor objects of each device profile (0x2000-0x5FFF): read each, write
+# back its default where it is writable (the personality's hooks).
+def device_seed(profile_file):
+    with open(profile_file) as f:
+        rows = yaml.safe_load(f)["objects"]
+    out = [rec(10, NMT, [0x01, 0x00])]
+    for row in rows:
+        index = row["index"]
+        if not 0x2000 <= index < 0x6000 or len(out) >= 24:
+            continue
+        sub = row.get("sub", 0)
+        sub = int(str(sub).split("..")[0], 0) if isinstance(sub, str) else sub
+        out.append(sdo(0x40, index & 0xFF, index >> 8, sub))
+        size = SIZES.get(row["type"])
+        value = default_bytes(row, size) if size else None
+        if value is not None and row["access"] in ("rw", "wo", "rww"):
+            out.append(sdo(0x23 | ((4 - size) << 2), index & 0xFF, index >> 8, sub, *value))
+    return b"".join(out + [rec(600, SYNC, []), rec(600, SYNC, [])])
+
+
 here = os.path.dirname(os.path.abspath(__file__))
+for name in ("dps", "p92c", "gems9000", "smc", "cmp"):
+    seeds["device_" + name] = device_seed(os.path.join(here, "..", "profiles", name + ".yaml"))
 out = os.path.join(here, "corpus")
 os.makedirs(out, exist_ok=True)
 for name, blob in seeds.items():

@@ -1,8 +1,15 @@
-// libFuzzer target: one generic-404 node (with its personality) fed a
-// sequence of (time step, frame) records. Every service sees traffic: NMT,
-// SYNC, SDO, LSS, RPDO, RTR on TPDOs, heartbeats of other nodes, raw IDs, and
-// power cycles. Must never crash, trip ASan/UBSan, spin without advancing
-// time, or send an invalid frame.
+// libFuzzer target: one node of every shipped profile, each in faithful and
+// strict mode (12 variants, tests/support/node_fuzz_harness.hpp), with its
+// personality, fed a sequence of (time step, frame) records. Every service
+// sees traffic: NMT, SYNC, SDO, LSS, RPDO, RTR on TPDOs, heartbeats of other
+// nodes, raw IDs, and power cycles. Must never crash, trip ASan/UBSan, spin
+// without advancing time, or send an invalid frame.
+//
+// Byte 0 of an input selects the variant (its value modulo 12, in the order
+// of kNodeFuzzVariants), so every input reproduces alone. With
+// CANSIM_NODE_FUZZ_VARIANT=<name> (scripts/fuzz-run runs each variant so)
+// the mutator keeps byte 0 on that variant: the run fuzzes one personality
+// and its crash inputs still select it. Then come the records.
 //
 // Record layout (13 bytes; a shorter tail is ignored):
 //   b0-1  time step before the frame, little-endian, in 10 us units (< 656 ms)
@@ -18,9 +25,9 @@
 //   b5-12 data bytes
 // fuzz/make_seeds.py writes the seed corpus in this format.
 //
-// Speed (scripts/fuzz-run gives it 60 s in CI): the profile is loaded and
-// prepared once, with the CiA 404 event checks every 100 ms instead of 10 ms
-// and the sensor sampling at 100 Hz / 10 Hz instead of 1 kHz / 100 Hz (same
+// Speed (scripts/fuzz-run gives each variant 15 s in CI): each profile is
+// loaded and prepared once, with the CiA 404 event checks and the vendor
+// supervision every 100 ms and the sensor sampling at 100 Hz / 10 Hz (same
 // code paths, a tenth of the physics work per simulated second), and the run
 // ends with the last record unless an SDO transfer is still open, which then
 // runs into its timeout. The node, its application (physics, armed faults, random
@@ -41,16 +48,44 @@
 // (fuzz/CMakeLists.txt). scripts/fuzz-run runs this target two thirds of
 // its time with edge coverage only (-use_counters=0: short inputs, about
 // 35,000/s) and a third with hit counts (the deeper loop iterations, about
-// 12,000/s): 1.6 M inputs in 60 s on the 2-core host.
+// 12,000/s): 1.6 M inputs in 60 s on the 2-core host for generic-404
+// (README "Fuzzing" has every variant's figures).
 #include <cstddef>
 #include <cstdint>
+#include <cstdio>
+#include <cstdlib>
 #include <span>
+#include <string>
 
 #include "support/node_fuzz_harness.hpp"
 
+namespace {
+int pinned_variant = -1;  // CANSIM_NODE_FUZZ_VARIANT
+}
+
+extern "C" size_t LLVMFuzzerMutate(std::uint8_t* data, size_t size, size_t max_size);
+
+extern "C" int LLVMFuzzerInitialize(int*, char***) {
+  if (std::getenv("CANSIM_NODE_FUZZ_LIST")) {  // scripts/fuzz-run: the variants, in selector order
+    for (const cansim::test::NodeFuzzVariant& v : cansim::test::kNodeFuzzVariants) std::printf("%s\n", v.name);
+    std::exit(0);
+  }
+  if (const char* name = std::getenv("CANSIM_NODE_FUZZ_VARIANT")) {
+    const std::size_t v = cansim::test::node_fuzz_variant(std::string(name));
+    if (v == cansim::test::kNodeFuzzVariantCount) std::abort();  // a typo would fuzz the wrong node
+    pinned_variant = int(v);
+  }
+  return 0;
+}
+
+extern "C" size_t LLVMFuzzerCustomMutator(std::uint8_t* data, size_t size, size_t max_size, unsigned) {
+  size = LLVMFuzzerMutate(data, size, max_size);
+  if (pinned_variant >= 0 && size > 0) data[0] = std::uint8_t(pinned_variant);
+  return size;
+}
+
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  static const cansim::config::Profile profile = cansim::test::node_fuzz_profile(CANSIM_FUZZ_PROFILE);
-  static cansim::test::NodeFuzzHarness harness(profile);
-  harness.run(std::span<const std::uint8_t>(data, size));
+  static cansim::test::NodeFuzzTarget target(CANSIM_FUZZ_PROFILES);
+  target.run(std::span<const std::uint8_t>(data, size));
   return 0;
 }

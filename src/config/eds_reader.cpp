@@ -1,8 +1,11 @@
 #include "config/eds_reader.hpp"
 
+#include "config/limits.hpp"
 #include "config/strict_mode.hpp"
+#include "core/cob_id.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -54,11 +57,16 @@ std::string printable(std::string_view s) {
   return out;
 }
 
-[[noreturn]] void reject(const std::string& file, int line, const std::string& where, const std::string& expected,
-                         const std::string* got = nullptr) {
+std::string message_at(const std::string& file, int line, const std::string& where, const std::string& expected,
+                       const std::string* got = nullptr) {
   std::string msg = file + ":" + std::to_string(line) + ": " + printable(where) + ": " + printable(expected);
   if (got) msg += ", got '" + printable(*got) + "'";
-  throw ConfigError(msg);
+  return msg;
+}
+
+[[noreturn]] void reject(const std::string& file, int line, const std::string& where, const std::string& expected,
+                         const std::string* got = nullptr) {
+  throw ConfigError(message_at(file, line, where, expected, got));
 }
 
 // ---------------------------------------------------------------- lines
@@ -138,25 +146,90 @@ class LineParser {
 
 // ---------------------------------------------------------------- values
 
+// What real masters repair or ignore in a file, one kind each (README,
+// "Device descriptions": what is tolerated). Each loads with one warning per
+// kind per file naming its first place; `cansimd --strict-eds` refuses them.
+enum class Repair {
+  kSdoServerCobId,      // 0x1200:01/02 other than 600h / 580h + node-ID (CiA 301 §7.2.4.3.2)
+  kDomainZero,          // DOMAIN DefaultValue=0
+  kUnsetCommissioning,  // [DeviceComissioning] NodeID=0 / Baudrate=0: CANopenEditor's "not set"
+  kListedMissing,       // an [...Objects] entry without its section
+  kObjectCount,         // SupportedObjects other than the keys 1..n
+  kSubNumber,           // SubNumber other than the [xxxxsubN] sections
+  kRealBits,            // a REAL written as its IEEE 754 bits (0x3E6B851F)
+  kNodeIdLimit,         // $NODEID in LowLimit / HighLimit
+  kCount
+};
+
+// The repairs of one file: the first of each kind as a warning, the others counted.
+class Repairs {
+ public:
+  explicit Repairs(bool strict) : strict_(strict) {}
+  bool strict() const { return strict_; }
+  void note(Repair kind, int line, std::string message) {
+    Seen& s = seen_[std::size_t(kind)];
+    if (s.first.empty()) {
+      s.first = std::move(message);
+      s.line = line;
+    } else {
+      ++s.more;
+    }
+  }
+  // In the order of their lines in the file.
+  std::vector<std::string> warnings() const {
+    std::vector<const Seen*> order;
+    for (const Seen& s : seen_)
+      if (!s.first.empty()) order.push_back(&s);
+    std::stable_sort(order.begin(), order.end(), [](const Seen* a, const Seen* b) { return a->line < b->line; });
+    std::vector<std::string> out;
+    for (const Seen* s : order) {
+      out.push_back(s->first);
+      if (s->more) out.back() += " (and " + std::to_string(s->more) + " more like it in this file)";
+    }
+    return out;
+  }
+
+ private:
+  struct Seen {
+    std::string first;
+    int line = 0;
+    int more = 0;
+  };
+  bool strict_;
+  std::array<Seen, std::size_t(Repair::kCount)> seen_;
+};
+
+// The file being read and its repairs.
+struct Source {
+  const EdsDocument& doc;
+  Repairs& repairs;
+};
+
 // A key of a section, with what the error messages need.
 struct Field {
-  const EdsDocument* doc = nullptr;
+  const Source* src = nullptr;
   const EdsSection* section = nullptr;
   const EdsKey* key = nullptr;  // null: absent
   std::string name;             // as the caller asked for it
 
   explicit operator bool() const { return key != nullptr; }
   const std::string& value() const { return key->value; }
+  // Absent, or written without a value ("ParameterValue="): not given.
   bool empty() const { return !key || key->value.empty(); }
-  [[noreturn]] void fail(const std::string& expected) const {
-    if (!key) reject(doc->file, section->line, "[" + section->name + "] " + name, expected);
-    reject(doc->file, key->line, "[" + section->name + "] " + key->name, expected, &key->value);
+  std::string message(const std::string& expected) const {
+    if (!key) return message_at(src->doc.file, section->line, "[" + section->name + "] " + name, expected);
+    return message_at(src->doc.file, key->line, "[" + section->name + "] " + key->name, expected, &key->value);
+  }
+  [[noreturn]] void fail(const std::string& expected) const { throw ConfigError(message(expected)); }
+  // What a master repairs: an error in strict mode (--strict-eds), else a
+  // warning "<the error>; <what was done>".
+  void tolerate(Repair kind, const std::string& expected, const std::string& done) const {
+    if (src->repairs.strict()) fail(expected);
+    src->repairs.note(kind, key ? key->line : section->line, message(expected) + "; " + done);
   }
 };
 
-Field field(const EdsDocument& doc, const EdsSection& s, const char* name) {
-  return Field{&doc, &s, s.find(name), name};
-}
+Field field(const Source& src, const EdsSection& s, const char* name) { return Field{&src, &s, s.find(name), name}; }
 
 // Strips a trailing "; comment" from a numeric field.
 std::string numeric_text(const std::string& v) {
@@ -196,11 +269,15 @@ std::int64_t get_integer(const Field& f, std::int64_t lo, std::int64_t hi) {
   return v;
 }
 
+// A flag (PDOMapping, LSS_Supported, BaudRate_x, DummyXXXX) in any number
+// form ("0x1", "01") or as true / false.
 bool get_flag(const Field& f) {
   const std::string v = normalized(numeric_text(f.value()));
-  if (v == "1" || v == "true") return true;
-  if (v == "0" || v == "false") return false;
-  f.fail("expected 0 or 1");
+  if (v == "true") return true;
+  if (v == "false") return false;
+  std::int64_t n = -1;
+  if (!parse_eds_integer(v, n) || (n != 0 && n != 1)) f.fail("expected 0 or 1");
+  return n == 1;
 }
 
 // Hex bytes "0A0B" or "0A 0B" (OCTET_STRING, DOMAIN).
@@ -233,6 +310,33 @@ void encode_integer(const Field& f, DataType t, std::int64_t v, bool literal_is_
   encode_i(t, v, out);
 }
 
+// A REAL written as the hex bits of its IEEE 754 form ("0x3E6B851F" = 0.23):
+// what some tools write, taken as bits with a warning when they are those of
+// a finite number of the type's size.
+bool real_bits(const Field& f, DataType t, const std::string& text, std::vector<std::uint8_t>& out) {
+  if (normalized(text).rfind("0x", 0) != 0) return false;
+  std::int64_t v = 0;
+  if (!parse_eds_integer(text, v)) return false;
+  const auto bits = std::uint64_t(v);
+  double value = 0;
+  if (t == DataType::kReal32) {
+    if (bits >> 32) return false;
+    float x = 0;
+    const auto b32 = std::uint32_t(bits);
+    std::memcpy(&x, &b32, sizeof x);
+    value = x;
+  } else {
+    std::memcpy(&value, &bits, sizeof value);
+  }
+  if (!std::isfinite(value)) return false;
+  char shown[48];
+  std::snprintf(shown, sizeof shown, "%.9g", value);
+  f.tolerate(Repair::kRealBits, "expected a decimal floating-point number",
+             std::string("read as the IEEE 754 bits of ") + shown);
+  encode_f(t, value, out.data());
+  return true;
+}
+
 // A numeric value of entry `e` into `out` (type_size bytes). `node_id` null:
 // no $NODEID term allowed.
 void parse_number(const Field& f, DataType t, std::vector<std::uint8_t>& out, bool* node_id) {
@@ -240,11 +344,12 @@ void parse_number(const Field& f, DataType t, std::vector<std::uint8_t>& out, bo
   const std::string text = numeric_text(f.value());
   if (text.empty()) return;  // an empty field is 0 (real files write "DefaultValue=")
   if (is_real(t)) {
+    if (real_bits(f, t, text, out)) return;
     char* end = nullptr;
-    errno = 0;
     const double v = std::strtod(text.c_str(), &end);
     const bool hex = text.find_first_of("xX") != std::string::npos;
-    if (hex || *end || errno || !std::isfinite(v)) f.fail("expected a decimal floating-point number");
+    // Overflow is infinite; an underflow (ERANGE too) is the subnormal or 0 it gives.
+    if (hex || *end || !std::isfinite(v)) f.fail("expected a decimal floating-point number");
     // Halfway above the largest float rounds to infinity (and converting past it is undefined).
     const float top = std::numeric_limits<float>::max();
     const double real32_limit = double(top) + (double(top) - double(std::nextafter(top, 0.0f))) / 2;
@@ -265,8 +370,22 @@ void parse_number(const Field& f, DataType t, std::vector<std::uint8_t>& out, bo
   encode_integer(f, t, v, bits, out.data());
 }
 
+// "DefaultValue=0" of a DOMAIN (no bytes in hex): an empty domain.
+bool domain_zero(const Field& f, const OdEntry& e) {
+  std::int64_t v = -1;
+  const std::string text = numeric_text(f.value());
+  if (e.type != DataType::kDomain || !parse_eds_integer(text, v) || v != 0) return false;
+  std::string digits = normalized(text);
+  if (digits.rfind("0x", 0) == 0) digits.erase(0, 2);
+  if (digits.size() % 2 == 0) return false;  // "00": one byte 0
+  f.tolerate(Repair::kDomainZero, "expected hex bytes, e.g. 0A1B2C", "read as an empty DOMAIN");
+  return true;
+}
+
 void parse_value(const Field& f, OdEntry& e) {
-  if (e.type == DataType::kOctetString || e.type == DataType::kDomain) {
+  if (domain_zero(f, e)) {
+    e.default_bytes.clear();
+  } else if (e.type == DataType::kOctetString || e.type == DataType::kDomain) {
     e.default_bytes = get_hex_bytes(f);
   } else if (is_variable_size(e.type)) {
     e.default_bytes.assign(f.key->text.begin(), f.key->text.end());
@@ -341,7 +460,8 @@ std::uint8_t persistence_group(const OdEntry& e) {
 
 class ObjectReader {
  public:
-  ObjectReader(const EdsDocument& doc, OdLayout& layout) : doc_(doc), layout_(layout) {}
+  ObjectReader(const Source& src, OdLayout& layout, std::optional<std::uint8_t> file_node_id)
+      : src_(src), doc_(src.doc), layout_(layout), file_node_id_(file_node_id) {}
 
   void object(std::uint16_t index, const ObjectSections& o) {
     if (!o.object) {
@@ -351,10 +471,10 @@ class ObjectReader {
       reject(doc_.file, any->line, "[" + any->name + "]", buf);
     }
     const EdsSection& s = *o.object;
-    const Field type = field(doc_, s, "ObjectType");
+    const Field type = field(src_, s, "ObjectType");
     const std::int64_t kind = type.empty() ? 7 : get_integer(type, 0, 255);
     if (kind == 5 || kind == 6 || kind == 0) return;  // DEFTYPE / DEFSTRUCT / NULL: type definitions, no value
-    if ((o.names || o.values) && field(doc_, s, "CompactSubObj").empty()) {
+    if ((o.names || o.values) && field(src_, s, "CompactSubObj").empty()) {
       const EdsSection* t = o.names ? o.names : o.values;
       reject(doc_.file, t->line, "[" + t->name + "]", "expected CompactSubObj in [" + s.name + "] for this section");
     }
@@ -375,12 +495,14 @@ class ObjectReader {
 
   void structured(std::uint16_t index, ObjectKind kind, const ObjectSections& o) {
     const EdsSection& s = *o.object;
-    const Field compact = field(doc_, s, "CompactSubObj");
+    const Field compact = field(src_, s, "CompactSubObj");
     const std::int64_t n = compact.empty() ? 0 : get_integer(compact, 0, 254);
     if (n > 0) return compact_subs(index, kind, o, std::uint8_t(n));
-    const Field count = field(doc_, s, "SubNumber");
+    const Field count = field(src_, s, "SubNumber");
     if (!count.empty() && get_integer(count, 0, 255) != std::int64_t(o.subs.size()))
-      count.fail("expected the number of [" + s.name + "subN] sections (" + std::to_string(o.subs.size()) + ")");
+      count.tolerate(Repair::kSubNumber,
+                     "expected the number of [" + s.name + "subN] sections (" + std::to_string(o.subs.size()) + ")",
+                     "the " + std::to_string(o.subs.size()) + " sections are read");
     if (o.subs.empty()) reject(doc_.file, s.line, "[" + s.name + "]", "expected [" + s.name + "subN] sections or CompactSubObj");
     for (const auto& [sub, section] : o.subs) add(entry(*section, index, std::uint8_t(sub), kind));
   }
@@ -401,6 +523,10 @@ class ObjectReader {
     count.access = Access::kRo;
     count.name = "Number of entries";
     count.default_bytes = {n};
+    if (index == 0x1003) {  // CiA 301 §7.5.2.5: the number of errors recorded, 0 at boot, 0 written clears
+      count.access = Access::kRw;
+      count.default_bytes = {0};
+    }
     add(count);
     const OdEntry shared = entry(s, index, 1, kind);
     for (int sub = 1; sub <= n; ++sub) {
@@ -408,7 +534,7 @@ class ObjectReader {
       e.sub = std::uint8_t(sub);
       e.name = shared.name + " " + std::to_string(sub);
       if (o.names) named_sub(*o.names, e, [&](const Field& f) { e.name = f.value(); });
-      if (o.values) named_sub(*o.values, e, [&](const Field& f) { parse_value(f, e); });
+      if (o.values) named_sub(*o.values, e, [&](const Field& f) { set_value(f, e); });
       add(std::move(e));
     }
     for (const EdsSection* table : {o.names, o.values})
@@ -416,10 +542,15 @@ class ObjectReader {
   }
 
   template <typename Apply>
+  // The key of sub `e.sub` in any number form ("2", "0x2", "02").
   void named_sub(const EdsSection& table, const OdEntry& e, Apply&& apply) {
-    const std::string key = std::to_string(e.sub);
-    const Field f = field(doc_, table, key.c_str());
-    if (f) apply(f);
+    for (const EdsKey& k : table.keys) {
+      std::int64_t sub = 0;
+      if (k.key == "nrofentries" || !parse_eds_integer(k.name, sub) || sub != e.sub) continue;
+      const Field f{&src_, &table, &k, k.name};
+      if (!f.empty()) apply(f);
+      return;
+    }
   }
 
   void check_table(const EdsSection& table, std::uint8_t n) {
@@ -437,20 +568,20 @@ class ObjectReader {
     e.index = index;
     e.sub = sub;
     e.kind = kind;
-    const Field name = field(doc_, s, "ParameterName");
+    const Field name = field(src_, s, "ParameterName");
     if (name) e.name = name.value();
-    const Field type = field(doc_, s, "DataType");
+    const Field type = field(src_, s, "DataType");
     if (type.empty()) type.fail("missing required key");
     const std::int64_t t = get_integer(type, 0, 0xFFFF);
     if (t > 0x1F || std::string_view(type_name(DataType(t))) == "?")
       type.fail("expected a CiA 301 basic data type 0x0001..0x001B (BOOLEAN, INTEGERn, UNSIGNEDn, REAL32/64, strings, DOMAIN)");
     e.type = DataType(t);
-    const Field access = field(doc_, s, "AccessType");
+    const Field access = field(src_, s, "AccessType");
     if (access.empty()) access.fail("missing required key");
     if (!parse_access(normalized(access.value()), e.access)) access.fail("expected one of ro, wo, rw, rwr, rww, const");
-    const Field pdo = field(doc_, s, "PDOMapping");
+    const Field pdo = field(src_, s, "PDOMapping");
     e.pdo_mappable = !pdo.empty() && get_flag(pdo);
-    const Field flags = field(doc_, s, "ObjFlags");
+    const Field flags = field(src_, s, "ObjFlags");
     if (!flags.empty()) get_integer(flags, 0, 0xFFFFFFFF);  // CiA 306 §4.5.2.1: tool hints, no node behaviour
     value(s, e);
     limits(s, e);
@@ -460,22 +591,56 @@ class ObjectReader {
     return e;
   }
 
-  // A DCF's ParameterValue (the configured value) wins over DefaultValue.
+  // A DCF's ParameterValue (the configured value) wins over DefaultValue
+  // when it has a value: CANopenEditor writes "ParameterValue=" for "not set".
   void value(const EdsSection& s, OdEntry& e) {
-    const Field configured = field(doc_, s, "ParameterValue");
-    const Field preset = field(doc_, s, "DefaultValue");
-    const Field& chosen = configured ? configured : preset;
-    if (chosen) parse_value(chosen, e);
+    const Field configured = field(src_, s, "ParameterValue");
+    const Field preset = field(src_, s, "DefaultValue");
+    // Blanks are a string's value ("DefaultValue=    "), a number's absence.
+    const bool text = is_variable_size(e.type) && e.type != DataType::kOctetString && e.type != DataType::kDomain;
+    auto given = [&](const Field& f) { return f && !(text ? f.key->text : f.value()).empty(); };
+    const Field& chosen = given(configured) ? configured : preset;
+    if (given(chosen)) set_value(chosen, e);
     else if (!is_variable_size(e.type)) e.default_bytes.assign(type_size(e.type), 0);
+  }
+
+  void set_value(const Field& f, OdEntry& e) {
+    parse_value(f, e);
+    if (const std::uint32_t base = default_sdo_base(e)) check_default_sdo_cob_id(f, e, base);
+  }
+
+  // CiA 301 §7.2.4.3.2 (predefined connection set): the default SDO server
+  // (0x1200) answers at 600h / 580h + node-ID, whatever the file says.
+  static std::uint32_t default_sdo_base(const OdEntry& e) {
+    if (e.index != 0x1200 || (e.sub != 1 && e.sub != 2) || type_size(e.type) != 4) return 0;
+    return e.sub == 1 ? cob::kSdoRxBase : cob::kSdoTxBase;
+  }
+
+  // A value for the file's own node (0x605 in a DCF of node 5) is that; any
+  // other (another node's, an invalid 0x80000000) is repaired with a warning.
+  void check_default_sdo_cob_id(const Field& f, const OdEntry& e, std::uint32_t base) const {
+    const auto v = std::uint32_t(decode_u(e.type, e.default_bytes.data()));
+    if (v == base && e.default_plus_node_id) return;
+    if (!e.default_plus_node_id && file_node_id_ && v == base + *file_node_id_) return;
+    char expected[96];
+    std::snprintf(expected, sizeof expected, "expected $NODEID+0x%X (the default SDO server's COB-ID)", base);
+    char done[64];
+    std::snprintf(done, sizeof done, "the node uses 0x%X + its node-ID", base);
+    f.tolerate(Repair::kSdoServerCobId, expected, done);
   }
 
   void limits(const EdsSection& s, OdEntry& e) {
     for (const char* key : {"LowLimit", "HighLimit"}) {
-      const Field f = field(doc_, s, key);
+      const Field f = field(src_, s, key);
       if (f.empty()) continue;
       if (is_variable_size(e.type)) f.fail(std::string("expected no limit for ") + type_name(e.type));
       std::vector<std::uint8_t> bytes;
-      parse_number(f, e.type, bytes, nullptr);
+      bool plus_node_id = false;
+      parse_number(f, e.type, bytes, &plus_node_id);
+      if (plus_node_id) {  // CiA 306 allows it; the node's limits are fixed
+        f.tolerate(Repair::kNodeIdLimit, "expected an integer", "the limit is not applied");
+        continue;
+      }
       const bool low = key[0] == 'L';
       std::copy(bytes.begin(), bytes.end(), low ? e.low : e.high);
       (low ? e.has_low : e.has_high) = true;
@@ -487,36 +652,49 @@ class ObjectReader {
   static constexpr std::size_t kMaxEntries = 8192;
 
   void add(OdEntry e) {
+    if (const std::uint32_t base = default_sdo_base(e)) {
+      encode_i(e.type, base, e.default_bytes.data());
+      e.default_plus_node_id = true;
+    }
     if (layout_.entries().size() >= kMaxEntries)
       throw ConfigError(doc_.file + ":1: (top level): expected at most " + std::to_string(kMaxEntries) +
                         " sub-objects in all");
     layout_.add(std::move(e));
   }
 
+  const Source& src_;
   const EdsDocument& doc_;
   OdLayout& layout_;
+  std::optional<std::uint8_t> file_node_id_;  // [DeviceComissioning] NodeID, when the file states it
 };
 
-// [MandatoryObjects] / [OptionalObjects] / [ManufacturerObjects]: every
-// listed object has its section.
-void check_object_lists(const EdsDocument& doc, const std::map<std::uint16_t, ObjectSections>& objects) {
+// [MandatoryObjects] / [OptionalObjects] / [ManufacturerObjects]: tool
+// hints (the node has every [xxxx] section); a count other than the keys or
+// a listed object without its section is repaired with a warning.
+void check_object_lists(const Source& src, const std::map<std::uint16_t, ObjectSections>& objects) {
   for (const char* list : {"MandatoryObjects", "OptionalObjects", "ManufacturerObjects"}) {
-    const EdsSection* s = doc.find(list);
+    const EdsSection* s = src.doc.find(list);
     if (!s) continue;
-    const Field count = field(doc, *s, "SupportedObjects");
+    const Field count = field(src, *s, "SupportedObjects");
     const std::int64_t n = count.empty() ? 0 : get_integer(count, 0, 0xFFFF);
-    for (std::int64_t i = 1; i <= n; ++i) {
-      const std::string key = std::to_string(i);
-      const Field f = field(doc, *s, key.c_str());
-      if (!f) count.fail("expected keys 1.." + std::to_string(n) + " (key " + key + " is missing)");
+    std::int64_t given = 0;
+    for (const EdsKey& k : s->keys) {
+      std::int64_t i = 0;
+      if (k.key == "supportedobjects" || !parse_eds_integer(k.name, i)) continue;
+      const Field f{&src, s, &k, k.name};
+      if (f.empty()) continue;
+      ++given;
       const auto index = std::uint16_t(get_integer(f, 1, 0xFFFF));
       auto it = objects.find(index);
       if (it == objects.end() || !it->second.object) {
         char buf[64];
         std::snprintf(buf, sizeof buf, "expected a section [%04X] for this listed object", index);
-        f.fail(buf);
+        f.tolerate(Repair::kListedMissing, buf, "the entry is ignored");
       }
     }
+    if (given != n)
+      count.tolerate(Repair::kObjectCount, "expected the number of object keys (" + std::to_string(given) + ")",
+                     "the " + std::to_string(given) + " keys are read");
   }
 }
 
@@ -529,26 +707,28 @@ constexpr struct {
                  {"BaudRate_250", 250}, {"BaudRate_500", 500}, {"BaudRate_800", 800}, {"BaudRate_1000", 1000}};
 
 // LSS support, bit rates and dummy mapping, where the file states them.
-void device_options(const EdsDocument& doc, Profile& p) {
+void device_options(const Source& src, Profile& p) {
+  const EdsDocument& doc = src.doc;
   NodeOptions& o = *p.options;
   if (const EdsSection* info = doc.find("DeviceInfo")) {
-    if (const Field lss = field(doc, *info, "LSS_Supported"); !lss.empty()) o.lss_supported = get_flag(lss);
+    if (const Field lss = field(src, *info, "LSS_Supported"); !lss.empty()) o.lss_supported = get_flag(lss);
     std::string rates;
     std::vector<std::uint32_t> supported;
     for (const auto& b : kBaudKeys) {
-      const Field f = field(doc, *info, b.key);
+      const Field f = field(src, *info, b.key);
       if (f.empty() || !get_flag(f)) continue;
       rates += (rates.empty() ? "" : ",") + std::to_string(bit_rate_index(b.kbit));
       supported.push_back(b.kbit);
     }
-    if (!rates.empty()) o.lss_bit_rates = rates;
+    if (!rates.empty()) ByteSet::parse(rates, o.lss_bit_rates);
     if (!supported.empty() && std::find(supported.begin(), supported.end(), 250u) == supported.end())
       p.bit_rate_kbit = supported.front();
   }
   if (const EdsSection* dummies = doc.find("DummyUsage")) {
     bool any = false, stated = false;
     for (const EdsKey& k : dummies->keys) {
-      const Field f{&doc, dummies, &k, k.name};
+      const Field f{&src, dummies, &k, k.name};
+      if (f.empty()) continue;
       stated = true;
       any |= get_flag(f);
     }
@@ -557,20 +737,28 @@ void device_options(const EdsDocument& doc, Profile& p) {
 }
 
 // [DeviceComissioning] (CiA 306 spelling; "Commissioning" accepted too).
-void commissioning(const EdsDocument& doc, Profile& p) {
-  const EdsSection* s = doc.find("DeviceComissioning");
-  if (!s) s = doc.find("DeviceCommissioning");
-  if (!s) return;
-  if (const Field id = field(doc, *s, "NodeID"); !id.empty()) {
-    const std::int64_t v = get_integer(id, 1, 255);
+// Returns the node-ID the file states. 0 is CANopenEditor's "not set".
+std::optional<std::uint8_t> commissioning(const Source& src, Profile& p) {
+  const EdsSection* s = src.doc.find("DeviceComissioning");
+  if (!s) s = src.doc.find("DeviceCommissioning");
+  if (!s) return std::nullopt;
+  std::optional<std::uint8_t> stated;
+  if (const Field id = field(src, *s, "NodeID"); !id.empty()) {
+    const std::int64_t v = get_integer(id, 0, 255);
     if (v > 127 && v != 255) id.fail("expected a node-ID 1..127 or 255 (LSS-unconfigured)");
-    p.node_id = std::uint8_t(v);
+    if (v == 0) id.tolerate(Repair::kUnsetCommissioning, "expected a node-ID 1..127 or 255 (LSS-unconfigured)",
+                            "taken as not set (node-ID " + std::to_string(p.node_id) + ")");
+    else stated = p.node_id = std::uint8_t(v);
   }
-  if (const Field rate = field(doc, *s, "Baudrate"); !rate.empty()) {
-    const std::int64_t v = get_integer(rate, 1, 1000);
-    if (bit_rate_index(std::uint32_t(v)) < 0) rate.fail("expected a CiA bit rate in kbit/s: 1000, 800, 500, 250, 125, 50, 20 or 10");
-    p.bit_rate_kbit = std::uint32_t(v);
+  if (const Field rate = field(src, *s, "Baudrate"); !rate.empty()) {
+    const char* expected = "expected a CiA bit rate in kbit/s: 1000, 800, 500, 250, 125, 50, 20 or 10";
+    const std::int64_t v = get_integer(rate, 0, 1000);
+    if (v != 0 && bit_rate_index(std::uint32_t(v)) < 0) rate.fail(expected);
+    if (v == 0) rate.tolerate(Repair::kUnsetCommissioning, expected,
+                              "taken as not set (" + std::to_string(p.bit_rate_kbit) + " kbit/s)");
+    else p.bit_rate_kbit = std::uint32_t(v);
   }
+  return stated;
 }
 
 std::string profile_name(const std::string& file) {
@@ -635,14 +823,10 @@ bool parse_eds_integer(std::string_view raw, std::int64_t& out) {
 EdsDocument parse_eds(const std::string& text, const std::string& file) { return LineParser(text, file).run(); }
 
 EdsDocument load_eds_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw ConfigError(path + ": cannot open file: " + std::strerror(errno));
-  std::ostringstream os;
-  os << in.rdbuf();
-  return parse_eds(os.str(), path);
+  return parse_eds(read_regular_file(path, limits::kProfileFileBytes), path);
 }
 
-Profile profile_from_eds(const EdsDocument& doc, bool strict) {
+Profile profile_from_eds(const EdsDocument& doc, bool strict, bool strict_eds) {
   Profile p;
   p.file = doc.file;
   p.name = profile_name(doc.file);
@@ -652,12 +836,14 @@ Profile profile_from_eds(const EdsDocument& doc, bool strict) {
   p.node_id = 1;
   p.bit_rate_kbit = 250;
   p.options = std::make_shared<NodeOptions>();
-  device_options(doc, p);
-  commissioning(doc, p);
+  Repairs repairs(strict_eds);
+  const Source src{doc, repairs};
+  device_options(src, p);
+  const std::optional<std::uint8_t> file_node_id = commissioning(src, p);
   p.layout = std::make_shared<OdLayout>();
   const auto objects = group_sections(doc);
-  check_object_lists(doc, objects);
-  ObjectReader reader(doc, *p.layout);
+  check_object_lists(src, objects);
+  ObjectReader reader(src, *p.layout, file_node_id);
   for (const auto& [index, sections] : objects) reader.object(index, sections);
   if (p.layout->entries().empty()) throw ConfigError(doc.file + ":1: (top level): expected at least one object section [xxxx]");
   p.layout->finalize();
@@ -667,10 +853,13 @@ Profile profile_from_eds(const EdsDocument& doc, bool strict) {
   const YAML::Node none(YAML::NodeType::Map);
   parse_strict_sections(Where{doc.file, ""}, none, p, strict);
   parse_personality(p, none, YAML::Node());
+  p.warnings = repairs.warnings();
   return p;
 }
 
-Profile load_eds_profile(const std::string& path, bool strict) { return profile_from_eds(load_eds_file(path), strict); }
+Profile load_eds_profile(const std::string& path, bool strict, bool strict_eds) {
+  return profile_from_eds(load_eds_file(path), strict, strict_eds);
+}
 
 bool is_device_description(const std::string& path) {
   const std::string ext = normalized(std::filesystem::path(path).extension().string());

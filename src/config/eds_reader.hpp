@@ -1,7 +1,8 @@
 // CiA 306 electronic data sheets (EDS) and device configuration files (DCF):
 // a tolerant, precise reader. Tolerant of what real files do (case and spaces
 // in section names and keys, CRLF, ';' comments, decimal / hex / octal
-// numbers, $NODEID terms in any order and case, empty numeric fields,
+// numbers everywhere a number goes (flags included), $NODEID terms in any
+// order and case, empty keys as not given,
 // CompactSubObj, ObjFlags); every rejection is a ConfigError
 // "file:line: [section] key: what was expected, got 'value'".
 #pragma once
@@ -52,8 +53,15 @@ EdsDocument load_eds_file(const std::string& path);
 // file states (LSS support, bit rates, dummy mapping). The only place where an
 // EDS becomes a Profile.
 // `strict`: in strict mode (an EDS has no quirks: its options stay CiA's).
-Profile profile_from_eds(const EdsDocument& doc, bool strict = false);
-Profile load_eds_profile(const std::string& path, bool strict = false);
+// What real masters tolerate (README "Device descriptions": a SubNumber or
+// SupportedObjects that miscounts, a listed object without its section, the
+// default SDO server's COB-IDs other than 600h / 580h + node-ID, NodeID=0 /
+// Baudrate=0 for "not set", a DOMAIN "0", a REAL as IEEE 754 bits, $NODEID
+// in a limit) loads with one warning per kind in Profile::warnings
+// ("file:line: [section] key: expected ..., got '...'; what was done");
+// `strict_eds` (`cansimd --strict-eds`) makes each of them an error.
+Profile profile_from_eds(const EdsDocument& doc, bool strict = false, bool strict_eds = false);
+Profile load_eds_profile(const std::string& path, bool strict = false, bool strict_eds = false);
 
 // True for a file name ending in .eds or .dcf (any case).
 bool is_device_description(const std::string& path);

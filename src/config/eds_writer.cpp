@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <ctime>
 #include <filesystem>
+#include <set>
 #include <sstream>
 #include <vector>
 
@@ -173,8 +174,7 @@ class Writer {
 
   // The profile's own rate, and with LSS the lss_bit_rates table indices.
   void bit_rates() {
-    ByteSet indices;
-    if (options_.lss_supported) ByteSet::parse(options_.lss_bit_rates, indices);
+    const ByteSet indices = options_.lss_supported ? options_.lss_bit_rates : ByteSet{};
     for (std::uint32_t kbit : {10u, 20u, 50u, 125u, 250u, 500u, 800u, 1000u}) {
       const bool on = kbit == id_.bit_rate_kbit || indices.has(std::uint8_t(bit_rate_index(kbit)));
       const std::string name = "BaudRate_" + std::to_string(kbit);
@@ -247,15 +247,21 @@ class Writer {
     key("ParameterName", object_name(layout_, o));
     key("ObjectType", hex(unsigned(o.kind == ObjectKind::kVar ? ObjectKind::kRecord : o.kind)));
     key("SubNumber", o.count);
+    // CiA 306 tools look sub-objects up by name: a name an earlier sub-index
+    // of the object has (an imported file's) gets its sub-index.
+    std::set<std::string> names;
     for (std::uint16_t slot = o.first; slot < o.first + o.count; ++slot) {
       const OdEntry& e = layout_.entry(slot);
       section(sub_section_name(e.index, e.sub));
-      entry(e, ObjectKind::kVar);
+      const bool taken = !names.insert(e.name).second;
+      entry(e, ObjectKind::kVar, taken ? e.name + " (sub " + std::to_string(e.sub) + ")" : e.name);
     }
   }
 
-  void entry(const OdEntry& e, ObjectKind kind) {
-    key("ParameterName", e.name);
+  void entry(const OdEntry& e, ObjectKind kind) { entry(e, kind, e.name); }
+
+  void entry(const OdEntry& e, ObjectKind kind, const std::string& name) {
+    key("ParameterName", name);
     key("ObjectType", hex(unsigned(kind)));
     key("DataType", hex(unsigned(e.type), 4));
     key("AccessType", access_name(e.access));

@@ -1,16 +1,17 @@
 #include "config/fleet.hpp"
 
 #include "config/eds_reader.hpp"
+#include "config/limits.hpp"
 #include "config/physics_config.hpp"
 #include "config/strict_mode.hpp"
+#include "config/vendor_params.hpp"
 #include "core/can_frame.hpp"
 
 #include <algorithm>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <set>
-#include <sstream>
+#include <unordered_map>
 
 namespace cansim::config {
 
@@ -23,12 +24,7 @@ bool is_file(const fs::path& p) {
   return fs::is_regular_file(p, ec);
 }
 
-std::string read_text(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream os;
-  os << in.rdbuf();
-  return os.str();
-}
+std::string read_text(const std::string& path) { return read_regular_file(path, limits::kProfileFileBytes); }
 
 bool valid_name(const std::string& s) {
   if (s.empty() || s.size() > 64) return false;
@@ -41,6 +37,20 @@ std::string hex2(unsigned v) {
   char buf[8];
   std::snprintf(buf, sizeof buf, "0x%02X", v);
   return buf;
+}
+
+// True when `file` (symbolic links resolved) lies in one of `dirs`.
+bool inside_any(const std::string& file, const std::vector<std::string>& dirs) {
+  std::error_code ec;
+  const fs::path real = fs::canonical(file, ec);
+  if (ec) return false;
+  for (const auto& d : dirs) {
+    const fs::path root = fs::canonical(d, ec);
+    if (ec) continue;
+    const fs::path rel = real.lexically_relative(root);
+    if (!rel.empty() && *rel.begin() != ".." && rel != ".") return true;
+  }
+  return false;
 }
 
 // Loads each profile file once per configuration; variants are copies.
@@ -58,15 +68,36 @@ class ProfileCache {
       for (const auto& d : search_.dirs) dirs += (dirs.empty() ? "" : ", ") + d;
       fail(w, ref_node, "expected a profile file or a profile name found in: " + dirs);
     }
+    const bool confined = !search_.confined_to.empty();
+    if (confined && !inside_any(path, search_.confined_to)) {
+      std::string dirs;
+      for (const auto& d : search_.confined_to) dirs += (dirs.empty() ? "" : ", ") + d;
+      fail(w, ref_node, "expected a profile name or a file in the profile folders (" + dirs + ")");
+    }
     auto it = by_path_.find(path);
     if (it != by_path_.end()) return it->second;
-    auto p = std::make_shared<Profile>(load_any_profile(path, search_.strict));
+    std::shared_ptr<Profile> p;
+    try {
+      text_[path] = read_text(path);
+      if (is_device_description(path)) {
+        p = std::make_shared<Profile>(load_any_profile(path, search_.strict, search_.strict_eds));
+      } else {  // parsed once: the variants of its entries start from copies
+        docs_[path] = load_yaml_text(text_[path], path);
+        p = std::make_shared<Profile>(parse_profile(docs_[path], path, search_.strict));
+      }
+    } catch (const TooLarge&) {
+      throw;  // names the file and its size only
+    } catch (const ConfigError&) {
+      if (!confined) throw;
+      throw ConfigError(path + ": not a valid profile (`cansimd --check --profile " + path + "` says why)");
+    }
     by_path_[path] = p;
-    text_[path] = read_text(path);
     out_.profiles.push_back(p);
     return p;
   }
   const std::string& text(const std::string& path) { return text_[path]; }
+  // The profile's YAML document (an empty mapping for an EDS / DCF).
+  const YAML::Node& document(const std::string& path) { return docs_[path]; }
   bool strict() const { return search_.strict; }
   void add_variant(std::shared_ptr<Profile> p) { out_.profiles.push_back(std::move(p)); }
 
@@ -76,6 +107,7 @@ class ProfileCache {
   FleetConfig& out_;
   std::map<std::string, std::shared_ptr<Profile>> by_path_;
   std::map<std::string, std::string> text_;
+  std::map<std::string, YAML::Node> docs_;
 };
 
 void parse_interfaces(const Where& w, const YAML::Node& map, FleetConfig& out) {
@@ -143,26 +175,48 @@ void merge_physics(const Where& w, const YAML::Node& entry, YAML::Node& root) {
   }
 }
 
+// `over`'s keys laid on the mapping `into` (the last of a repeated key wins),
+// one pass over each: a yaml-cpp lookup per key scans the whole map
+// (quadratic in the keys).
+void merge_keys(YAML::Node& into, const YAML::Node& over) {
+  std::vector<std::pair<std::string, YAML::Node>> given;
+  std::unordered_map<std::string, std::size_t> at;
+  for (const auto& kv : over) {
+    auto [it, fresh] = at.emplace(kv.first.Scalar(), given.size());
+    if (fresh) given.emplace_back(it->first, kv.second);
+    else given[it->second].second.reset(kv.second);  // re-points the handle, over stays as it is
+  }
+  for (auto kv : into) {  // handles to into's entries: assigning one sets it
+    auto it = at.find(kv.first.Scalar());
+    if (it == at.end()) continue;
+    kv.second = YAML::Clone(given[it->second].second);
+    at.erase(it);
+  }
+  for (const auto& [key, value] : given)
+    if (at.count(key)) into.force_insert(key, YAML::Clone(value));
+}
+
 // Applies per-entry overrides to a private copy of the profile: its own
 // layout and options, the personality part parsed again from the profile's
 // document with the entry's `vendor:` keys merged over the profile's and its
 // physics sections laid over the profile's.
 std::shared_ptr<Profile> make_variant(const Where& w, const YAML::Node& entry, const Profile& base,
-                                      const std::string& base_text, bool strict) {
+                                      const YAML::Node& base_doc, bool strict) {
   auto p = std::make_shared<Profile>(base);
   if (entry["strict"]) p->strict = strict || get_bool(w.child("strict"), entry["strict"]);
   apply_mode(*p, w.child("options"), entry["options"]);  // strict mode first, the entry's options on top
   // A device description has no YAML sections: the entry's are the only ones.
-  YAML::Node root = is_device_description(base.file) ? YAML::Node(YAML::NodeType::Map) : YAML::Load(base_text);
+  YAML::Node root = is_device_description(base.file) ? YAML::Node(YAML::NodeType::Map) : YAML::Clone(base_doc);
   YAML::Node vendor = root["vendor"] ? YAML::Clone(root["vendor"]) : YAML::Node(YAML::NodeType::Map);
   if (entry["vendor"]) {
     const YAML::Node& v = entry["vendor"];
     if (!v.IsMap()) fail(w.child("vendor"), v, "expected a mapping of vendor parameters");
     if (!vendor.IsMap()) vendor = YAML::Node(YAML::NodeType::Map);
-    for (const auto& kv : v) vendor[kv.first.Scalar()] = YAML::Clone(kv.second);
+    merge_keys(vendor, v);
   }
   merge_physics(w, entry, root);
-  parse_personality(*p, root, vendor);
+  const VendorLayer over{w.child("vendor"), entry["vendor"]};  // the entry's keys are reported in the fleet file
+  parse_personality(*p, root, vendor, entry["vendor"] ? &over : nullptr);
   return p;
 }
 
@@ -174,6 +228,16 @@ std::string record_file_name(std::string pattern, std::uint8_t node_id, bool gro
   if (!group) return pattern;
   const fs::path p(pattern);
   return (p.parent_path() / (p.stem().string() + "-" + id + p.extension().string())).string();
+}
+
+// The serial number of the first node of an entry without `serial:` (each
+// node adds its index): the profile's serial_number_base, else for a group
+// the profile's 0x1018:04 default.
+std::optional<std::uint32_t> first_serial(const Profile& profile, int count) {
+  if (profile.identity.serial_per_node) return profile.identity.serial_base;
+  if (count < 2) return std::nullopt;
+  const OdEntry* e = profile.layout->find(0x1018, 4);
+  return e && e->default_bytes.size() >= 4 ? get_u32(e->default_bytes.data()) : 0;
 }
 
 void parse_node_entry(const Where& w, const YAML::Node& entry, ProfileCache& cache, FleetConfig& out) {
@@ -217,11 +281,6 @@ void parse_node_entry(const Where& w, const YAML::Node& entry, ProfileCache& cac
   }
   std::optional<std::uint32_t> serial;
   if (entry["serial"]) serial = std::uint32_t(get_int(w.child("serial"), entry["serial"], 0, 0xFFFFFFFF));
-  else if (count > 1) {
-    const OdEntry* e = profile->layout->find(0x1018, 4);
-    std::uint32_t base_serial = e && e->default_bytes.size() >= 4 ? get_u32(e->default_bytes.data()) : 0;
-    serial = base_serial;
-  }
   std::string record;
   if (entry["record"]) {
     record = get_string(w.child("record"), entry["record"]);
@@ -229,9 +288,10 @@ void parse_node_entry(const Where& w, const YAML::Node& entry, ProfileCache& cac
       fail(w.child("record"), entry["record"], "expected a CSV file name, e.g. recordings/dps-{id}.csv");
   }
   if (entry["options"] || entry["vendor"] || entry["physics"] || entry["sensor"] || entry["faults"] || entry["strict"]) {
-    profile = make_variant(w, entry, *profile, cache.text(path), cache.strict());
+    profile = make_variant(w, entry, *profile, cache.document(path), cache.strict());
     cache.add_variant(profile);
   }
+  if (!serial) serial = first_serial(*profile, count);
   const std::string fingerprint_base = cache.text(path) + "\n---\n" + YAML::Dump(entry);
   // Appended piece by piece: GCC 12 -O3 reports a false -Wrestrict for a
   // chain of std::string operator+ here (as in name += '-' above).
@@ -281,14 +341,43 @@ void check_collisions(const Where& w, const YAML::Node& list, const FleetConfig&
   }
 }
 
+// The interfaces the node entries name that `interfaces:` does not declare,
+// added to it with the running fleet's bit rate for that name (else none:
+// the kernel's rate for real CAN, else 250).
+void declare_entry_interfaces(YAML::Node root, const std::string& file, const FleetConfig& running) {
+  YAML::Node ifaces = root["interfaces"] ? root["interfaces"] : YAML::Node(YAML::NodeType::Map);
+  if (!ifaces.IsMap() || !root["nodes"].IsSequence()) return;
+  std::size_t i = 0;
+  for (const auto& entry : root["nodes"]) {
+    const Where wi = Where{file, "nodes"}.item(i++);
+    if (!entry.IsMap() || !entry["interface"] || !entry["interface"].IsScalar()) continue;
+    const std::string name = entry["interface"].Scalar();
+    if (ifaces[name]) continue;
+    // Checked here, where the name has a line: the interface added below has none.
+    if (name.size() >= 16 || !valid_name(name))
+      fail(wi.child("interface"), entry["interface"], "expected a network interface name (at most 15 characters)");
+    YAML::Node setting(YAML::NodeType::Map);
+    if (const InterfaceConfig* ic = running.interface(name)) {
+      if (ic->bit_rate_kbit) setting["bit_rate"] = ic->bit_rate_kbit;
+      if (ic->bus_model != BusModelChoice::kAuto)
+        setting["bus_model"] = ic->bus_model == BusModelChoice::kTimed ? "timed" : "ideal";
+    }
+    ifaces[name] = setting;
+  }
+  root["interfaces"] = ifaces;
+}
+
+// `interfaces:` may be left out: then it is every interface the nodes name,
+// at its default rate. Where it is given, a node's interface must be in it
+// (a misspelt name is an error, not a new bus).
 FleetConfig parse_root(const YAML::Node& root, const std::string& file, const ProfileSearch& search) {
   Where w{file, ""};
-  if (!root.IsMap()) fail(w, root, "expected a mapping with 'interfaces:' and 'nodes:'");
+  if (!root.IsMap()) fail(w, root, "expected a mapping with 'nodes:' (and 'interfaces:')");
   check_keys(w, root, {"seed", "interfaces", "nodes"});
+  if (!root["interfaces"]) declare_entry_interfaces(root, file, FleetConfig{});
   FleetConfig out;
   out.file = file;
   if (root["seed"]) out.seed = get_uint(w.child("seed"), root["seed"]);
-  if (!root["interfaces"]) fail(w.child("interfaces"), root, "missing required key 'interfaces'");
   parse_interfaces(w.child("interfaces"), root["interfaces"], out);
   if (!root["nodes"]) fail(w.child("nodes"), root, "missing required key 'nodes'");
   const YAML::Node& list = root["nodes"];
@@ -307,8 +396,8 @@ FleetConfig parse_root(const YAML::Node& root, const std::string& file, const Pr
 
 }  // namespace
 
-Profile load_any_profile(const std::string& path, bool strict) {
-  return is_device_description(path) ? load_eds_profile(path, strict) : load_profile(path, strict);
+Profile load_any_profile(const std::string& path, bool strict, bool strict_eds) {
+  return is_device_description(path) ? load_eds_profile(path, strict, strict_eds) : load_profile(path, strict);
 }
 
 const InterfaceConfig* FleetConfig::interface(const std::string& name) const {
@@ -366,28 +455,19 @@ FleetConfig parse_fleet_fragment(const std::string& text, const std::string& fil
   } else {
     fail(Where{file, ""}, given, "expected a node entry, a list of node entries or a fleet document");
   }
-  YAML::Node ifaces = root["interfaces"] ? root["interfaces"] : YAML::Node(YAML::NodeType::Map);
-  if (ifaces.IsMap() && root["nodes"].IsSequence()) {
-    std::size_t i = 0;
-    for (const auto& entry : root["nodes"]) {
-      const Where wi = Where{file, "nodes"}.item(i++);
-      if (!entry.IsMap() || !entry["interface"] || !entry["interface"].IsScalar()) continue;
-      const std::string name = entry["interface"].Scalar();
-      if (ifaces[name]) continue;
-      // Checked here, where the name has a line: the interface added below has none.
-      if (name.size() >= 16 || !valid_name(name))
-        fail(wi.child("interface"), entry["interface"], "expected a network interface name (at most 15 characters)");
-      YAML::Node setting(YAML::NodeType::Map);
-      if (const InterfaceConfig* ic = running.interface(name)) {
-        if (ic->bit_rate_kbit) setting["bit_rate"] = ic->bit_rate_kbit;
-        if (ic->bus_model != BusModelChoice::kAuto)
-          setting["bus_model"] = ic->bus_model == BusModelChoice::kTimed ? "timed" : "ideal";
-      }
-      ifaces[name] = setting;
-    }
-    root["interfaces"] = ifaces;
-  }
-  return parse_root(root, file, search);
+  if (root["nodes"].IsSequence() && root["nodes"].size() > limits::kAddNodesEntries)
+    throw TooLarge(file + ": " + std::to_string(root["nodes"].size()) + " node entries; expected at most " +
+                   std::to_string(limits::kAddNodesEntries) + " in one call");
+  declare_entry_interfaces(root, file, running);
+  FleetConfig out = parse_root(root, file, search);
+  if (out.nodes.size() > limits::kAddNodesNodes)
+    throw TooLarge(file + ": " + std::to_string(out.nodes.size()) + " nodes; expected at most " +
+                   std::to_string(limits::kAddNodesNodes) + " in one call");
+  if (running.nodes.size() + out.nodes.size() > limits::kFleetNodes)
+    throw TooLarge(file + ": " + std::to_string(out.nodes.size()) + " more nodes would make the fleet " +
+                   std::to_string(running.nodes.size() + out.nodes.size()) + "; expected at most " +
+                   std::to_string(limits::kFleetNodes));
+  return out;
 }
 
 void merge_fleet(FleetConfig& into, const FleetConfig& extra) {
@@ -426,7 +506,7 @@ FleetConfig single_node_fleet(const std::string& profile_ref, const std::string&
   if (path.empty()) throw ConfigError(profile_ref + ": profile not found (expected a file or a profile name)");
   FleetConfig out;
   out.file = path;
-  auto profile = std::make_shared<Profile>(load_any_profile(path, search.strict));
+  auto profile = std::make_shared<Profile>(load_any_profile(path, search.strict, search.strict_eds));
   out.profiles.push_back(profile);
   InterfaceConfig ic;
   ic.name = interface;
@@ -455,6 +535,17 @@ void apply_record_option(FleetConfig& fleet, const std::string& path, bool singl
       n.record_file = (fs::path(path) / (file + ".csv")).string();
     }
     n.fingerprint += "\nrecord " + n.record_file;
+  }
+}
+
+bool is_fleet_file(const std::string& path) {
+  const std::string ext = std::filesystem::path(path).extension().string();
+  if (ext != ".yaml" && ext != ".yml") return false;
+  try {
+    const YAML::Node root = load_yaml_file(path);
+    return root.IsMap() && root["nodes"];
+  } catch (const std::exception&) {
+    return false;
   }
 }
 

@@ -5,6 +5,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "config/limits.hpp"
 #include "physics/table.hpp"
 #include "physics/units.hpp"
 
@@ -132,9 +133,14 @@ TableSpec parse_table(const Where& w, const YAML::Node& m, Dim value_dim, const 
       value_scale = one - zero;
       value_offset = zero;
     }
-    std::string error;
-    if (!load_table_csv(path, t.points, &error, time_scale, value_scale, value_offset))
-      fail(w.child("csv"), m["csv"], "cannot load table: " + error);
+    std::string error, text;
+    try {
+      text = read_regular_file(path, limits::kTableFileBytes);
+    } catch (const ConfigError& e) {
+      fail(w.child("csv"), m["csv"], std::string("cannot load table: ") + e.what());
+    }
+    if (!parse_table_csv(text, t.points, &error, time_scale, value_scale, value_offset))
+      fail(w.child("csv"), m["csv"], "cannot load table: " + path + ": " + error);
   } else {
     fail(w, m, "expected 'points' or 'csv'");
   }
@@ -159,106 +165,137 @@ TableSpec parse_setpoint(const Where& w, const YAML::Node& n, Dim dim, const std
 
 // ---------------------------------------------------------------- terms
 
-TermSpec parse_term(const Where& w, const std::string& kind, const YAML::Node& m, const ChannelDims& d,
-                    bool pressure, const std::string& file) {
-  auto need_map = [&](std::initializer_list<const char*> keys) {
+// What a term parser gets: the term's mapping and where it is.
+struct TermArgs {
+  const Where& w;
+  const std::string& kind;
+  const YAML::Node& m;
+  const ChannelDims& d;
+  bool pressure;
+  const std::string& file;
+  void need_map(std::initializer_list<const char*> keys) const {
     if (!m.IsMap()) fail(w, m, "expected a mapping of " + kind + " parameters");
     check_keys(w, m, keys);
-  };
-  if (kind == "constant") {
-    if (m.IsScalar()) return ConstantSpec{get_quantity(w, m, d.level)};
-    need_map({"value"});
-    return ConstantSpec{q(w, m, "value", d.level, 0.0)};
   }
-  if (kind == "ramp") {
-    need_map({"from", "to", "start", "duration"});
-    RampSpec r{q(w, m, "from", d.level, 0.0), q(w, m, "to", d.level, 0.0), q(w, m, "start", Dim::kTime, 0.0),
-               q(w, m, "duration", Dim::kTime, 0.0)};
-    if (r.duration_s < 0) fail(w.child("duration"), m["duration"], "expected a duration >= 0");
-    return r;
+  double q(const char* key, Dim dim, double def) const { return config::q(w, m, key, dim, def); }
+  TableSpec setpoint() const {
+    if (!m["setpoint"]) fail(w.child("setpoint"), m, "missing required key 'setpoint'");
+    return parse_setpoint(w.child("setpoint"), m["setpoint"], d.level, file);
   }
-  if (kind == "table") return TableTermSpec{parse_table(w, m, d.level, file)};
-  if (kind == "sine") {
-    need_map({"amplitude", "frequency", "period", "phase"});
-    SineSpec s;
-    s.amplitude = q(w, m, "amplitude", d.delta, 0.0);
-    if (m["period"]) {
-      double p = get_quantity(w.child("period"), m["period"], Dim::kTime);
-      positive(w.child("period"), m["period"], p, "a period");
-      s.frequency_hz = 1.0 / p;
-    } else {
-      s.frequency_hz = q(w, m, "frequency", Dim::kFrequency, 1.0);
+};
+
+TermSpec constant_term(const TermArgs& a) {
+  if (a.m.IsScalar()) return ConstantSpec{get_quantity(a.w, a.m, a.d.level)};
+  a.need_map({"value"});
+  return ConstantSpec{a.q("value", a.d.level, 0.0)};
+}
+
+TermSpec ramp_term(const TermArgs& a) {
+  a.need_map({"from", "to", "start", "duration"});
+  RampSpec r{a.q("from", a.d.level, 0.0), a.q("to", a.d.level, 0.0), a.q("start", Dim::kTime, 0.0),
+             a.q("duration", Dim::kTime, 0.0)};
+  if (r.duration_s < 0) fail(a.w.child("duration"), a.m["duration"], "expected a duration >= 0");
+  return r;
+}
+
+TermSpec table_term(const TermArgs& a) { return TableTermSpec{parse_table(a.w, a.m, a.d.level, a.file)}; }
+
+TermSpec sine_term(const TermArgs& a) {
+  a.need_map({"amplitude", "frequency", "period", "phase"});
+  SineSpec s;
+  s.amplitude = a.q("amplitude", a.d.delta, 0.0);
+  if (a.m["period"]) {
+    double p = get_quantity(a.w.child("period"), a.m["period"], Dim::kTime);
+    positive(a.w.child("period"), a.m["period"], p, "a period");
+    s.frequency_hz = 1.0 / p;
+  } else {
+    s.frequency_hz = a.q("frequency", Dim::kFrequency, 1.0);
+  }
+  s.phase_rad = num(a.w, a.m, "phase", 0.0);
+  return s;
+}
+
+TermSpec pulse_term(const TermArgs& a) {
+  a.need_map({"low", "high", "period", "duty", "delay", "rise", "fall"});
+  return PulseSpec{a.q("low", a.d.level, 0.0),       a.q("high", a.d.level, 0.0),
+                   a.q("period", Dim::kTime, 1.0), num(a.w, a.m, "duty", 0.5),
+                   a.q("delay", Dim::kTime, 0.0),  a.q("rise", Dim::kTime, 0.0),
+                   a.q("fall", Dim::kTime, 0.0)};
+}
+
+TermSpec pulsation_term(const TermArgs& a) {
+  const Where& w = a.w;
+  const YAML::Node& m = a.m;
+  a.need_map({"speed", "pistons", "amplitude", "harmonics"});
+  double shaft_hz = a.q("speed", Dim::kFrequency, 25.0);
+  if (m["harmonics"] && m["harmonics"].IsSequence()) {
+    PulsationSpec p;
+    p.shaft_hz = shaft_hz;
+    const YAML::Node& hs = m["harmonics"];
+    for (std::size_t i = 0; i < hs.size(); ++i) {
+      Where wi = w.child("harmonics").item(i);
+      check_keys(wi, hs[i], {"order", "amplitude", "phase"});
+      p.harmonics.push_back({num(wi, hs[i], "order", 1.0), q(wi, hs[i], "amplitude", a.d.delta, 0.0), num(wi, hs[i], "phase", 0.0)});
     }
-    s.phase_rad = num(w, m, "phase", 0.0);
-    return s;
-  }
-  if (kind == "pulse") {
-    need_map({"low", "high", "period", "duty", "delay", "rise", "fall"});
-    PulseSpec p{q(w, m, "low", d.level, 0.0),       q(w, m, "high", d.level, 0.0),
-                q(w, m, "period", Dim::kTime, 1.0), num(w, m, "duty", 0.5),
-                q(w, m, "delay", Dim::kTime, 0.0),  q(w, m, "rise", Dim::kTime, 0.0),
-                q(w, m, "fall", Dim::kTime, 0.0)};
     return p;
   }
-  if (kind == "pulsation") {
-    need_map({"speed", "pistons", "amplitude", "harmonics"});
-    double shaft_hz = q(w, m, "speed", Dim::kFrequency, 25.0);
-    if (m["harmonics"] && m["harmonics"].IsSequence()) {
-      PulsationSpec p;
-      p.shaft_hz = shaft_hz;
-      const YAML::Node& hs = m["harmonics"];
-      for (std::size_t i = 0; i < hs.size(); ++i) {
-        Where wi = w.child("harmonics").item(i);
-        check_keys(wi, hs[i], {"order", "amplitude", "phase"});
-        p.harmonics.push_back({num(wi, hs[i], "order", 1.0), q(wi, hs[i], "amplitude", d.delta, 0.0), num(wi, hs[i], "phase", 0.0)});
-      }
-      return p;
-    }
-    int pistons = m["pistons"] ? int(get_int(w.child("pistons"), m["pistons"], 1, 64)) : 1;
-    int n = m["harmonics"] ? int(get_int(w.child("harmonics"), m["harmonics"], 1, 32)) : 3;
-    return PulsationSpec::piston_pump(shaft_hz * 60.0, pistons, q(w, m, "amplitude", d.delta, 0.0), n);
-  }
-  if (kind == "first_order") {
-    need_map({"setpoint", "time_constant", "initial"});
-    if (!m["setpoint"]) fail(w.child("setpoint"), m, "missing required key 'setpoint'");
-    FirstOrderSpec f{parse_setpoint(w.child("setpoint"), m["setpoint"], d.level, file),
-                     q(w, m, "time_constant", Dim::kTime, 1.0), q(w, m, "initial", d.level, kNaN)};
-    positive(w.child("time_constant"), m["time_constant"], f.time_constant_s, "a time constant");
-    return f;
-  }
-  if (kind == "second_order") {
-    need_map({"setpoint", "natural_frequency", "damping", "initial"});
-    if (!m["setpoint"]) fail(w.child("setpoint"), m, "missing required key 'setpoint'");
-    SecondOrderSpec s{parse_setpoint(w.child("setpoint"), m["setpoint"], d.level, file),
-                      q(w, m, "natural_frequency", Dim::kFrequency, 1.0), num(w, m, "damping", 0.5),
-                      q(w, m, "initial", d.level, kNaN)};
-    positive(w.child("natural_frequency"), m["natural_frequency"], s.natural_frequency_hz, "a frequency");
-    positive(w.child("damping"), m["damping"], s.damping, "a damping ratio");
-    return s;
-  }
-  if (kind == "random_walk") {
-    need_map({"initial", "sigma", "drift", "min", "max"});
-    RandomWalkSpec r;
-    r.initial = q(w, m, "initial", d.level, 0.0);
-    r.sigma_per_sqrt_s = q(w, m, "sigma", d.delta, 0.0);  // per sqrt(s)
-    r.drift_per_s = q(w, m, "drift", d.delta, 0.0);       // per s
-    r.min = q(w, m, "min", d.level, r.min);
-    r.max = q(w, m, "max", d.level, r.max);
-    return r;
-  }
-  if (kind == "ou" || kind == "drift") {
-    need_map({"mean", "sigma", "tau", "initial"});
-    OrnsteinUhlenbeckSpec o{q(w, m, "mean", d.level, 0.0), q(w, m, "tau", Dim::kTime, 60.0),
-                            q(w, m, "sigma", d.delta, 0.0), q(w, m, "initial", d.level, kNaN)};
-    positive(w.child("tau"), m["tau"], o.tau_s, "a correlation time");
-    return o;
-  }
-  if (kind == "gas_law") {
-    if (!pressure) fail(w, m, "gas_law is a pressure term");
-    need_map({"reference_pressure", "reference_temperature"});
-    return GasLawSpec{q(w, m, "reference_pressure", Dim::kPressure, 1.0e5),
-                      q(w, m, "reference_temperature", Dim::kTemperature, 293.15)};
-  }
+  int pistons = m["pistons"] ? int(get_int(w.child("pistons"), m["pistons"], 1, 64)) : 1;
+  int n = m["harmonics"] ? int(get_int(w.child("harmonics"), m["harmonics"], 1, 32)) : 3;
+  return PulsationSpec::piston_pump(shaft_hz * 60.0, pistons, a.q("amplitude", a.d.delta, 0.0), n);
+}
+
+TermSpec first_order_term(const TermArgs& a) {
+  a.need_map({"setpoint", "time_constant", "initial"});
+  FirstOrderSpec f{a.setpoint(), a.q("time_constant", Dim::kTime, 1.0), a.q("initial", a.d.level, kNaN)};
+  positive(a.w.child("time_constant"), a.m["time_constant"], f.time_constant_s, "a time constant");
+  return f;
+}
+
+TermSpec second_order_term(const TermArgs& a) {
+  a.need_map({"setpoint", "natural_frequency", "damping", "initial"});
+  SecondOrderSpec s{a.setpoint(), a.q("natural_frequency", Dim::kFrequency, 1.0), num(a.w, a.m, "damping", 0.5),
+                    a.q("initial", a.d.level, kNaN)};
+  positive(a.w.child("natural_frequency"), a.m["natural_frequency"], s.natural_frequency_hz, "a frequency");
+  positive(a.w.child("damping"), a.m["damping"], s.damping, "a damping ratio");
+  return s;
+}
+
+TermSpec random_walk_term(const TermArgs& a) {
+  a.need_map({"initial", "sigma", "drift", "min", "max"});
+  RandomWalkSpec r;
+  r.initial = a.q("initial", a.d.level, 0.0);
+  r.sigma_per_sqrt_s = a.q("sigma", a.d.delta, 0.0);  // per sqrt(s)
+  r.drift_per_s = a.q("drift", a.d.delta, 0.0);       // per s
+  r.min = a.q("min", a.d.level, r.min);
+  r.max = a.q("max", a.d.level, r.max);
+  return r;
+}
+
+TermSpec ou_term(const TermArgs& a) {
+  a.need_map({"mean", "sigma", "tau", "initial"});
+  OrnsteinUhlenbeckSpec o{a.q("mean", a.d.level, 0.0), a.q("tau", Dim::kTime, 60.0), a.q("sigma", a.d.delta, 0.0),
+                          a.q("initial", a.d.level, kNaN)};
+  positive(a.w.child("tau"), a.m["tau"], o.tau_s, "a correlation time");
+  return o;
+}
+
+TermSpec gas_law_term(const TermArgs& a) {
+  if (!a.pressure) fail(a.w, a.m, "gas_law is a pressure term");
+  a.need_map({"reference_pressure", "reference_temperature"});
+  return GasLawSpec{a.q("reference_pressure", Dim::kPressure, 1.0e5),
+                    a.q("reference_temperature", Dim::kTemperature, 293.15)};
+}
+
+TermSpec parse_term(const Where& w, const std::string& kind, const YAML::Node& m, const ChannelDims& d,
+                    bool pressure, const std::string& file) {
+  static const std::pair<const char*, TermSpec (*)(const TermArgs&)> kTerms[] = {
+      {"constant", constant_term},       {"ramp", ramp_term},         {"table", table_term},
+      {"sine", sine_term},               {"pulse", pulse_term},       {"pulsation", pulsation_term},
+      {"first_order", first_order_term}, {"second_order", second_order_term},
+      {"random_walk", random_walk_term}, {"ou", ou_term},             {"drift", ou_term},
+      {"gas_law", gas_law_term}};
+  for (const auto& [name, parse] : kTerms)
+    if (kind == name) return parse(TermArgs{w, kind, m, d, pressure, file});
   fail(w, m, "unknown process term '" + kind +
                  "' (expected constant, ramp, table, sine, pulse, pulsation, first_order, second_order, "
                  "random_walk, ou, gas_law)");
@@ -399,6 +436,12 @@ void parse_channel_sensor(const Where& w, const YAML::Node& m, bool pressure, Ch
 
 // ---------------------------------------------------------------- faults
 
+// The keys of a `faults:` entry.
+void check_fault_key(const Where& w, const YAML::Node& key) {
+  check_key(w, key, {"kind", "channel", "at", "after", "duration", "period", "count", "value", "drift", "amplitude",
+                     "rate", "noise", "over_temperature", "sdo_delay", "drop_every", "drop_probability", "id"});
+}
+
 FaultChannel parse_fault_channel(const Where& w, const YAML::Node& n) {
   std::string s = get_string(w, n);
   if (s == "pressure") return FaultChannel::Pressure;
@@ -410,9 +453,8 @@ FaultChannel parse_fault_channel(const Where& w, const YAML::Node& n) {
 }  // namespace
 
 FaultSpec parse_fault(const Where& w, const YAML::Node& m) {
-  check_keys(w, m, {"kind", "channel", "at", "after", "duration", "period", "count", "value", "drift",
-                    "amplitude", "rate", "noise", "over_temperature", "sdo_delay", "drop_every",
-                    "drop_probability", "id"});
+  if (!m.IsMap()) fail(w, m, "expected a mapping");
+  for (const auto& kv : m) check_fault_key(w, kv.first);
   FaultSpec f;
   if (!m["kind"]) fail(w.child("kind"), m, "missing required key 'kind'");
   auto kind = parse_fault_kind(get_string(w.child("kind"), m["kind"]));
@@ -457,6 +499,9 @@ double get_quantity(const Where& w, const YAML::Node& n, Dim dim) {
   std::string unit;
   if (!split_number(n.Scalar(), v, unit) || !convert_quantity(v, unit, dim, out) || !std::isfinite(out))
     fail(w, n, std::string("expected ") + expected_units(dim));
+  // Times become µs in 64 bits: a bound keeps `at: 1e20 s` from wrapping to "now".
+  if (dim == Dim::kTime && std::abs(out) > limits::kMaxSeconds)
+    fail(w, n, "expected a time of at most 1e9 s (about 31 years)");
   return out;
 }
 
@@ -550,18 +595,24 @@ std::vector<physics::TermSpec> parse_channel_model_text(const std::string& sourc
   return parse_channel_model(Where{source, channel_name}, load_yaml_text(text, source), channel);
 }
 
+// Each key is checked before it goes into the entry: only known keys do, so
+// the entry's lookups stay short whatever the caller sends.
 physics::FaultSpec parse_fault_text(const std::string& source, const std::string& kind,
                                     const std::vector<std::pair<std::string, std::string>>& keys) {
   YAML::Node entry(YAML::NodeType::Map);
   entry["kind"] = kind;
+  const Where w{source, ""};
   for (const auto& [key, value] : keys) {
+    YAML::Node name(key);
+    check_fault_key(w, name);
+    check_yaml_size(value, source + ": " + key, limits::kFaultValueBytes);
     try {
       entry[key] = YAML::Load(value);
     } catch (const YAML::ParserException& ex) {
       throw ConfigError(key + ": " + ex.msg);
     }
   }
-  return parse_fault(Where{source, ""}, entry);
+  return parse_fault(w, entry);
 }
 
 }  // namespace cansim::config

@@ -103,6 +103,15 @@ std::uint8_t parse_persist(const Where& w, const YAML::Node& n, std::uint16_t in
   fail(w, n, "expected yes, no, communication, application or a 0x1010 sub-index 2..127");
 }
 
+// Names are unique within an object (EDS ParameterName): a range numbers its
+// sub-indices, before a closing remark ("AI input PV 1", "AI input PV 1 (INTEGER16)").
+std::string numbered_name(const std::string& name, int sub) {
+  if (name.empty()) return name;
+  const std::size_t remark = name.back() == ')' ? name.rfind(" (") : std::string::npos;
+  if (remark == std::string::npos || remark == 0) return name + " " + std::to_string(sub);
+  return name.substr(0, remark) + " " + std::to_string(sub) + name.substr(remark);
+}
+
 // "0x02..0x08" or a single number.
 void parse_sub_range(const Where& w, const YAML::Node& n, int& first, int& last) {
   std::string s = get_string(w, n);
@@ -133,8 +142,9 @@ std::uint8_t bit_rate_selector(std::uint32_t kbit) {
   return i < 0 ? 0xFF : std::uint8_t(i);
 }
 
-NodeSetup node_setup(const Profile& profile, std::optional<std::uint8_t> node_id) {
+NodeSetup node_setup(const Profile& profile, std::optional<std::uint8_t> node_id, std::uint32_t index) {
   NodeSetup setup;
+  if (profile.identity.serial_per_node) setup.serial_number = profile.identity.serial_base + index;
   setup.layout = profile.layout;
   setup.options = profile.options;
   setup.node_id = node_id.value_or(profile.node_id);
@@ -211,6 +221,7 @@ void parse_objects(const Where& w, const YAML::Node& list, OdLayout& out) {
     for (int sub = first; sub <= last; ++sub) {
       OdEntry copy = e;
       copy.sub = std::uint8_t(sub);
+      if (first < last) copy.name = numbered_name(e.name, sub);
       if (!out.add(std::move(copy))) {
         char buf[64];
         std::snprintf(buf, sizeof buf, "duplicate entry 0x%04X:%02X", e.index, sub);
@@ -220,6 +231,25 @@ void parse_objects(const Where& w, const YAML::Node& list, OdLayout& out) {
   }
 }
 
+namespace {
+
+// One option's value as its kind declares it (node_options.hpp): a value the
+// kind refuses fails with what it expected.
+template <class Kind>
+void parse_option(const Where& w, const YAML::Node& n, const Kind& kind, typename Kind::Value& out) {
+  if constexpr (std::is_same_v<Kind, option_kind::Bool>) {
+    out = get_bool(w, n);
+  } else if constexpr (std::is_same_v<Kind, option_kind::Int>) {
+    std::int64_t v = 0;
+    if (!n.IsScalar() || !parse_int_literal(n.Scalar(), v) || v < kind.lo || v > kind.hi) fail(w, n, kind.expected());
+    out = v;
+  } else {
+    if (!n.IsScalar() || !kind.parse(n.Scalar(), out)) fail(w, n, kind.expected());
+  }
+}
+
+}  // namespace
+
 void parse_options(const Where& w, const YAML::Node& map, NodeOptions& out) {
   if (!map) return;
   if (!map.IsMap()) fail(w, map, "expected a mapping of option names to values");
@@ -227,26 +257,28 @@ void parse_options(const Where& w, const YAML::Node& map, NodeOptions& out) {
     std::string key = kv.first.Scalar();
     Where wk = w.child(key);
     bool known = false;
-    auto set = [&](auto& field, const YAML::Node& v) {
-      using T = std::decay_t<decltype(field)>;
-      if constexpr (std::is_same_v<T, bool>) field = get_bool(wk, v);
-      else if constexpr (std::is_same_v<T, std::int64_t>) field = get_int(wk, v, INT64_MIN, INT64_MAX);
-      else field = get_string(wk, v);
-    };
-#define CANSIM_PARSE_OPTION(type, name, def, kind, help) \
-  if (key == #name) {                               \
-    set(out.name, kv.second);                       \
-    known = true;                                   \
+#define CANSIM_PARSE_OPTION(kind, name, def, strict, help) \
+  if (key == #name) {                                 \
+    parse_option(wk, kv.second, CANSIM_OPTION_KIND_##kind, out.name); \
+    known = true;                                     \
   }
     CANSIM_NODE_OPTIONS(CANSIM_PARSE_OPTION)
 #undef CANSIM_PARSE_OPTION
     if (!known) fail(wk, kv.first, "unknown option (see README, 'Profile options')");
   }
-  ByteSet set;
-  if (!ByteSet::parse(out.tpdo_allowed_types, set))
-    fail(w.child("tpdo_allowed_types"), map["tpdo_allowed_types"], "expected ranges like '0-240,252-255'");
-  if (!ByteSet::parse(out.lss_bit_rates, set))
-    fail(w.child("lss_bit_rates"), map["lss_bit_rates"], "expected ranges like '0-4,6-8'");
+}
+
+// `emcy: {0x3201: "Over flow / under flow (Table 24)", ...}`.
+void parse_emcy_codes(const Where& w, const YAML::Node& map, std::map<std::uint16_t, std::string>& out) {
+  if (!map) return;
+  if (!map.IsMap()) fail(w, map, "expected a mapping of EMCY error codes to their meaning");
+  for (const auto& kv : map) {
+    std::int64_t code = 0;
+    const std::string key = kv.first.as<std::string>();
+    if (!parse_int_literal(key, code) || code < 0 || code > 0xFFFF)
+      fail(w, kv.first, "expected an EMCY error code 0x0000..0xFFFF, got '" + key + "'");
+    out[std::uint16_t(code)] = get_string(w.child(key), kv.second);
+  }
 }
 
 Profile parse_profile(const YAML::Node& root, const std::string& file, bool strict) {
@@ -254,7 +286,7 @@ Profile parse_profile(const YAML::Node& root, const std::string& file, bool stri
   if (!root.IsMap()) fail(w, root, "expected a profile mapping");
   check_keys(w, root,
              {"name", "description", "personality", "node_id", "bit_rate", "options", "objects", "vendor",
-              "physics", "sensor", "faults", "strict", "quirks", "strict_objects"});
+              "physics", "sensor", "faults", "strict", "quirks", "strict_objects", "emcy"});
   Profile p;
   p.file = file;
   if (root["name"]) p.name = get_string(w.child("name"), root["name"]);
@@ -276,6 +308,7 @@ Profile parse_profile(const YAML::Node& root, const std::string& file, bool stri
   if (!root["objects"]) fail(w.child("objects"), root, "missing the object dictionary ('objects:' list)");
   parse_objects(w.child("objects"), root["objects"], *p.layout);
   p.layout->finalize();
+  parse_emcy_codes(w.child("emcy"), root["emcy"], p.emcy_codes);
   parse_strict_sections(w, root, p, strict);
   parse_personality(p, root, root["vendor"]);
   return p;
@@ -306,12 +339,12 @@ void check_requirements(const Profile& p, const YAML::Node& root, const personal
 
 }  // namespace
 
-void parse_personality(Profile& p, const YAML::Node& root, const YAML::Node& vendor) {
+void parse_personality(Profile& p, const YAML::Node& root, const YAML::Node& vendor, const VendorLayer* over) {
   const personalities::PersonalityInfo* info = personalities::find_personality(p.personality);
   if (!info)
     fail(Where{p.file, "personality"}, root["personality"],
          "unknown personality '" + p.personality + "' (expected: " + personalities::personality_names() + ")");
-  const VendorParams v(p.file, vendor);
+  const VendorParams v(p.file, vendor, over);
   const std::shared_ptr<model::Cia404Profile> chain = parse_cia404(v.where("cia404"), v.node("cia404"), *p.layout);
   p.cia404 = chain;
   p.identity = parse_identity(v);

@@ -36,7 +36,10 @@ Profile parse_profile(const YAML::Node& root, const std::string& file, bool stri
 // and `faults:` of `root` into the typed settings; binds the CiA 404 chain to
 // profile.layout. parse_profile() calls it; a fleet entry's variant (own
 // layout and options) calls it again.
-void parse_personality(Profile& profile, const YAML::Node& root, const YAML::Node& vendor);
+// `over`: a fleet entry's `vendor:` merged into `vendor`, for its errors' places.
+struct VendorLayer;
+void parse_personality(Profile& profile, const YAML::Node& root, const YAML::Node& vendor,
+                       const VendorLayer* over = nullptr);
 
 // Parses an `objects:` list into a layout (not finalized).
 void parse_objects(const Where& w, const YAML::Node& list, OdLayout& out);
@@ -50,7 +53,10 @@ std::uint32_t bit_rate_kbit(int index);
 std::uint8_t bit_rate_selector(std::uint32_t kbit);
 
 // What the core needs to build a node of `profile`: its layout, options and
-// bit rate, and its node-ID unless `node_id` says another.
-NodeSetup node_setup(const Profile& profile, std::optional<std::uint8_t> node_id = std::nullopt);
+// bit rate, its node-ID unless `node_id` says another, and the serial number
+// of the node at `index` of its group when the profile has a
+// `serial_number_base` (0x1018:04 = base + index).
+NodeSetup node_setup(const Profile& profile, std::optional<std::uint8_t> node_id = std::nullopt,
+                     std::uint32_t index = 0);
 
 }  // namespace cansim::config

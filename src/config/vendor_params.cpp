@@ -7,8 +7,13 @@
 
 namespace cansim::config {
 
-VendorParams::VendorParams(const std::string& file, const YAML::Node& section)
-    : section_(section), is_map_(section_ && section_.IsMap()), where_{file, "vendor"} {}
+VendorParams::VendorParams(const std::string& file, const YAML::Node& section, const VendorLayer* over)
+    : section_(section), is_map_(section_ && section_.IsMap()), where_{file, "vendor"} {
+  if (over && over->section && over->section.IsMap()) {
+    over_ = *over;
+    has_over_ = true;
+  }
+}
 
 bool VendorParams::flag(const char* key, bool& out) const {
   if (!has(key)) return false;
@@ -37,6 +42,14 @@ bool VendorParams::time_us(const char* key, TimeUs& out, double lo_s, double hi_
   return true;
 }
 
+std::optional<YAML::Node> VendorParams::last_given(const std::string& key) const {
+  std::optional<YAML::Node> found;
+  if (!has_over_) return found;
+  for (const auto& kv : over_.section)
+    if (kv.first.Scalar() == key) found = kv.second;
+  return found;
+}
+
 void VendorParams::reject_unknown_keys() const {
   if (!section_ || section_.IsNull()) return;
   if (!is_map_) fail(where_, section_, "expected a mapping");
@@ -48,7 +61,11 @@ void VendorParams::reject_unknown_keys() const {
     if (std::find(expected.begin(), expected.end(), k) != expected.end()) continue;
     std::string list;
     for (const std::string& x : expected) list += (list.empty() ? "" : ", ") + x;
-    fail(where_.child(k), kv.first, "unknown key (expected one of: " + list + ")");
+    const std::string message = "unknown key (expected one of: " + list + ")";
+    if (overrides(k))
+      for (const auto& given : over_.section)
+        if (given.first.Scalar() == k) fail(over_.where.child(k), given.first, message);
+    fail(where_.child(k), kv.first, message);
   }
 }
 

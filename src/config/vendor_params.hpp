@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <initializer_list>
 #include <limits>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -24,20 +25,32 @@
 
 namespace cansim::config {
 
+// A fleet entry's `vendor:` over its profile's (config/fleet.cpp): the keys
+// it gives are reported where the entry writes them (fleet file, line,
+// column, nodes[i].vendor.<key>).
+struct VendorLayer {
+  Where where;          // {fleet file, "nodes[i].vendor"}
+  YAML::Node section;   // the entry's `vendor:` mapping, with its marks
+};
+
 class VendorParams {
  public:
   static constexpr double kPositive = std::numeric_limits<double>::denorm_min();  // lo_s: any time > 0
   static constexpr double kForever = std::numeric_limits<double>::infinity();
 
-  // `section` is the profile's `vendor:` node (may be undefined).
-  VendorParams(const std::string& file, const YAML::Node& section);
+  // `section` is the profile's `vendor:` node (may be undefined); with
+  // `over`, the merge of the profile's and the entry's (`over` wins a key).
+  VendorParams(const std::string& file, const YAML::Node& section, const VendorLayer* over = nullptr);
 
   bool has(const char* key) const {
     known_.push_back(key);
     return is_map_ && section_[key];
   }
-  YAML::Node node(const char* key) const { return is_map_ ? section_[key] : YAML::Node(); }
-  Where where(const char* key) const { return where_.child(key); }
+  YAML::Node node(const char* key) const {
+    if (auto given = last_given(key)) return *given;
+    return is_map_ ? section_[key] : YAML::Node();
+  }
+  Where where(const char* key) const { return overrides(key) ? over_.where.child(key) : where_.child(key); }
 
   bool flag(const char* key, bool& out) const;
   void flags(std::initializer_list<std::pair<const char*, bool*>> list) const;
@@ -58,9 +71,16 @@ class VendorParams {
   void reject_unknown_keys() const;
 
  private:
+  bool overrides(const std::string& key) const { return last_given(key).has_value(); }
+  // The entry's value of `key`, the last where it is repeated (as the merge
+  // took it); none when the entry does not give it.
+  std::optional<YAML::Node> last_given(const std::string& key) const;
+
   const YAML::Node section_;
   const bool is_map_;
   Where where_;
+  VendorLayer over_;
+  bool has_over_ = false;
   mutable std::vector<const char*> known_;  // the keys asked for, in order
 };
 

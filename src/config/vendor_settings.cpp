@@ -88,9 +88,7 @@ void parse(const VendorParams& v, CmpSettings& s, const model::Profile& p) {
   }
   v.time_us("start_indication_delay", s.start_indication_delay, 0.0, VendorParams::kForever, "a time >= 0");
   v.integer("start_indication_node_id", s.start_indication_node_id, 0, 127);
-  ByteSet timer_types;
-  s.timer_repeats_beyond_limits =
-      ByteSet::parse(p.options->tpdo_event_timer_types, timer_types) && !timer_types.has(254);
+  s.timer_repeats_beyond_limits = !p.options->tpdo_event_timer_types.has(254);
 }
 
 }  // namespace

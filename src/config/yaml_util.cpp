@@ -1,12 +1,18 @@
 #include "config/yaml_util.hpp"
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
-#include <fstream>
 #include <sstream>
+#include <vector>
+
+#include "config/limits.hpp"
 
 namespace cansim::config {
 
@@ -21,6 +27,11 @@ void fail(const Where& w, const YAML::Node& n, const std::string& expected) {
 }
 
 namespace {
+void check_yaml_depth(std::string_view text, const std::string& source, std::size_t* aliases) {
+  if (yaml_depth(text, limits::kYamlDepth, aliases) > limits::kYamlDepth)
+    throw TooLarge(source + ": YAML nested more than " + std::to_string(limits::kYamlDepth) + " levels deep");
+}
+
 template <typename Source>
 YAML::Node load_yaml(Source& source, const std::string& file) {
   try {
@@ -34,12 +45,159 @@ YAML::Node load_yaml(Source& source, const std::string& file) {
 }  // namespace
 
 YAML::Node load_yaml_file(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw ConfigError(path + ": cannot open file: " + std::strerror(errno));
-  return load_yaml(in, path);
+  return load_yaml_text(read_regular_file(path, limits::kProfileFileBytes), path);
 }
 
-YAML::Node load_yaml_text(const std::string& text, const std::string& file) { return load_yaml(text, file); }
+YAML::Node load_yaml_text(const std::string& text, const std::string& file) {
+  check_yaml_depth(text, file, nullptr);
+  return load_yaml(text, file);
+}
+
+namespace {
+
+bool blank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n'; }
+
+// Index just past the quoted scalar opening at `i` ('...' with '' inside, or "..." with \ escapes).
+std::size_t skip_quoted(std::string_view t, std::size_t i) {
+  const char q = t[i++];
+  while (i < t.size()) {
+    if (q == '"' && t[i] == '\\') {
+      i += 2;
+    } else if (t[i] == q) {
+      if (q == '\'' && i + 1 < t.size() && t[i + 1] == '\'') i += 2;
+      else return i + 1;
+    } else {
+      ++i;
+    }
+  }
+  return i;
+}
+
+}  // namespace
+
+// One pass, no allocation beyond the stack of open block levels (at most
+// stop_above + 1 deep). In block context a level opens at each column where a
+// node starts to the right of the enclosing one; compact entries ("- - x")
+// and a mapping after "- " open theirs on the same line.
+int yaml_depth(std::string_view t, int stop_above, std::size_t* alias_count) {
+  std::size_t no_count = 0;
+  std::size_t* aliases = alias_count ? alias_count : &no_count;
+  *aliases = 0;
+  std::vector<std::size_t> levels;  // block context: the columns of the open levels
+  int flow = 0, deepest = 0;
+  int block_parent = -1;  // inside a block scalar: lines indented deeper than this are text
+  std::size_t i = 0, line = 0;
+  bool line_start = true, token_start = true;
+  const auto deeper = [&](int d) { deepest = std::max(deepest, d); };
+  while (i < t.size() && deepest <= stop_above) {
+    if (line_start) {
+      line_start = false;
+      line = i;
+      std::size_t col = 0;
+      while (i + col < t.size() && t[i + col] == ' ') ++col;
+      const std::size_t first = i + col;
+      std::size_t eol = t.find('\n', first);
+      if (eol == std::string_view::npos) eol = t.size();
+      const bool empty = first >= t.size() || t[first] == '\n' || t[first] == '\r' || t[first] == '#';
+      if (block_parent >= 0 && (empty || int(col) > block_parent)) {
+        i = eol;
+        continue;
+      }
+      block_parent = -1;
+      if (empty) {
+        i = eol;
+        continue;
+      }
+      if (flow == 0)
+        while (!levels.empty() && levels.back() > col) levels.pop_back();
+      token_start = true;
+      i = first;
+      continue;
+    }
+    const char c = t[i];
+    const bool indicator_end = i + 1 >= t.size() || blank(t[i + 1]);
+    if (c == '\n') {
+      line_start = true;
+      ++i;
+    } else if (blank(c)) {
+      ++i;
+    } else if (c == '#' && (i == 0 || blank(t[i - 1]))) {
+      while (i < t.size() && t[i] != '\n') ++i;
+    } else {
+      if (flow == 0 && token_start) {  // a node (or an entry's indicator) starts in this column
+        const std::size_t col = i - line;
+        if (levels.empty() || levels.back() < col) levels.push_back(col);
+        deeper(int(levels.size()));
+      }
+      if (token_start && (c == '"' || c == '\'')) {
+        i = skip_quoted(t, i);
+        token_start = false;
+      } else if ((c == '[' || c == '{') && (flow > 0 || token_start)) {  // in a plain scalar, text
+        ++flow;
+        deeper(int(levels.size()) + flow);
+        token_start = true;
+        ++i;
+      } else if ((c == ']' || c == '}') && flow > 0) {
+        --flow;
+        token_start = false;
+        ++i;
+      } else if ((c == ',' && flow > 0) || ((c == '-' || c == '?' || c == ':') && indicator_end)) {
+        token_start = true;
+        ++i;
+      } else if (flow == 0 && token_start && (c == '|' || c == '>')) {
+        block_parent = int(levels.size() > 1 ? levels[levels.size() - 2] : 0);
+        while (i < t.size() && t[i] != '\n') ++i;
+      } else if (token_start && (c == '&' || c == '!' || c == '*')) {  // anchor, tag (the node follows), alias
+        if (c == '*') {
+          ++*aliases;
+          token_start = false;
+        }
+        while (i < t.size() && !blank(t[i]) && !(flow > 0 && std::strchr(",[]{}", t[i]))) ++i;
+      } else {
+        token_start = false;
+        ++i;
+      }
+    }
+  }
+  return deepest;
+}
+
+void check_yaml_size(std::string_view text, const std::string& source, std::size_t max_bytes) {
+  if (text.size() > max_bytes)
+    throw TooLarge(source + ": " + std::to_string(text.size()) + " bytes of YAML; expected at most " +
+                   std::to_string(max_bytes));
+  std::size_t aliases = 0;
+  check_yaml_depth(text, source, &aliases);
+  // An alias stands for its whole anchored node: each one more is parsed again.
+  if (aliases > limits::kYamlAliases)
+    throw TooLarge(source + ": " + std::to_string(aliases) + " YAML aliases (*name); expected at most " +
+                   std::to_string(limits::kYamlAliases));
+}
+
+std::string read_regular_file(const std::string& path, std::size_t max_bytes) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
+  if (fd < 0) throw ConfigError(path + ": cannot open file: " + std::strerror(errno));
+  struct Closer {
+    int fd;
+    ~Closer() { ::close(fd); }
+  } closer{fd};
+  struct stat st{};
+  if (::fstat(fd, &st) != 0) throw ConfigError(path + ": cannot open file: " + std::strerror(errno));
+  if (!S_ISREG(st.st_mode)) throw ConfigError(path + ": not a regular file");
+  if (std::size_t(st.st_size) > max_bytes)
+    throw TooLarge(path + ": " + std::to_string(st.st_size) + " bytes; expected at most " + std::to_string(max_bytes));
+  std::string out(std::size_t(st.st_size), '\0');
+  std::size_t got = 0;
+  while (got < out.size()) {  // a file that grows meanwhile is read as far as fstat saw it
+    const ssize_t n = ::read(fd, out.data() + got, out.size() - got);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) throw ConfigError(path + ": cannot read file: " + std::strerror(errno));
+    if (n == 0) break;
+    got += std::size_t(n);
+  }
+  out.resize(got);
+  return out;
+}
 
 bool parse_int_literal(const std::string& raw, std::int64_t& out) {
   std::string text;
@@ -118,15 +276,15 @@ std::string get_string(const Where& w, const YAML::Node& n) {
 
 void check_keys(const Where& w, const YAML::Node& map, std::initializer_list<const char*> known) {
   if (!map.IsMap()) fail(w, map, "expected a mapping");
-  for (const auto& kv : map) {
-    std::string k = kv.first.Scalar();
-    bool found = std::any_of(known.begin(), known.end(), [&](const char* x) { return k == x; });
-    if (!found) {
-      std::string list;
-      for (const char* x : known) list += (list.empty() ? "" : ", ") + std::string(x);
-      fail(w.child(k), kv.first, "unknown key (expected one of: " + list + ")");
-    }
-  }
+  for (const auto& kv : map) check_key(w, kv.first, known);
+}
+
+void check_key(const Where& w, const YAML::Node& key, std::initializer_list<const char*> known) {
+  const std::string k = key.Scalar();
+  if (std::any_of(known.begin(), known.end(), [&](const char* x) { return k == x; })) return;
+  std::string list;
+  for (const char* x : known) list += (list.empty() ? "" : ", ") + std::string(x);
+  fail(w.child(k), key, "unknown key (expected one of: " + list + ")");
 }
 
 }  // namespace cansim::config

@@ -8,11 +8,17 @@
 #include <cstdint>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 
 namespace cansim::config {
 
 struct ConfigError : std::runtime_error {
   using std::runtime_error::runtime_error;
+};
+// Input over a bound of config/limits.hpp (the control API answers
+// io.cansim.Error.TooLarge).
+struct TooLarge : ConfigError {
+  using ConfigError::ConfigError;
 };
 
 // A YAML node with the file it came from and the key path leading to it.
@@ -25,9 +31,28 @@ struct Where {
 
 [[noreturn]] void fail(const Where& w, const YAML::Node& n, const std::string& expected);
 
+// Both check the text's nesting (limits::kYamlDepth) before parsing; a file
+// is read as read_regular_file(path, limits::kProfileFileBytes) reads it.
 YAML::Node load_yaml_file(const std::string& path);
 // `text` read as a YAML document; a syntax error names `file`, line and column.
 YAML::Node load_yaml_text(const std::string& text, const std::string& file);
+
+// A cheap upper bound of a YAML text's nesting depth, without parsing it:
+// block indentation levels (and compact "- " / "? " entries) plus open flow
+// brackets, outside quoted scalars, block scalars and comments. Counting
+// stops above `stop_above`. `aliases` (when given) receives the number of
+// aliases (*name) seen.
+int yaml_depth(std::string_view text, int stop_above, std::size_t* aliases = nullptr);
+// Throws TooLarge naming `source` when `text` is longer than `max_bytes`,
+// nests deeper than limits::kYamlDepth or has more than limits::kYamlAliases
+// aliases: what a client sends is checked so, before yaml-cpp (whose memory
+// grows with the nesting) sees it. (Files are checked for their nesting.)
+void check_yaml_size(std::string_view text, const std::string& source, std::size_t max_bytes);
+
+// A file's bytes, read without blocking the loop: opened O_NONBLOCK, refused
+// unless a regular file (a FIFO or device would block or never end), at most
+// `max_bytes` (TooLarge above). Other errors throw ConfigError naming `path`.
+std::string read_regular_file(const std::string& path, std::size_t max_bytes);
 
 // Scalars. Integers accept decimal, 0x hex, 0b binary and '_' separators.
 std::int64_t get_int(const Where& w, const YAML::Node& n, std::int64_t lo, std::int64_t hi);
@@ -41,5 +66,7 @@ bool parse_int_literal(const std::string& text, std::int64_t& out);
 
 // Rejects keys of a map that are not in `known` (nullptr-terminated list).
 void check_keys(const Where& w, const YAML::Node& map, std::initializer_list<const char*> known);
+// The same for one key of the map at `w`.
+void check_key(const Where& w, const YAML::Node& key, std::initializer_list<const char*> known);
 
 }  // namespace cansim::config

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -12,6 +13,8 @@
 #include "io/loop_core.hpp"
 
 namespace cansim::control {
+
+struct ActionRecord;  // control/audit.hpp
 
 // One node as the control API names it.
 struct NodeHandle {
@@ -23,6 +26,8 @@ struct NodeHandle {
   std::string interface;
   io::NodeRef ref = io::kNoNode;
   Application* app = nullptr;  // the personality's application (unwrapped), may be null
+  // The profile's `emcy:` meanings (model::Profile::emcy_codes); null: none.
+  const std::map<std::uint16_t, std::string>* emcy_codes = nullptr;
 };
 
 struct BusStatistics {
@@ -59,7 +64,12 @@ class ControlHost {
   // The same without offered_load (the estimate from every node's OD): what
   // the bus properties need, cheap enough for any call.
   virtual std::vector<BusStatistics> buses() const { return bus_statistics(); }
+  // The node's interface exists and is open (a node on a missing one is off the bus).
+  virtual bool interface_up(const std::string& /*name*/) const { return true; }
   virtual std::string config_file() const = 0;
+  // One control action's journal line (control/audit.hpp): the daemon logs it
+  // with the node's CANSIM_NODE= / CANSIM_IFACE=; the default logs the text.
+  virtual void log_action(const ActionRecord& r);
 };
 
 }  // namespace cansim::control

@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "config/limits.hpp"
 #include "control/service.hpp"
 #include "io/event_loop.hpp"
 
@@ -25,9 +26,16 @@ enum class BusChoice { kAuto, kSystem, kUser, kNone };
 // as root, else /tmp/cansimd-$UID/control.
 std::string default_control_socket();
 
+// Bounds (config/limits.hpp, README "Limits"): at most `max_clients` peer
+// connections are served; one more gets org.freedesktop.DBus.Error.
+// LimitsExceeded saying why to its first call, and is closed. A connection
+// that has not finished the D-Bus handshake within limits::kAuthTimeoutUs, or
+// lets more than limits::kQueuedMessages answers and signals pile up unread,
+// is dropped with a journal line. Warnings about clients are rate-limited.
 class ControlEndpoints {
  public:
-  ControlEndpoints(io::EventLoop& loop, ControlService& service);
+  ControlEndpoints(io::EventLoop& loop, ControlService& service,
+                   std::size_t max_clients = limits::kDefaultMaxClients);
   ~ControlEndpoints();
 
   // Listens on a fresh socket at `path` (a stale one is replaced): mode
@@ -40,9 +48,11 @@ class ControlEndpoints {
   // bus cannot be used.
   std::string connect_bus(BusChoice choice);
 
-  // Services every connection (at most a bounded number of messages each:
-  // a flooding client cannot starve the nodes). Returns the earliest time
-  // (CLOCK_MONOTONIC µs) at which process() must run again, or kNever.
+  // Services every connection (at most a bounded number of messages each,
+  // and all of them within a bounded time, round robin: neither a flooding
+  // client nor a stream of costly calls starves the nodes). Returns the
+  // earliest time (CLOCK_MONOTONIC µs) at which process() must run again
+  // (0: at once, after the nodes ran), or kNever.
   TimeUs process();
   // Before the loop sleeps until `next_pass` (CLOCK_MONOTONIC µs, kNever:
   // no deadline). A call wakes the loop unless the loop served calls within
@@ -56,18 +66,28 @@ class ControlEndpoints {
  private:
   struct Connection;
   struct Listener;
+  struct Throttle;
   void accept_clients();
-  void add_connection(sd_bus* bus, bool peer);
+  sd_bus* serve_fd(int fd);
+  Connection* add_connection(sd_bus* bus, bool peer, bool refusing = false);
+  void refuse(int fd, std::size_t peers);
+  // Why `c` must go (nullptr when it may stay), and which warning says so (nullptr: none).
+  const char* must_go(const Connection& c, TimeUs now, Throttle** warning) const;
   void drop(Connection& c);
   void rearm(Connection& c);
 
   io::EventLoop& loop_;
   ControlService& service_;
+  std::size_t max_clients_;
+  std::string refusal_;  // what a refused client is told
+  // One per kind of warning, each at most one line per limits::kWarningPeriodUs.
+  std::unique_ptr<Throttle> warn_refused_, warn_slow_, warn_handshake_, warn_failed_;
   std::unique_ptr<Listener> listener_;
   std::vector<std::unique_ptr<Connection>> connections_;
   std::string socket_path_;
   std::uint64_t next_id_ = 1;
   TimeUs last_served_ = 0;  // last pass that read a connection
+  TimeUs pass_end_ = 0;     // the current pass serves connections until then
 };
 
 }  // namespace cansim::control

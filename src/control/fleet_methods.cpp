@@ -1,6 +1,7 @@
 // io.cansim.Fleet1 on /io/cansim/Cansimd1.
 #include <exception>
 
+#include "config/limits.hpp"
 #include "config/profile.hpp"
 #include "control/node_names.hpp"
 #include "control/service_internal.hpp"
@@ -56,7 +57,10 @@ int add_nodes(sd_bus_message* m, void* userdata, sd_bus_error* e) {
   if (r < 0) return r;
   std::vector<std::string> keys;
   try {
+    config::check_yaml_size(yaml, "<AddNodes>", limits::kYamlTextBytes);
     keys = s.host().add_nodes(yaml);
+  } catch (const config::TooLarge& ex) {
+    return fail(e, kErrorTooLarge, ex.what());
   } catch (const std::exception& ex) {
     return fail(e, kErrorConfig, ex.what());
   }
@@ -158,9 +162,9 @@ const sd_bus_vtable kFleetVtable[] = {
     SD_BUS_VTABLE_START(0),
     SD_BUS_METHOD_WITH_NAMES("ListNodes", "", , "a(osssysss)", SD_BUS_PARAM(nodes), list_nodes, kCall),
     SD_BUS_METHOD_WITH_NAMES("GetNode", "s", SD_BUS_PARAM(node), "o", SD_BUS_PARAM(path), get_node, kCall),
-    SD_BUS_METHOD_WITH_NAMES("AddNodes", "s", SD_BUS_PARAM(yaml), "ao", SD_BUS_PARAM(paths), add_nodes, kCall),
-    SD_BUS_METHOD_WITH_NAMES("RemoveNode", "s", SD_BUS_PARAM(node), "", , remove_node, kCall),
-    SD_BUS_METHOD("Reload", "", "", reload, kCall),
+    SD_BUS_METHOD_WITH_NAMES("AddNodes", "s", SD_BUS_PARAM(yaml), "ao", SD_BUS_PARAM(paths), audited_fleet<add_nodes>, kCall),
+    SD_BUS_METHOD_WITH_NAMES("RemoveNode", "s", SD_BUS_PARAM(node), "", , audited_fleet<remove_node>, kCall),
+    SD_BUS_METHOD("Reload", "", "", audited_fleet<reload>, kCall),
     SD_BUS_METHOD_WITH_NAMES("GetBusStatistics", "", , "a(sbuttttdd)", SD_BUS_PARAM(buses), bus_statistics, kCall),
     SD_BUS_METHOD("Subscribe", "", "", subscribe, kCall),
     SD_BUS_METHOD("Unsubscribe", "", "", unsubscribe, kCall),

@@ -21,5 +21,6 @@ inline constexpr const char* kErrorInvalidArgument = "io.cansim.Error.InvalidArg
 inline constexpr const char* kErrorNotSupported = "io.cansim.Error.NotSupported";
 inline constexpr const char* kErrorRefused = "io.cansim.Error.Refused";
 inline constexpr const char* kErrorConfig = "io.cansim.Error.Config";
+inline constexpr const char* kErrorTooLarge = "io.cansim.Error.TooLarge";  // over a bound of config/limits.hpp
 
 }  // namespace cansim::control

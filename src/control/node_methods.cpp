@@ -57,8 +57,9 @@ CANSIM_GETTER(get_interface, "s", n.handle->interface.c_str())
 CANSIM_GETTER(get_node_id, "y", n.node().node_id())
 CANSIM_GETTER(get_nmt_state, "s", nmt_state_name(n.node().state()))
 CANSIM_GETTER(get_powered, "b", int(n.node().powered()))
-CANSIM_GETTER(get_on_bus, "b", int(n.node().on_bus()))
+CANSIM_GETTER(get_on_bus, "b", int(n.node().on_bus() && n.service->host().interface_up(n.handle->interface)))
 CANSIM_GETTER(get_emcy_count, "u", n.node().emcy().sent_count())
+CANSIM_GETTER(get_frames_sent, "t", std::uint64_t(n.node().frames_sent()))
 #undef CANSIM_GETTER
 int get_last_emcy(sd_bus*, const char*, const char*, const char*, sd_bus_message* reply, void* userdata,
                   sd_bus_error*) {
@@ -230,33 +231,38 @@ const sd_bus_vtable kNodeVtable[] = {
     SD_BUS_PROPERTY("Faults", "a(usb)", node_get_faults, 0, kEmits),
     SD_BUS_PROPERTY("EmcyCount", "u", get_emcy_count, 0, 0),
     SD_BUS_PROPERTY("LastEmcy", "(xqyay)", get_last_emcy, 0, 0),
+    SD_BUS_PROPERTY("FramesSent", "t", get_frames_sent, 0, 0),
     SD_BUS_PROPERTY("Recording", "s", node_get_recording, 0, 0),
-    SD_BUS_METHOD_WITH_NAMES("Hold", "s", SD_BUS_PARAM(channel), "", , node_hold, kCall),
+    SD_BUS_METHOD_WITH_NAMES("Hold", "s", SD_BUS_PARAM(channel), "", , audited_node<node_hold>, kCall),
     SD_BUS_METHOD_WITH_NAMES("Step", "sds", SD_BUS_PARAM(channel) SD_BUS_PARAM(value) SD_BUS_PARAM(unit), "", ,
-                             node_step, kCall),
+                             audited_node<node_step>, kCall),
     SD_BUS_METHOD_WITH_NAMES("Ramp", "sdsd",
                              SD_BUS_PARAM(channel) SD_BUS_PARAM(value) SD_BUS_PARAM(unit) SD_BUS_PARAM(seconds), "", ,
-                             node_ramp, kCall),
-    SD_BUS_METHOD_WITH_NAMES("SetModel", "ss", SD_BUS_PARAM(channel) SD_BUS_PARAM(yaml), "", , node_set_model, kCall),
-    SD_BUS_METHOD_WITH_NAMES("RestoreModel", "s", SD_BUS_PARAM(channel), "", , node_restore_model, kCall),
+                             audited_node<node_ramp>, kCall),
+    SD_BUS_METHOD_WITH_NAMES("SetModel", "ss", SD_BUS_PARAM(channel) SD_BUS_PARAM(yaml), "", , audited_node<node_set_model>, kCall),
+    SD_BUS_METHOD_WITH_NAMES("RestoreModel", "s", SD_BUS_PARAM(channel), "", , audited_node<node_restore_model>, kCall),
     SD_BUS_METHOD_WITH_NAMES("Override", "sds", SD_BUS_PARAM(channel) SD_BUS_PARAM(value) SD_BUS_PARAM(unit), "", ,
-                             node_override, kCall),
-    SD_BUS_METHOD_WITH_NAMES("ClearOverride", "s", SD_BUS_PARAM(channel), "", , node_clear_override, kCall),
+                             audited_node<node_override>, kCall),
+    SD_BUS_METHOD_WITH_NAMES("ClearOverride", "s", SD_BUS_PARAM(channel), "", , audited_node<node_clear_override>, kCall),
     SD_BUS_METHOD_WITH_NAMES("ArmFault", "sa{ss}", SD_BUS_PARAM(kind) SD_BUS_PARAM(params), "u", SD_BUS_PARAM(id),
-                             node_arm_fault, kCall),
-    SD_BUS_METHOD_WITH_NAMES("CancelFault", "u", SD_BUS_PARAM(id), "", , node_cancel_fault, kCall),
+                             audited_node<node_arm_fault>, kCall),
+    SD_BUS_METHOD_WITH_NAMES("CancelFault", "u", SD_BUS_PARAM(id), "", , audited_node<node_cancel_fault>, kCall),
     SD_BUS_METHOD_WITH_NAMES("ListFaults", "", , "a(ussbxxxu)", SD_BUS_PARAM(faults), node_list_faults, kCall),
-    SD_BUS_METHOD_WITH_NAMES("PowerCycle", "d", SD_BUS_PARAM(off_seconds), "", , power_cycle, kCall),
-    SD_BUS_METHOD_WITH_NAMES("Nmt", "s", SD_BUS_PARAM(command), "", , nmt, kCall),
-    SD_BUS_METHOD_WITH_NAMES("Store", "y", SD_BUS_PARAM(sub), "", , store, kCall),
-    SD_BUS_METHOD_WITH_NAMES("Restore", "y", SD_BUS_PARAM(sub), "", , restore, kCall),
+    SD_BUS_METHOD_WITH_NAMES("PowerCycle", "d", SD_BUS_PARAM(off_seconds), "", , audited_node<power_cycle>, kCall),
+    SD_BUS_METHOD_WITH_NAMES("Nmt", "s", SD_BUS_PARAM(command), "", , audited_node<nmt>, kCall),
+    SD_BUS_METHOD_WITH_NAMES("Store", "y", SD_BUS_PARAM(sub), "", , audited_node<store>, kCall),
+    SD_BUS_METHOD_WITH_NAMES("Restore", "y", SD_BUS_PARAM(sub), "", , audited_node<restore>, kCall),
     SD_BUS_METHOD_WITH_NAMES("Read", "qy", SD_BUS_PARAM(index) SD_BUS_PARAM(sub), "v", SD_BUS_PARAM(value),
                              read_object, kCall),
     SD_BUS_METHOD_WITH_NAMES("Write", "qyv", SD_BUS_PARAM(index) SD_BUS_PARAM(sub) SD_BUS_PARAM(value), "", ,
-                             write_object, kCall),
+                             audited_node<write_object>, kCall),
     SD_BUS_METHOD_WITH_NAMES("GetDcf", "", , "s", SD_BUS_PARAM(dcf), get_dcf, kCall),
-    SD_BUS_METHOD_WITH_NAMES("StartRecording", "s", SD_BUS_PARAM(path), "", , node_start_recording, kCall),
-    SD_BUS_METHOD("StopRecording", "", "", node_stop_recording, kCall),
+    SD_BUS_METHOD_WITH_NAMES("ListObjects", "", , "a(qyssds)", SD_BUS_PARAM(objects), node_list_objects, kCall),
+    SD_BUS_METHOD_WITH_NAMES("GetPdoMapping", "", , "a(subya(qyyssds))", SD_BUS_PARAM(pdos), node_get_pdo_mapping,
+                             kCall),
+    SD_BUS_METHOD_WITH_NAMES("ListEmcyCodes", "", , "a(qs)", SD_BUS_PARAM(codes), node_list_emcy_codes, kCall),
+    SD_BUS_METHOD_WITH_NAMES("StartRecording", "s", SD_BUS_PARAM(path), "", , audited_node<node_start_recording>, kCall),
+    SD_BUS_METHOD("StopRecording", "", "", audited_node<node_stop_recording>, kCall),
     SD_BUS_SIGNAL_WITH_NAMES("NmtStateChanged", "xss", SD_BUS_PARAM(t) SD_BUS_PARAM(old) SD_BUS_PARAM(new), 0),
     SD_BUS_SIGNAL_WITH_NAMES("BootUp", "xy", SD_BUS_PARAM(t) SD_BUS_PARAM(node_id), 0),
     SD_BUS_SIGNAL_WITH_NAMES("EmcySent", "xqyay",
@@ -265,6 +271,7 @@ const sd_bus_vtable kNodeVtable[] = {
                              SD_BUS_PARAM(t) SD_BUS_PARAM(index) SD_BUS_PARAM(sub) SD_BUS_PARAM(value) SD_BUS_PARAM(via), 0),
     SD_BUS_SIGNAL_WITH_NAMES("FaultStarted", "xus", SD_BUS_PARAM(t) SD_BUS_PARAM(id) SD_BUS_PARAM(kind), 0),
     SD_BUS_SIGNAL_WITH_NAMES("FaultEnded", "xus", SD_BUS_PARAM(t) SD_BUS_PARAM(id) SD_BUS_PARAM(kind), 0),
+    SD_BUS_SIGNAL_WITH_NAMES("PdoMappingChanged", "x", SD_BUS_PARAM(t), 0),
     SD_BUS_VTABLE_END,
 };
 

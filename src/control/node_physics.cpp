@@ -1,9 +1,12 @@
 // io.cansim.Node1, the measurement side: the true process value (hold, step,
 // ramp, any YAML model), reported-value overrides, faults and recording.
-// Everything goes through the node's CiA 404 chain
-// (personalities::Cia404Application), so PDOs and events follow.
+// Everything goes through the node's measurement control
+// (personalities::MeasurementControl: its CiA 404 chain and device part), so
+// PDOs and events follow.
 #include <cmath>
+#include <cstring>
 
+#include "config/limits.hpp"
 #include "config/physics_config.hpp"
 #include "control/service_internal.hpp"
 #include "physics/units.hpp"
@@ -16,7 +19,7 @@ using NodeContext = ControlService::NodeContext;
 using physics::Channel;
 
 // The node's chain, or an error when it has none / not this channel.
-personalities::Cia404Application* chain(NodeContext& n, const char* channel, Channel* ch, sd_bus_error* e, int* r) {
+personalities::MeasurementControl* chain(NodeContext& n, const char* channel, Channel* ch, sd_bus_error* e, int* r) {
   const std::string_view name = channel;
   if (name != "pressure" && name != "temperature") {
     *r = fail(e, kErrorUnknownChannel, "unknown channel '" + std::string(name) + "': expected pressure or temperature");
@@ -44,15 +47,17 @@ bool to_si(Channel ch, double value, const char* unit, double& si, sd_bus_error*
   if (ch == Channel::Pressure) {
     if (auto u = physics::parse_pressure_unit(unit)) {
       si = physics::to_pa(value, *u);
-      return true;
+      if (std::isfinite(si)) return true;
+      *r = fail(e, kErrorOutOfRange, "expected a pressure that is finite in Pa");
+      return false;
     }
     *r = fail(e, kErrorUnknownUnit, "unknown pressure unit '" + std::string(unit) + "': expected bar, mbar, psi, Pa, kPa or MPa");
     return false;
   }
   if (auto u = physics::parse_temperature_unit(unit)) {
     si = physics::to_kelvin(value, *u);
-    if (si >= 0) return true;
-    *r = fail(e, kErrorOutOfRange, "temperature below absolute zero");
+    if (si >= 0 && std::isfinite(si)) return true;
+    *r = fail(e, kErrorOutOfRange, si >= 0 ? "expected a temperature that is finite in K" : "temperature below absolute zero");
     return false;
   }
   *r = fail(e, kErrorUnknownUnit, "unknown temperature unit '" + std::string(unit) + "': expected degC, degF or K");
@@ -124,7 +129,10 @@ int node_set_model(sd_bus_message* m, void* userdata, sd_bus_error* e) {
   if (r < 0 || !chain(n, channel, &ch, e, &r)) return r;
   std::vector<physics::TermSpec> terms;
   try {
+    config::check_yaml_size(yaml, "<SetModel>", limits::kYamlTextBytes);
     terms = config::parse_channel_model_text("<SetModel>", channel, yaml, ch);
+  } catch (const config::TooLarge& ex) {
+    return fail(e, kErrorTooLarge, ex.what());
   } catch (const std::exception& ex) {
     return fail(e, kErrorInvalidArgument, ex.what());
   }
@@ -172,12 +180,18 @@ int node_arm_fault(sd_bus_message* m, void* userdata, sd_bus_error* e) {
   const char *key = nullptr, *value = nullptr;
   while ((r = sd_bus_message_read(m, "{ss}", &key, &value)) > 0) {
     if (std::string_view(key) == "kind") return fail(e, kErrorInvalidArgument, "'kind' is the first argument, not a parameter");
+    if (keys.size() == limits::kFaultParams)
+      return fail(e, kErrorTooLarge, "more than " + std::to_string(limits::kFaultParams) + " parameters");
+    if (std::strlen(key) > limits::kFaultValueBytes || std::strlen(value) > limits::kFaultValueBytes)
+      return fail(e, kErrorTooLarge, "a parameter longer than " + std::to_string(limits::kFaultValueBytes) + " bytes");
     keys.emplace_back(key, value);
   }
   if (r < 0 || (r = sd_bus_message_exit_container(m)) < 0) return r;
   physics::FaultSpec spec;
   try {
     spec = config::parse_fault_text("<ArmFault>", kind, keys);
+  } catch (const config::TooLarge& ex) {
+    return fail(e, kErrorTooLarge, ex.what());
   } catch (const std::exception& ex) {
     const bool bad_kind = !physics::parse_fault_kind(kind);
     return fail(e, bad_kind ? kErrorUnknownFault : kErrorInvalidArgument, ex.what());

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cstdlib>
 
+#include "config/limits.hpp"
 #include "control/od_values.hpp"
 #include "control/service_internal.hpp"
 #include "io/can_interface.hpp"
@@ -61,7 +62,11 @@ int enumerate_nodes(sd_bus*, const char*, void* userdata, char*** nodes, sd_bus_
 }  // namespace
 
 int fail(sd_bus_error* e, const char* name, const std::string& message) {
-  return sd_bus_error_set(e, name, message.c_str());
+  if (message.size() <= limits::kErrorMessageBytes) return sd_bus_error_set(e, name, message.c_str());
+  std::string cut = message.substr(0, limits::kErrorMessageBytes);
+  while (!cut.empty() && (static_cast<unsigned char>(cut.back()) & 0xC0) == 0x80) cut.pop_back();  // whole UTF-8 characters
+  if (!cut.empty() && static_cast<unsigned char>(cut.back()) >= 0xC0) cut.pop_back();
+  return sd_bus_error_set(e, name, (cut + "...").c_str());
 }
 
 const char* nmt_state_name(NmtState s) {
@@ -89,6 +94,20 @@ ControlService::ControlService(ControlHost& host) : host_(host) {}
 
 ControlService::~ControlService() {
   while (!connections_.empty()) detach(connections_.back()->bus);
+  if (auto line = action_limiter_.flush()) host_.log_action(*line);
+}
+
+void ControlService::audit(sd_bus_message* m, const std::string& key, const std::string& interface, int r,
+                           const sd_bus_error* e) {
+  const ActionLimiter::Admission admission = action_limiter_.admit(ActionLimiter::Clock::now());
+  if (admission.suppressed) host_.log_action(*admission.suppressed);
+  if (!admission.log) return;
+  const char* member = sd_bus_message_get_member(m);
+  const std::optional<uid_t> uid = callers_.of(m);
+  host_.log_action({key, interface,
+                    "control: " + (key.empty() ? std::string("fleet") : key) + ": " + (member ? member : "?") +
+                        describe_arguments(m) + " " + action_outcome(uid, r, e),
+                    uid});
 }
 
 int ControlService::attach(sd_bus* bus, bool peer) {
@@ -149,7 +168,7 @@ void ControlService::node_added(const NodeHandle& h) {
   n->service = this;
   n->handle = &h;
   n->path = node_path(h);
-  n->sensor = personalities::as_cia404(h.app);
+  n->sensor = personalities::measurement_control(h.app);
   if (n->sensor) {
     NodeContext* raw = n.get();
     n->sensor->set_fault_listener([raw](const physics::FaultEdge& edge) {
@@ -194,7 +213,7 @@ void ControlService::emit_properties_changed(const std::string& path, const char
   for (const char* s : names) list.push_back(const_cast<char*>(s));
   list.push_back(nullptr);
   for (auto& c : connections_)
-    if (c->subscribed()) sd_bus_emit_properties_changed_strv(c->bus, path.c_str(), interface, list.data());
+    if (c->wants_signals()) sd_bus_emit_properties_changed_strv(c->bus, path.c_str(), interface, list.data());
 }
 
 // ---------------------------------------------------------------- core events
@@ -242,6 +261,14 @@ void ControlService::on_power(io::NodeRef ref, bool, TimeUs) {
   NodeContext* n = context(ref);
   if (!n || !has_subscribers()) return;
   emit_properties_changed(n->path, kNodeInterface, {"Powered"});
+}
+
+void ControlService::on_pdo_config(io::NodeRef ref, TimeUs t) {
+  NodeContext* n = context(ref);
+  if (!n || !has_subscribers()) return;
+  emit(n->path, kNodeInterface, "PdoMappingChanged", [&](sd_bus_message* m) {
+    return sd_bus_message_append(m, "x", std::int64_t(t));
+  });
 }
 
 void ControlService::fault_edge(NodeContext& n, std::uint32_t id, std::uint8_t kind, bool started, TimeUs t) {

@@ -15,6 +15,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "control/audit.hpp"
 #include "control/control_host.hpp"
 #include "control/names.hpp"
 #include "core/observer.hpp"
@@ -51,6 +52,7 @@ class ControlService : public io::LoopObserver {
   void on_emcy(io::NodeRef ref, std::uint16_t code, std::uint8_t reg, const std::uint8_t vendor[5], TimeUs t) override;
   void on_remote_write(io::NodeRef ref, const OdEntry& e, WriteVia via, TimeUs t) override;
   void on_power(io::NodeRef ref, bool powered, TimeUs t) override;
+  void on_pdo_config(io::NodeRef ref, TimeUs t) override;
 
   // Implementation detail shared by the handler files.
   struct NodeContext;
@@ -67,9 +69,13 @@ class ControlService : public io::LoopObserver {
   // A method changed a node: its deadlines are re-read, its frames flushed.
   void touched(const NodeContext& n);
   void fault_edge(NodeContext& n, std::uint32_t id, std::uint8_t kind, bool started, TimeUs t);
+  // Logs the control action `m` on node `key` (fleet: "") and its outcome (audit.hpp).
+  void audit(sd_bus_message* m, const std::string& key, const std::string& interface, int r, const sd_bus_error* e);
 
  private:
   ControlHost& host_;
+  ActionLimiter action_limiter_;
+  CallerIds callers_;
   std::vector<std::unique_ptr<Connection>> connections_;
   std::unordered_map<std::string, std::unique_ptr<NodeContext>> by_key_;
   std::vector<NodeContext*> by_ref_;

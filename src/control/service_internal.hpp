@@ -7,10 +7,12 @@
 #include <cstdint>
 #include <string>
 
+#include "config/limits.hpp"
 #include "control/names.hpp"
+#include "control/node_names.hpp"
 #include "control/service.hpp"
 #include "core/node.hpp"
-#include "personalities/cia404.hpp"
+#include "personalities/measurement_control.hpp"
 
 namespace cansim::control {
 
@@ -18,7 +20,7 @@ struct ControlService::NodeContext {
   ControlService* service = nullptr;
   const NodeHandle* handle = nullptr;
   std::string path;
-  personalities::Cia404Application* sensor = nullptr;  // null: no measurement chain
+  personalities::MeasurementControl* sensor = nullptr;  // null: no measurement chain
   Node& node() const { return service->host().core().node(handle->ref); }
   // A method acts now: what was due before the call happens first.
   TimeUs act_now() const {
@@ -37,6 +39,12 @@ struct ControlService::Connection {
   sd_bus_track* track = nullptr;  // bus: subscribed unique names
   std::vector<sd_bus_slot*> slots;
   bool subscribed() const { return peer ? peer_subscribed : (track && sd_bus_track_count(track) > 0); }
+  // Signals go to a subscriber while fewer than limits::kQueuedMessages wait
+  // for it (the endpoints drop a peer that falls further behind).
+  bool wants_signals() const {
+    std::uint64_t queued = 0;
+    return subscribed() && (sd_bus_get_n_queued_write(bus, &queued) < 0 || queued < limits::kQueuedMessages);
+  }
 };
 
 // Fills `e` and returns the negative errno sd-bus expects from a handler.
@@ -61,6 +69,10 @@ int node_cancel_fault(sd_bus_message* m, void* userdata, sd_bus_error* e);
 int node_list_faults(sd_bus_message* m, void* userdata, sd_bus_error* e);
 int node_start_recording(sd_bus_message* m, void* userdata, sd_bus_error* e);
 int node_stop_recording(sd_bus_message* m, void* userdata, sd_bus_error* e);
+// Node1 handlers defined in node_decoding.cpp (what the node's frames mean).
+int node_list_objects(sd_bus_message* m, void* userdata, sd_bus_error* e);
+int node_get_pdo_mapping(sd_bus_message* m, void* userdata, sd_bus_error* e);
+int node_list_emcy_codes(sd_bus_message* m, void* userdata, sd_bus_error* e);
 int node_get_channel(sd_bus* bus, const char* path, const char* iface, const char* property, sd_bus_message* reply,
                      void* userdata, sd_bus_error* e);
 int node_get_overrides(sd_bus* bus, const char* path, const char* iface, const char* property, sd_bus_message* reply,
@@ -69,6 +81,33 @@ int node_get_faults(sd_bus* bus, const char* path, const char* iface, const char
                     void* userdata, sd_bus_error* e);
 int node_get_recording(sd_bus* bus, const char* path, const char* iface, const char* property, sd_bus_message* reply,
                        void* userdata, sd_bus_error* e);
+
+// A node's acting method, logged with its outcome (audit.hpp).
+template <sd_bus_message_handler_t handler>
+int audited_node(sd_bus_message* m, void* userdata, sd_bus_error* e) {
+  const ControlService::NodeContext& n = ControlService::NodeContext::of(userdata);
+  ControlService* service = n.service;
+  const std::string key = n.handle->key, interface = n.handle->interface;
+  const int r = handler(m, userdata, e);
+  service->audit(m, key, interface, r, e);
+  return r;
+}
+
+// A fleet's acting method; RemoveNode's line names the node it removes.
+template <sd_bus_message_handler_t handler>
+int audited_fleet(sd_bus_message* m, void* userdata, sd_bus_error* e) {
+  auto* service = static_cast<ControlService*>(userdata);
+  std::string key, interface;
+  if (sd_bus_message_is_method_call(m, kFleetInterface, "RemoveNode")) {
+    const char* spec = nullptr;
+    if (sd_bus_message_read(m, "s", &spec) > 0)
+      if (const NodeHandle* h = resolve_node(service->host(), spec, nullptr)) key = h->key, interface = h->interface;
+    sd_bus_message_rewind(m, 1);
+  }
+  const int r = handler(m, userdata, e);
+  service->audit(m, key, interface, r, e);
+  return r;
+}
 
 // Answers `m` with what `fill` appends (returns sd-bus's result, negative on error).
 template <typename Fill>
@@ -84,7 +123,7 @@ int reply_with(sd_bus_message* m, Fill&& fill) {
 template <typename Build>
 void ControlService::emit(const std::string& path, const char* interface, const char* member, Build&& build) {
   for (auto& c : connections_) {
-    if (!c->subscribed()) continue;
+    if (!c->wants_signals()) continue;
     sd_bus_message* m = nullptr;
     if (sd_bus_message_new_signal(c->bus, &m, path.c_str(), interface, member) < 0) continue;
     if (build(m) >= 0) sd_bus_send(c->bus, m, nullptr);

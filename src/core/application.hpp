@@ -66,6 +66,9 @@ class NodeStorage {
   virtual ~NodeStorage() = default;
   virtual bool load(std::vector<std::uint8_t>& blob) = 0;
   virtual bool save(std::span<const std::uint8_t> blob) = 0;
+  // The node dropped what load() gave (a bad inner CRC, an impossible
+  // node-ID, ...): `why` says what, for the owner's log.
+  virtual void rejected(const char* /*why*/) {}
 };
 
 }  // namespace cansim

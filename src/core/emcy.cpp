@@ -11,12 +11,10 @@ namespace cansim {
 namespace {
 using cob::kFrame29Bit;
 using cob::kInvalid;
-constexpr std::uint32_t kReserved30 = 1u << 30;
 constexpr std::uint16_t kErrorReset = 0x0000;
 constexpr std::uint8_t kGenericBit = 0x01;
 constexpr std::uint8_t kNoMfr[5] = {};
 
-std::uint32_t id_bits(std::uint32_t v) { return v & (kFrame29Bit | 0x1FFFFFFFu); }
 }  // namespace
 
 std::uint8_t Emcy::class_bits(std::uint16_t code) {
@@ -38,10 +36,6 @@ void Emcy::reset(TimeUs) {
   last_sent_ = kNever;
   next_ = kNever;
   register_ = 0;
-  const std::string& mode = node_.options().emcy_on_partial_clear;
-  partial_clear_ = mode == "none" ? PartialClear::kNone
-                   : mode == "latest" ? PartialClear::kLatest
-                                      : PartialClear::kReset;
   const OdObject* h = node_.od().object(0x1003);
   history_depth_ = h && h->count > 1 ? std::uint8_t(std::min<int>(h->count - 1, 254)) : 0;
   read_config();
@@ -52,7 +46,7 @@ void Emcy::read_config() {
   std::uint32_t v = c ? std::uint32_t(node_.values().get_u(*c)) : cob::kEmcyBase + node_.node_id();
   valid_ = !(v & kInvalid);
   extended_ = v & kFrame29Bit;
-  can_id_ = v & (extended_ ? 0x1FFFFFFFu : 0x7FFu);
+  can_id_ = cob::can_id(v);
   const OdEntry* i = node_.od().find(0x1015, 0);
   inhibit_us_ = i ? TimeUs(node_.values().get_u(*i)) * 100 : 0;
 }
@@ -111,9 +105,9 @@ void Emcy::clear(std::uint16_t code, TimeUs now) {
   std::copy(active_ + i + 1, active_ + active_n_, active_ + i);
   --active_n_;
   update_register();
-  if (active_n_ == 0 || partial_clear_ == PartialClear::kReset)
+  if (active_n_ == 0 || node_.options().emcy_on_partial_clear == PartialClearEmcy::kReset)
     emit(kErrorReset, register_, kNoMfr, now);
-  else if (partial_clear_ == PartialClear::kLatest)
+  else if (node_.options().emcy_on_partial_clear == PartialClearEmcy::kLatest)
     emit(active_[active_n_ - 1].code, register_, kNoMfr, now);
 }
 
@@ -253,10 +247,10 @@ SdoAbort Emcy::write(const OdEntry& e, std::span<const std::uint8_t> data, TimeU
 // The CAN-ID may change only while bit 31 marks the EMCY invalid (CiA 301
 // §7.5.2.17); bit 30 is reserved.
 SdoAbort Emcy::write_cob_id(const OdEntry& e, std::uint32_t v) {
-  if (v & kReserved30) return SdoAbort::kInvalidValue;
-  if (!(v & kFrame29Bit) && (v & 0x1FFFF800u)) return SdoAbort::kInvalidValue;
+  if (v & cob::kEmcyReserved) return SdoAbort::kInvalidValue;
+  if (!cob::format_ok(v)) return SdoAbort::kInvalidValue;
   std::uint32_t current = std::uint32_t(node_.values().get_u(e));
-  if (!(current & kInvalid) && !(v & kInvalid) && id_bits(current) != id_bits(v))
+  if (!(current & kInvalid) && !(v & kInvalid) && cob::frame_id(current) != cob::frame_id(v))
     return SdoAbort::kInvalidValue;
   node_.values().set_u(e, v);
   read_config();

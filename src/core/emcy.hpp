@@ -66,22 +66,16 @@ class Emcy : private NodeService {
   // 0x1003 subs above the error count have no data (option).
   SdoAbort check_read(const OdEntry& e) const;
 
-  // Re-reads its configuration from the OD (after a reset / power-on).
+  // The NodeService contract (core/node_service.hpp):
   void reset(TimeUs now);
-  // Returns true when the frame was addressed to this service.
   bool on_frame(const CanFrame& frame, TimeUs now);
-  // Runs the work due at or before now.
   void process(TimeUs now);
   TimeUs next_deadline() const { return next_; }
-  // COB-IDs this service wants to receive (for the bus dispatcher).
   void collect_rx_ids(std::vector<std::uint32_t>& out) const;
-  // True for OD indices whose remote writes this service handles itself.
   bool owns(std::uint16_t index) const;
-  // A checked remote write of an owned entry: validate, store, react.
   SdoAbort write(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
 
  private:
-  enum class PartialClear : std::uint8_t { kReset, kLatest, kNone };
   struct Active {
     std::uint16_t code;
     std::uint8_t reg;
@@ -108,7 +102,6 @@ class Emcy : private NodeService {
   std::uint32_t can_id_ = 0;
   bool extended_ = false;
   bool valid_ = true;
-  PartialClear partial_clear_ = PartialClear::kReset;
   std::uint8_t register_ = 0;
   std::uint8_t history_depth_ = 0;
   std::uint8_t active_n_ = 0;

@@ -54,7 +54,6 @@ void LssSlave::prepare_reset(ResetKind kind, TimeUs) {
 }
 
 void LssSlave::reset(TimeUs) {
-  if (!rates_parsed_) rates_parsed_ = ByteSet::parse(node_.options().lss_bit_rates, rates_);
   for (std::uint8_t i = 0; i < 4; ++i) identity_[i] = node_.od().find(0x1018, std::uint8_t(i + 1));
   state_ = State::kWaiting;
   pending_node_id_ = node_.node_id();
@@ -203,7 +202,7 @@ void LssSlave::configure_bit_timing(const std::uint8_t* d) {
     selector = 0;
   }
   const bool cia_table = selector == 0 || (selector == 1 && o.lss_table_selector_1_is_cia);
-  if (!cia_table || !rates_.has(index)) {
+  if (!cia_table || !node_.options().lss_bit_rates.has(index)) {
     reply(kConfigureBitTiming, kOutOfRange);  // "bit timing not supported"
     return;
   }

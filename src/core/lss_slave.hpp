@@ -39,18 +39,14 @@ class LssSlave : private NodeService {
   // / communication activate the pending node-ID (power-on: Node::power_on
   // applies what store configuration saved).
   void prepare_reset(ResetKind kind, TimeUs now);
-  // Re-reads its configuration from the OD (after a reset / power-on).
+  // The NodeService contract (core/node_service.hpp):
   void reset(TimeUs now);
-  // Returns true when the frame was addressed to this service.
   bool on_frame(const CanFrame& frame, TimeUs now);
-  // Runs the work due at or before now (the bit-rate switch delays).
+  // process: the bit-rate switch delays.
   void process(TimeUs now);
   TimeUs next_deadline() const { return next_; }
-  // COB-IDs this service wants to receive (for the bus dispatcher).
   void collect_rx_ids(std::vector<std::uint32_t>& out) const;
-  // True for OD indices whose remote writes this service handles itself.
   bool owns(std::uint16_t index) const;
-  // A checked remote write of an owned entry: validate, store, react.
   SdoAbort write(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
 
   State state() const { return state_; }
@@ -98,8 +94,6 @@ class LssSlave : private NodeService {
   SwitchPhase switch_phase_ = SwitchPhase::kIdle;
   std::uint8_t switch_target_rate_ = 0;
   TimeUs switch_delay_ = 0;
-  bool rates_parsed_ = false;
-  ByteSet rates_;                        // lss_bit_rates
   const OdEntry* identity_[4] = {};      // 0x1018:01..04
 };
 

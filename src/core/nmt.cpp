@@ -26,7 +26,6 @@ void NmtSlave::restart(ResetKind kind, TimeUs now, bool reload) {
   }
   node_.reset_services(now);  // includes reset() below: builds plan_
   if (Application* app = node_.app()) app->on_reset(node_, kind, now);
-  node_.apply_serial_number();
   if (node_.node_id() == kUnconfigured) return;  // waits for LSS (CiA 305)
   boot_at_ = now + plan_.boot_up_delay;
   update_deadline();
@@ -36,9 +35,9 @@ void NmtSlave::restart(ResetKind kind, TimeUs now, bool reload) {
 void NmtSlave::reset(TimeUs) {
   const NodeOptions& o = node_.options();
   plan_ = BootPlan{};
-  plan_.boot_up_delay = ms(std::max<std::int64_t>(0, o.boot_up_delay_ms));
+  plan_.boot_up_delay = ms(o.boot_up_delay_ms);
   plan_.self_start = o.nmt_auto_start;
-  plan_.self_start_delay = ms(std::max<std::int64_t>(0, o.nmt_auto_start_delay_ms));
+  plan_.self_start_delay = ms(o.nmt_auto_start_delay_ms);
   plan_.start_all_delay = o.nmt_start_all_delay_ms < 0 ? -1 : ms(o.nmt_start_all_delay_ms);
   // 0x1F80 NMT start-up (CiA 302-2), read the way the profile's options say.
   if (const OdEntry* e = node_.od().find(0x1F80, 0)) {
@@ -49,7 +48,6 @@ void NmtSlave::reset(TimeUs) {
     if ((v & std::uint64_t(o.nmt_startup_start_all_mask)) && plan_.start_all_delay < 0)
       plan_.start_all_delay = 0;
   }
-  startup_values_any_ = o.nmt_startup_values.empty() || !ByteSet::parse(o.nmt_startup_values, startup_values_);
   boot_at_ = start_at_ = start_all_at_ = kNever;
   update_deadline();
 }
@@ -159,7 +157,7 @@ bool NmtSlave::owns(std::uint16_t index) const { return index == 0x1F80 || index
 SdoAbort NmtSlave::write(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs) {
   std::uint64_t v = decode_u(e.type, data.data());
   if (e.index == 0x1029 && e.sub != 0 && v > 2 && v < 0x80) return SdoAbort::kInvalidValue;
-  if (e.index == 0x1F80 && !startup_values_any_ && (v > 0xFF || !startup_values_.has(std::uint8_t(v))))
+  if (e.index == 0x1F80 && !node_.options().nmt_startup_values.contains(v))
     return SdoAbort::kInvalidValue;
   node_.values().set_bytes(e, data);
   return SdoAbort::kNone;

@@ -16,6 +16,10 @@ Node::Node(NodeSetup setup, FrameSink& sink, Application* app, NodeStorage* stor
   if (!setup_.options) setup_.options = std::make_shared<NodeOptions>();
 }
 
+static_assert(ServiceContract<LssSlave> && ServiceContract<NmtSlave> && ServiceContract<SdoServer> &&
+              ServiceContract<Heartbeat> && ServiceContract<NodeGuarding> && ServiceContract<SyncConsumer> &&
+              ServiceContract<PdoEngine> && ServiceContract<Emcy> && ServiceContract<StoreRestore>);
+
 template <typename Fn>
 void Node::for_each_service(Fn&& fn) {
   fn(lss_);
@@ -118,8 +122,10 @@ void Node::can_overrun(TimeUs now) {
   emcy_.clear(code, now);
 }
 
-bool Node::allowed(Service s) const {
-  switch (state()) {
+bool Node::allowed(Service s) const { return allowed_in(state(), s); }
+
+bool Node::allowed_in(NmtState state, Service s) const {
+  switch (state) {
     case NmtState::kOperational:
       return true;
     case NmtState::kPreOperational:
@@ -134,6 +140,7 @@ bool Node::allowed(Service s) const {
 bool Node::send(const CanFrame& frame) {
   if (!on_bus()) return false;
   sink_.send(frame);
+  ++frames_sent_;
   return true;
 }
 
@@ -299,14 +306,15 @@ void Node::nmt_state_changed(NmtState old, TimeUs now) {
   if (app_) app_->on_nmt_state(*this, state(), now);
 }
 
-void Node::apply_serial_number() {
-  if (!setup_.serial_number) return;
+void Node::reset_to_defaults(std::uint16_t first, std::uint16_t last) {
+  values_.reset(default_node_id(), first, last);
+  if (!setup_.serial_number || first > 0x1018 || last < 0x1018) return;
   if (const OdEntry* e = od().find(0x1018, 4)) values_.set_u(*e, *setup_.serial_number);
 }
 
 void Node::reset_values(ResetKind kind) {
   if (kind == ResetKind::kCommunication) {
-    values_.reset(default_node_id(), 0x1000, 0x1FFF);
+    reset_to_defaults(0x1000, 0x1FFF);
     store_.apply_stored(0x1000, 0x1FFF);
     return;
   }
@@ -324,7 +332,7 @@ void Node::reset_values(ResetKind kind) {
 }
 
 void Node::load_all_values() {
-  values_.reset(default_node_id());
+  reset_to_defaults();
   // Their default is the configured (factory) node-ID / bit rate of this node.
   if (const OdEntry* e = config_object(options().node_id_object)) values_.set_u(*e, setup_.node_id);
   if (const OdEntry* e = config_object(options().bit_rate_object)) values_.set_u(*e, setup_.bit_rate_index);

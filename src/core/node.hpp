@@ -32,8 +32,10 @@ struct NodeSetup {
   std::shared_ptr<const NodeOptions> options;        // shared by all nodes of a profile
   std::uint8_t node_id = 1;                          // 1..127, 0xFF = LSS-unconfigured
   std::uint8_t bit_rate_index = 3;                   // CiA 305 table index (3 = 250 kbit/s)
-  // 0x1018:04 after every reset, over the profile's default and what the
-  // application set (a fleet entry's `serial:`).
+  // The node's 0x1018:04 default (a fleet entry's `serial:`, a profile's
+  // `serial_number_base` + the node's index): applied wherever the profile's
+  // defaults are, as $NODEID is, so the application's on_reset (vendor
+  // copies of the serial) sees it. Unset: the profile's default.
   std::optional<std::uint32_t> serial_number;
 };
 
@@ -120,6 +122,8 @@ class Node {
 
   // Sends a frame if the node is on the bus; true when it was handed to the sink.
   bool send(const CanFrame& frame);
+  // Frames handed to the sink since the node was built (the control API's FramesSent).
+  std::uint64_t frames_sent() const { return frames_sent_; }
 
   // ---- observation: one observer per node (null: none, zero cost)
   void set_observer(NodeObserver* observer) { observer_ = observer; }
@@ -135,7 +139,10 @@ class Node {
   std::uint8_t default_node_id() const { return options().node_id_defaults_follow_lss ? node_id_ : setup_.node_id; }
   std::uint8_t configured_bit_rate_index() const { return setup_.bit_rate_index; }
   NmtState state() const { return nmt_.state(); }
+  // NMT decides which services run (CiA 301 Table 82, as lely-core's
+  // per-state service sets): in the current state / in `state`.
   bool allowed(Service s) const;
+  bool allowed_in(NmtState state, Service s) const;
 
   const OdLayout& od() const { return *setup_.layout; }
   OdValues& values() { return values_; }
@@ -180,7 +187,6 @@ class Node {
   // `void prepare_reset(ResetKind, TimeUs)` run it (LSS: apply a pending node-ID).
   void prepare_reset(ResetKind kind, TimeUs now);
   void reset_values(ResetKind kind);    // defaults, then stored values
-  void apply_serial_number();           // NodeSetup::serial_number, after the application's on_reset
   // The entry of a node_id_object / bit_rate_object option (null when 0 / absent).
   const OdEntry* config_object(std::int64_t index) const;
   void reset_services(TimeUs now);      // services re-read their OD configuration
@@ -220,6 +226,9 @@ class Node {
 
  private:
   void load_all_values();
+  // The profile's defaults of [first, last] with this node's: $NODEID and
+  // NodeSetup::serial_number.
+  void reset_to_defaults(std::uint16_t first = 0x0000, std::uint16_t last = 0xFFFF);
   // The access-right independent part of read / write (owning service,
   // limits, application hooks).
   SdoAbort read_value(const OdEntry& e, TimeUs now, std::span<const std::uint8_t>& out);
@@ -247,6 +256,7 @@ class Node {
   Application* app_;
   NodeStorage* storage_;
   NodeObserver* observer_ = nullptr;
+  std::uint64_t frames_sent_ = 0;
   // The state: every member from here on is in NodeSnapshot (add new ones
   // there and to restore() too), rx_epoch_ excepted (restore() moves it on).
   OdValues values_;

@@ -37,6 +37,11 @@ class NodeObserver {
   virtual void on_remote_write(Node&, const OdEntry&, WriteVia, TimeUs) {}
   // Power cut (power_cycle, power_off(now)) and power back (power_on).
   virtual void on_power(Node&, bool /*powered*/, TimeUs) {}
+  // What the node's PDOs carry may have changed: the PDO configuration was
+  // (re)loaded (reset, power-on, a COB-ID / type / mapping write by any path)
+  // or the application changed the scaling of a mappable value (CiA 404
+  // 0x6131 unit, 0x6132 decimal digits).
+  virtual void on_pdo_config(Node&, TimeUs) {}
 };
 
 }  // namespace cansim

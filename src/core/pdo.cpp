@@ -28,12 +28,8 @@ enum : std::uint8_t { kPhaseUnarmed = 0, kPhaseWaitStart = 255 };
 // EMCY codes (CiA 301 Table 21).
 enum : std::uint16_t { kEmcyPdoLength = 0x8210, kEmcyPdoLengthExceeded = 0x8220, kEmcyRpdoTimeout = 0x8250 };
 
-std::uint32_t can_id(std::uint32_t cobid) {
-  return (cobid & kPdoCobFrame) ? (cobid & 0x1FFFFFFFu) : (cobid & 0x7FFu);
-}
-
 bool frame_matches(std::uint32_t cobid, const CanFrame& f) {
-  return f.id == can_id(cobid) && f.extended() == bool(cobid & kPdoCobFrame);
+  return f.id == cob::can_id(cobid) && f.extended() == bool(cobid & kPdoCobFrame);
 }
 
 // CAN-IDs CiA 301 §7.3.5 (Table 3) reserves for other services.
@@ -140,18 +136,14 @@ PdoEngine::PdoEngine(Node& node) : NodeService(node) {
   rpdos_.shrink_to_fit();
   event_tpdos_.reserve(tpdos_.size());
   watched_rpdos_.reserve(rpdos_.size());
-  if (!ByteSet::parse(node_.options().tpdo_allowed_types, allowed_types_))
-    ByteSet::parse("0-240,252-255", allowed_types_);
-  if (!ByteSet::parse(node_.options().tpdo_event_timer_types, timer_types_)) ByteSet::parse("254-255", timer_types_);
 }
 
 void PdoEngine::reset(TimeUs now) {
-  last_now_ = now;
-  operational_ = node_.allowed(Service::kPdo);
+  const bool run = running();
   for (Tpdo& t : tpdos_) {
     load(t.cfg, true);
     disarm(t);
-    if (operational_) arm(t, now);
+    if (run) arm(t, now);
   }
   for (Rpdo& r : rpdos_) {
     load(r.cfg, false);
@@ -167,6 +159,7 @@ void PdoEngine::reset(TimeUs now) {
 // mapping modes); they are told instead of polling the OD.
 void PdoEngine::config_changed(TimeUs now) {
   if (Application* app = node_.app()) app->on_pdo_config(node_, now);
+  if (NodeObserver* o = node_.observer()) o->on_pdo_config(node_, now);
 }
 
 void PdoEngine::index_active() {
@@ -178,24 +171,18 @@ void PdoEngine::index_active() {
     if (rpdos_[i].cfg.event_ms) watched_rpdos_.push_back(std::uint16_t(i));
 }
 
-void PdoEngine::on_nmt_state(NmtState, TimeUs now) { on_nmt_state(now); }
-
-void PdoEngine::on_nmt_state(TimeUs now) {
-  sync_state(now);
-  update_deadline();
-}
+bool PdoEngine::running() const { return node_.allowed(Service::kPdo); }
 
 // Entering OPERATIONAL starts the PDOs afresh; leaving it stops them (CiA 301 §7.3.2.2).
-void PdoEngine::sync_state(TimeUs now) {
-  last_now_ = std::max(last_now_, now);
-  const bool op = node_.allowed(Service::kPdo);
-  if (op == operational_) return;
-  operational_ = op;
+void PdoEngine::on_nmt_state(NmtState old, TimeUs now) {
+  const bool run = running();
+  if (run == node_.allowed_in(old, Service::kPdo)) return;
   for (Tpdo& t : tpdos_) {
     disarm(t);
-    if (op) arm(t, now);
+    if (run) arm(t, now);
   }
   for (Rpdo& r : rpdos_) arm(r);
+  update_deadline();
 }
 
 void PdoEngine::disarm(Tpdo& t) {
@@ -228,6 +215,23 @@ void PdoEngine::arm(Rpdo& r) {
 
 // ---------------------------------------------------------------------------
 // Configuration cache
+
+const Tpdo* PdoEngine::tpdo(unsigned number) const {
+  for (const Tpdo& t : tpdos_)
+    if (unsigned(t.cfg.comm_index - kTpdoComm + 1) == number) return &t;
+  return nullptr;
+}
+
+SdoAbort PdoEngine::tpdo_mapping_status(unsigned number) const {
+  const Tpdo* t = tpdo(number);
+  if (!t) return SdoAbort::kNoObject;
+  const OdEntry* count = map_entry(t->cfg, 0);
+  return count ? check_mapping(t->cfg, true, std::uint32_t(node_.values().get_u(*count))) : SdoAbort::kNoObject;
+}
+
+bool PdoEngine::timer_sends(const PdoConfig& cfg) const {
+  return cfg.event_ms && node_.options().tpdo_event_timer_types.has(cfg.type);
+}
 
 bool PdoEngine::valid(const PdoConfig& cfg) const {
   return node_.options().pdo_ignore_valid_bit || !(cfg.cobid & kPdoCobInvalid);
@@ -302,7 +306,6 @@ bool PdoEngine::owns(std::uint16_t index) const {
 }
 
 SdoAbort PdoEngine::write(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now) {
-  sync_state(now);
   const bool tx = e.index >= kTpdoComm;
   const bool mapping = tx ? e.index >= kTpdoMap : e.index >= kRpdoMap;
   const std::uint16_t comm = std::uint16_t(mapping ? e.index - (kTpdoMap - kTpdoComm) : e.index);
@@ -348,7 +351,7 @@ SdoAbort PdoEngine::check_comm(const PdoConfig& cfg, bool tx, std::uint8_t sub, 
     case kSubType:
       if (v == cfg.type) return SdoAbort::kNone;
       if (!tx) return reserved_rpdo_type(v) ? SdoAbort::kInvalidValue : SdoAbort::kNone;
-      if (reserved_tpdo_type(v) || !allowed_types_.has(std::uint8_t(v)))
+      if (reserved_tpdo_type(v) || !node_.options().tpdo_allowed_types.has(std::uint8_t(v)))
         return SdoAbort(o.tpdo_bad_type_abort);
       // RTR-only types need RTR (COB-ID bit 30 = 0).
       if ((v == kTypeRtrSync || v == kTypeRtrAsync) && ((cfg.cobid & kPdoCobNoRtr) || !o.tpdo_rtr_supported))
@@ -380,11 +383,10 @@ SdoAbort PdoEngine::check_cobid(const PdoConfig& cfg, bool tx, std::uint32_t& v)
     return SdoAbort::kInvalidValue;
   const bool will_exist = !(v & kPdoCobInvalid);
   if (locked(cfg) && will_exist && ((v ^ cfg.cobid) & kChangeLockedBits)) return SdoAbort::kInvalidValue;
+  if (!cob::format_ok(v)) return SdoAbort::kInvalidValue;  // 11-bit CAN-ID with bits 11..28 set
   if (v & kPdoCobFrame) {
     if (!o.pdo_29bit_ids) return SdoAbort::kInvalidValue;
-  } else if (v & 0x1FFFF800u) {
-    return SdoAbort::kInvalidValue;  // 11-bit CAN-ID with bits 11..28 set
-  } else if ((will_exist || o.pdo_ignore_valid_bit) && restricted_can_id(v & 0x7FFu)) {
+  } else if ((will_exist || o.pdo_ignore_valid_bit) && restricted_can_id(cob::can_id(v))) {
     return SdoAbort::kInvalidValue;
   }
   return SdoAbort::kNone;
@@ -397,6 +399,10 @@ SdoAbort PdoEngine::check_map_count(const PdoConfig& cfg, bool tx, std::uint32_t
   if (count && n == node_.values().get_u(*count)) return SdoAbort::kNone;
   if (node_.options().pdo_mapping_needs_invalid && locked(cfg))
     return SdoAbort(node_.options().pdo_mapping_locked_abort);
+  return check_mapping(cfg, tx, n);
+}
+
+SdoAbort PdoEngine::check_mapping(const PdoConfig& cfg, bool tx, std::uint32_t n) const {
   // More entries than the mapping record has sub-indices.
   if (n > PdoConfig::kMaxItems || (n > 0 && !map_entry(cfg, std::uint8_t(n))))
     return SdoAbort::kValueTooHigh;
@@ -478,7 +484,7 @@ void PdoEngine::restart(PdoConfig& cfg, bool tx, std::uint8_t comm_sub, TimeUs n
     return;
   }
   Tpdo& t = *find_tpdo(cfg);
-  if (!operational_) return;
+  if (!running()) return;
   if (comm_sub == kSubEvent) {
     t.event_due = valid(cfg) && event_driven(cfg.type) && timer_sends(cfg) ? now + ms(cfg.event_ms) : kNever;
   } else if (comm_sub == kSubCobId || comm_sub == kSubType || comm_sub == 0) {
@@ -496,13 +502,12 @@ void PdoEngine::restart(PdoConfig& cfg, bool tx, std::uint8_t comm_sub, TimeUs n
 // Frames, SYNC, time
 
 bool PdoEngine::on_frame(const CanFrame& frame, TimeUs now) {
-  sync_state(now);
   const NodeOptions& o = node_.options();
   if (frame.rtr()) {
     if (!o.tpdo_rtr_supported) return false;
     for (Tpdo& t : tpdos_) {
       if (!valid(t.cfg) || (t.cfg.cobid & kPdoCobNoRtr) || !frame_matches(t.cfg.cobid, frame)) continue;
-      if (operational_) on_rtr(t, now);
+      if (running()) on_rtr(t, now);
       update_deadline();
       return true;
     }
@@ -510,7 +515,7 @@ bool PdoEngine::on_frame(const CanFrame& frame, TimeUs now) {
   }
   for (Rpdo& r : rpdos_) {
     if (!valid(r.cfg) || !frame_matches(r.cfg.cobid, frame)) continue;
-    if (operational_) on_rpdo(r, frame, now);
+    if (running()) on_rpdo(r, frame, now);
     update_deadline();
     return true;
   }
@@ -518,8 +523,7 @@ bool PdoEngine::on_frame(const CanFrame& frame, TimeUs now) {
 }
 
 void PdoEngine::on_sync(std::uint8_t counter, TimeUs now) {
-  sync_state(now);
-  if (operational_) {
+  if (running()) {
     // Synchronous RPDOs received before this SYNC are actuated now (CiA 301 §7.2.2.2).
     for (Rpdo& r : rpdos_)
       if (r.buffered) apply(r, now);
@@ -580,8 +584,7 @@ void PdoEngine::on_rtr(Tpdo& t, TimeUs now) {
 }
 
 void PdoEngine::process(TimeUs now) {
-  sync_state(now);
-  if (operational_) {
+  if (running()) {
     for (std::uint16_t i : event_tpdos_) process_tpdo(tpdos_[i], now);
     for (std::uint16_t i : watched_rpdos_) {
       Rpdo& r = rpdos_[i];
@@ -619,14 +622,13 @@ void PdoEngine::send_event_driven(Tpdo& t, TimeUs now, TimeUs timer_base) {
 void PdoEngine::raise_event(unsigned tpdo_number) {
   for (Tpdo& t : tpdos_) {
     if (unsigned(t.cfg.comm_index - kTpdoComm + 1) != tpdo_number) continue;
-    if (operational_ && node_.allowed(Service::kPdo) && valid(t.cfg) && (t.cfg.type == kTypeAcyclicSync || event_driven(t.cfg.type)))
+    if (running() && valid(t.cfg) && (t.cfg.type == kTypeAcyclicSync || event_driven(t.cfg.type)))
       t.event_pending = true;
   }
   update_deadline();
 }
 
 void PdoEngine::raise_event(unsigned tpdo_number, TimeUs now) {
-  sync_state(now);
   raise_event(tpdo_number);
   for (Tpdo& t : tpdos_)
     if (valid(t.cfg) && event_driven(t.cfg.type) && t.event_pending && t.inhibit_until <= now)
@@ -643,7 +645,6 @@ void PdoEngine::raise_event_for(const OdEntry& e) {
 }
 
 void PdoEngine::mapping_changed(unsigned tpdo_number, TimeUs now) {
-  sync_state(now);
   for (Tpdo& t : tpdos_)
     if (unsigned(t.cfg.comm_index - kTpdoComm + 1) == tpdo_number) after_config_change(t.cfg, true, 0, now);
   node_.rx_changed();
@@ -655,7 +656,7 @@ bool PdoEngine::build(Tpdo& t, TimeUs now, CanFrame& out) {
   // An empty mapping sends nothing, unless the vendor sends DLC 0 frames for it.
   if (t.cfg.item_count == 0 && !(t.cfg.declared_empty && node_.options().tpdo_send_empty_mapping)) return false;
   out = CanFrame{};
-  out.id = can_id(t.cfg.cobid);
+  out.id = cob::can_id(t.cfg.cobid);
   if (t.cfg.cobid & kPdoCobFrame) out.flags = CanFrame::kExtended;
   unsigned at = 0;
   for (const PdoMapItem& item : std::span(t.cfg.items).first(t.cfg.item_count)) {
@@ -733,21 +734,18 @@ void PdoEngine::store_received(const OdEntry& e, std::span<const std::uint8_t> d
 }
 
 void PdoEngine::collect_rx_ids(std::vector<std::uint32_t>& out) const {
-  auto id_of = [](std::uint32_t cobid) {
-    return can_id(cobid) | ((cobid & kPdoCobFrame) ? kRxIdExtended : 0u);
-  };
   for (const Rpdo& r : rpdos_)
-    if (valid(r.cfg)) out.push_back(id_of(r.cfg.cobid));
+    if (valid(r.cfg)) out.push_back(cob::rx_id(r.cfg.cobid));
   if (!node_.options().tpdo_rtr_supported) return;
   for (const Tpdo& t : tpdos_)
-    if (valid(t.cfg) && !(t.cfg.cobid & kPdoCobNoRtr)) out.push_back(id_of(t.cfg.cobid));
+    if (valid(t.cfg) && !(t.cfg.cobid & kPdoCobNoRtr)) out.push_back(cob::rx_id(t.cfg.cobid));
 }
 
 // ---------------------------------------------------------------------------
 
 void PdoEngine::update_deadline() {
   TimeUs next = kNever;
-  if (operational_) {
+  if (running()) {
     for (std::uint16_t i : event_tpdos_) {
       const Tpdo& t = tpdos_[i];
       next = std::min(next, t.event_due);
@@ -758,10 +756,6 @@ void PdoEngine::update_deadline() {
   next_ = next;
 }
 
-TimeUs PdoEngine::next_deadline() const {
-  // An NMT state change nobody told us about: due now, handled in process().
-  if (node_.allowed(Service::kPdo) != operational_) return last_now_;
-  return next_;
-}
+TimeUs PdoEngine::next_deadline() const { return next_; }
 
 }  // namespace cansim

@@ -6,9 +6,9 @@
 //
 // Timing model (sans I/O): synchronous work happens in on_sync(), event-driven
 // work at absolute deadlines reported by next_deadline() (event timer, inhibit
-// expiry, RPDO timeout). NMT state changes are picked up by on_nmt_state() or,
-// if nobody calls it, detected at the next advance (next_deadline() reports
-// "due now" when the PDO-allowed state differs from the last one seen).
+// expiry, RPDO timeout). NMT decides whether PDOs run (Node::allowed); the
+// engine keeps no copy of the state: the node tells it of every change
+// (on_nmt_state), which starts or stops the PDOs.
 #pragma once
 
 #include <array>
@@ -29,7 +29,7 @@ enum class NmtState : std::uint8_t;
 
 // COB-ID bits of 0x14xx:01 / 0x18xx:01 (CiA 301 Table 71 / 73).
 constexpr std::uint32_t kPdoCobInvalid = cob::kInvalid;     // bit 31: PDO does not exist
-constexpr std::uint32_t kPdoCobNoRtr = 1u << 30;              // bit 30: no RTR allowed (TPDO)
+constexpr std::uint32_t kPdoCobNoRtr = cob::kNoRtr;          // bit 30: no RTR allowed (TPDO)
 constexpr std::uint32_t kPdoCobFrame = cob::kFrame29Bit;      // bit 29: 29-bit CAN-ID
 using cob::kRxIdExtended;
 
@@ -105,26 +105,20 @@ struct Rpdo {
 class PdoEngine : private NodeService {
  public:
   explicit PdoEngine(Node& node);
-  // Re-reads its configuration from the OD (after a reset / power-on).
+  // The NodeService contract (core/node_service.hpp):
   void reset(TimeUs now);
-  // Returns true when the frame was addressed to this service.
   bool on_frame(const CanFrame& frame, TimeUs now);
-  // Runs the work due at or before now.
   void process(TimeUs now);
   TimeUs next_deadline() const;
-  // COB-IDs this service wants to receive (for the bus dispatcher): valid
-  // RPDOs and TPDOs that accept RTR; 29-bit ones carry kRxIdExtended.
+  // collect_rx_ids: valid RPDOs and TPDOs that accept RTR (29-bit ones carry kRxIdExtended).
   void collect_rx_ids(std::vector<std::uint32_t>& out) const;
-  // True for OD indices whose remote writes this service handles itself.
   bool owns(std::uint16_t index) const;
-  // A checked remote write of an owned entry: validate, store, react.
   SdoAbort write(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
 
   // Called by the SYNC consumer on every SYNC received (counter 0 when the
   // SYNC carries no counter, CiA 301 §7.2.5).
   void on_sync(std::uint8_t counter, TimeUs now);
-  // Called by NMT after a state change (optional: detected at the next advance).
-  void on_nmt_state(TimeUs now);
+  // Called by the node after every NMT state change.
   void on_nmt_state(NmtState old, TimeUs now);
   // Application events (CiA 301 §7.2.2.2, types 0/254/255): 1-based TPDO number.
   // Without a time the PDO goes out at the next advance (it reports itself due).
@@ -142,8 +136,15 @@ class PdoEngine : private NodeService {
   // (valid when the configuration is). The application is told of every
   // change by Application::on_pdo_config().
   std::span<const Tpdo> tpdos() const { return tpdos_; }
+  // TPDO `number` (1-based, 0x1800 + number - 1), null when the profile has none.
+  const Tpdo* tpdo(unsigned number) const;
+  std::span<const Rpdo> rpdos() const { return rpdos_; }
   // The PDO exists: COB-ID bit 31 clear (or the vendor ignores the bit).
   bool valid(const PdoConfig& cfg) const;
+  // The mapping TPDO `number` holds now (sub 0 and its entries) as CiA 301's
+  // mapping rule judges it (§7.5.2.36: entries exist, are mappable and fit
+  // 64 bits): kNone when the PDO could run with it.
+  SdoAbort tpdo_mapping_status(unsigned number) const;
 
  private:
   // ---- configuration
@@ -158,6 +159,7 @@ class PdoEngine : private NodeService {
   SdoAbort check_cobid(const PdoConfig& cfg, bool tx, std::uint32_t& v) const;
   SdoAbort check_comm(const PdoConfig& cfg, bool tx, std::uint8_t sub, std::uint32_t& v) const;
   SdoAbort check_map_count(const PdoConfig& cfg, bool tx, std::uint32_t n) const;
+  SdoAbort check_mapping(const PdoConfig& cfg, bool tx, std::uint32_t n) const;  // entries 1..n
   SdoAbort check_map_write(const PdoConfig& cfg, bool tx, std::uint8_t sub, std::uint32_t v) const;
   void after_config_change(PdoConfig& cfg, bool tx, std::uint8_t comm_sub, TimeUs now);
   void restart(PdoConfig& cfg, bool tx, std::uint8_t comm_sub, TimeUs now);
@@ -165,14 +167,14 @@ class PdoEngine : private NodeService {
   Rpdo* find_rpdo(const PdoConfig& cfg);
 
   // ---- NMT
-  void sync_state(TimeUs now);
+  bool running() const;  // PDOs are allowed in the node's NMT state
   void arm(Tpdo& t, TimeUs now);
   void arm(Rpdo& r);
   void disarm(Tpdo& t);
 
   // ---- TPDO
   static bool event_driven(std::uint8_t type) { return type >= 254; }
-  bool timer_sends(const PdoConfig& cfg) const { return cfg.event_ms && timer_types_.has(cfg.type); }
+  bool timer_sends(const PdoConfig& cfg) const;
   void on_sync_tpdo(Tpdo& t, std::uint8_t counter, TimeUs now);
   void on_sync_cyclic(Tpdo& t, std::uint8_t counter, TimeUs now);
   void on_rtr(Tpdo& t, TimeUs now);
@@ -196,11 +198,7 @@ class PdoEngine : private NodeService {
   std::vector<std::uint16_t> event_tpdos_;
   std::vector<std::uint16_t> watched_rpdos_;
   void index_active();
-  ByteSet allowed_types_;    // tpdo_allowed_types, parsed once
-  ByteSet timer_types_;      // tpdo_event_timer_types, parsed once
   TimeUs next_ = kNever;
-  TimeUs last_now_ = 0;      // latest time seen; "due now" for state detection
-  bool operational_ = false;  // node_.allowed(Service::kPdo) as last seen
 };
 
 }  // namespace cansim

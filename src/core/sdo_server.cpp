@@ -1,93 +1,21 @@
 #include "core/sdo_server.hpp"
 
 #include <algorithm>
-#include <cstdlib>
 #include <cstring>
 
 #include "core/crc16.hpp"
 #include "core/node.hpp"
+#include "core/sdo_protocol.hpp"
 
 namespace cansim {
 
 namespace {
 
-// Command byte fields (CiA 301 §7.2.4.3).
-constexpr std::uint8_t ccs(const std::uint8_t* d) { return d[0] >> 5; }
-enum : std::uint8_t {
-  kCcsDownloadSegment = 0,
-  kCcsInitiateDownload = 1,
-  kCcsInitiateUpload = 2,
-  kCcsUploadSegment = 3,
-  kCcsAbort = 4,
-  kCcsBlockUpload = 5,
-  kCcsBlockDownload = 6,
-};
-constexpr std::uint8_t kExpedited = 0x02;   // e bit of an initiate
-constexpr std::uint8_t kSizeBit = 0x01;     // s bit of an initiate
-constexpr std::uint8_t kBlockCrc = 0x04;    // cc / sc bit of a block initiate
-constexpr std::uint8_t kBlockSize = 0x02;   // s bit of a block initiate
-constexpr std::uint8_t kLastSeg = 0x80;     // c bit of a block segment
-constexpr std::uint8_t kMaxBlkSize = 127;   // CiA 301: 0 < blksize < 128
+using namespace sdo;
 
-const char* skip_spaces(const char* p) {
-  while (*p == ' ' || *p == ',' || *p == '\t') ++p;
-  return p;
-}
+constexpr std::uint8_t ccs(const std::uint8_t* d) { return d[0] & kCsMask; }
 
 }  // namespace
-
-// ------------------------------------------------------------ option parsers
-
-bool SdoServer::parse_abort_map(const char* text, AbortMap& out) {
-  out = AbortMap{};
-  for (const char* p = skip_spaces(text); *p; p = skip_spaces(p)) {
-    char* end = nullptr;
-    unsigned long from = std::strtoul(p, &end, 0);
-    if (end == p || *end != '=' || out.count == AbortMap::kMax) return false;
-    p = end + 1;
-    unsigned long to = std::strtoul(p, &end, 0);
-    if (end == p || from > 0xFFFFFFFFul || to > 0xFFFFFFFFul) return false;
-    out.from[out.count] = std::uint32_t(from);
-    out.to[out.count++] = std::uint32_t(to);
-    p = end;
-    if (*p && *p != ',' && *p != ' ') return false;
-  }
-  return true;
-}
-
-std::uint32_t SdoServer::AbortMap::apply(std::uint32_t code) const {
-  for (int i = 0; i < count; ++i)
-    if (from[i] == code) return to[i];
-  return code;
-}
-
-bool SdoServer::parse_index_ranges(const char* text, IndexRanges& out) {
-  out = IndexRanges{};
-  for (const char* p = skip_spaces(text); *p; p = skip_spaces(p)) {
-    char* end = nullptr;
-    unsigned long lo = std::strtoul(p, &end, 0);
-    if (end == p || lo > 0xFFFF || out.count == IndexRanges::kMax) return false;
-    unsigned long hi = lo;
-    p = end;
-    if (*p == '-') {
-      ++p;
-      hi = std::strtoul(p, &end, 0);
-      if (end == p || hi < lo || hi > 0xFFFF) return false;
-      p = end;
-    }
-    out.lo[out.count] = std::uint16_t(lo);
-    out.hi[out.count++] = std::uint16_t(hi);
-    if (*p && *p != ',' && *p != ' ') return false;
-  }
-  return true;
-}
-
-bool SdoServer::IndexRanges::contains(std::uint16_t index) const {
-  if (count == 0) return true;
-  for (int i = 0; i < count; ++i)
-    if (index >= lo[i] && index <= hi[i]) return true;
-  return false;
-}
 
 // ------------------------------------------------------------ configuration
 
@@ -95,10 +23,7 @@ void SdoServer::reset(TimeUs) {
   idle();
   delayed_n_ = 0;  // answers still in the pipe die with the reset
   const NodeOptions& o = node_.options();
-  timeout_ = o.sdo_timeout_ms > 0 ? ms(o.sdo_timeout_ms) : 0;
-  if (!parse_abort_map(o.sdo_abort_map.c_str(), abort_map_)) abort_map_ = AbortMap{};
-  if (!parse_index_ranges(o.sdo_segmented_download_indices.c_str(), seg_dn_indices_))
-    seg_dn_indices_ = IndexRanges{};
+  timeout_ = ms(o.sdo_timeout_ms);  // 0: no timeout
 
   // One buffer for the largest value plus a segment of slack (block download
   // stores whole 7-byte segments before the end frame says how many count).
@@ -121,13 +46,13 @@ void SdoServer::load_cob_ids() {
   valid_ = !(rx & cob::kInvalid) && !(tx & cob::kInvalid);
   rx_ext_ = rx & cob::kFrame29Bit;
   tx_ext_ = tx & cob::kFrame29Bit;
-  rx_id_ = rx & (rx_ext_ ? 0x1FFFFFFFu : 0x7FFu);
-  tx_id_ = tx & (tx_ext_ ? 0x1FFFFFFFu : 0x7FFu);
+  rx_id_ = cob::can_id(rx);
+  tx_id_ = cob::can_id(tx);
 }
 
 // 29-bit identifiers carry bit 31 (SocketCAN CAN_EFF_FLAG), as io/dispatch expects.
 void SdoServer::collect_rx_ids(std::vector<std::uint32_t>& out) const {
-  if (valid_) out.push_back(rx_ext_ ? (rx_id_ | 0x80000000u) : rx_id_);
+  if (valid_) out.push_back(rx_ext_ ? (rx_id_ | cob::kRxIdExtended) : rx_id_);
 }
 
 bool SdoServer::owns(std::uint16_t index) const { return index == 0x1200; }
@@ -138,10 +63,9 @@ SdoAbort SdoServer::write(const OdEntry& e, std::span<const std::uint8_t> data, 
   if (e.sub == 1 || e.sub == 2) {
     std::uint32_t v = get_u32(data.data());
     std::uint32_t old = std::uint32_t(node_.values().get_u(e));
-    bool ext = v & cob::kFrame29Bit;
-    if (!ext && (v & 0x1FFFF800u)) return SdoAbort::kInvalidValue;
+    if (!cob::format_ok(v)) return SdoAbort::kInvalidValue;
     bool both_valid = !(v & cob::kInvalid) && !(old & cob::kInvalid);
-    if (both_valid && (v & 0x3FFFFFFFu) != (old & 0x3FFFFFFFu)) return SdoAbort::kInvalidValue;
+    if (both_valid && cob::frame_id(v) != cob::frame_id(old)) return SdoAbort::kInvalidValue;
     node_.values().set_bytes(e, data);
     reload_pending_ = true;  // applied after the confirmation went out
     if (!in_frame_) apply_reload();
@@ -182,7 +106,7 @@ bool SdoServer::on_frame(const CanFrame& frame, TimeUs now) {
 void SdoServer::dispatch(Bytes d, TimeUs now) {
   // A client abort ends any transfer silently. Inside a block-download
   // sub-block byte 0 is c|seqno, where 0x80 (seqno 0) can only be an abort.
-  bool client_abort = state_ == State::kBlockDownloadSub ? d[0] == 0x80 : ccs(d) == kCcsAbort;
+  bool client_abort = state_ == State::kBlockDownloadSub ? d[0] == kCsAbort : ccs(d) == kCsAbort;
   if (client_abort) {
     idle();
     return;
@@ -226,10 +150,10 @@ void SdoServer::on_idle(Bytes d, TimeUs now) {
     case kCcsInitiateDownload: return initiate_download(d, now);
     case kCcsInitiateUpload: return initiate_upload(d, now);
     case kCcsBlockUpload:
-      if ((d[0] & 0x03) == 0) return initiate_block_upload(d, now);
+      if ((d[0] & kScMask) == kScInitiate) return initiate_block_upload(d, now);
       break;
     case kCcsBlockDownload:
-      if ((d[0] & 0x01) == 0) return initiate_block_download(d, now);
+      if ((d[0] & kScEnd) == kScInitiate) return initiate_block_download(d, now);
       break;
     default:
       break;
@@ -272,7 +196,7 @@ const OdEntry* SdoServer::download_target() {
     return nullptr;
   }
   // Vendor quirk: multi-frame writes only to some objects (0x06010000).
-  if (!seg_dn_indices_.contains(index_)) {
+  if (!node_.options().sdo_segmented_download_indices.contains(index_)) {
     abort(SdoAbort::kUnsupportedAccess);
     return nullptr;
   }
@@ -304,15 +228,15 @@ void SdoServer::initiate_download(Bytes d, TimeUs now) {
   const OdEntry* e = (d[0] & kExpedited) ? find_entry() : download_target();
   if (!e) return;
   if (d[0] & kExpedited) {
-    std::size_t n = (d[0] & kSizeBit) ? 4u - ((d[0] >> 2) & 0x03u) : unspecified_length(*e, d + 4);
+    std::size_t n = (d[0] & kSizeIndicated) ? expedited_bytes(d[0]) : unspecified_length(*e, d + 4);
     const std::uint32_t resets = node_.nmt().reset_count();
     SdoAbort result = write_remote(*e, {d + 4, n}, now);
     if (!ok(result)) return abort(result);
     if (node_.nmt().reset_count() != resets) return;  // the write rebooted the node: no answer
-    return send_initiate_response(0x60);
+    return send_initiate_response(kScsInitiateDownload);
   }
   entry_ = e;
-  size_indicated_ = d[0] & kSizeBit;
+  size_indicated_ = d[0] & kSizeIndicated;
   indicated_ = size_indicated_ ? get_u32(d + 4) : 0;
   if (size_indicated_) {
     if (SdoAbort a = check_download_size(*e, indicated_); !ok(a)) return abort(a);
@@ -320,7 +244,7 @@ void SdoServer::initiate_download(Bytes d, TimeUs now) {
   size_ = 0;
   toggle_ = 0;
   start(State::kDownloadSegment, now);
-  send_initiate_response(0x60);
+  send_initiate_response(kScsInitiateDownload);
 }
 
 void SdoServer::initiate_upload(Bytes, TimeUs now) {
@@ -347,18 +271,18 @@ bool SdoServer::snapshot(const OdEntry& e, TimeUs now) {
 void SdoServer::answer_upload(TimeUs now) {
   const NodeOptions& o = node_.options();
   if (size_ <= 4) {
-    std::uint8_t cs = 0x42;
-    if (size_ > 0 && o.sdo_upload_size_indicated) cs |= kSizeBit | std::uint8_t((4 - size_) << 2);
-    if (o.sdo_upload_response_0x60) cs = 0x60;  // vendor quirk (not CiA 301)
+    std::uint8_t cs = kScsInitiateUpload | kExpedited;
+    if (size_ > 0 && o.sdo_upload_size_indicated) cs |= kSizeIndicated | expedited_unused(size_);
+    if (o.sdo_upload_response_0x60) cs = kScsInitiateDownload;  // vendor quirk: the byte 0x60 (not CiA 301)
     send_initiate_response(cs, buf_.data(), int(size_));
     return idle();
   }
   if (!o.sdo_segmented_upload || o.sdo_expedited_only)
     return abort(std::uint32_t(o.sdo_long_upload_abort), index_, sub_);
   std::uint8_t size[4] = {};
-  std::uint8_t cs = 0x40;
+  std::uint8_t cs = kScsInitiateUpload;
   if (o.sdo_upload_size_indicated) {
-    cs |= kSizeBit;
+    cs |= kSizeIndicated;
     put_u32(size, size_);
   }
   offset_ = 0;
@@ -372,20 +296,20 @@ void SdoServer::initiate_block_download(Bytes d, TimeUs now) {
   const OdEntry* e = download_target();
   if (!e) return;
   entry_ = e;
-  size_indicated_ = d[0] & kBlockSize;
+  size_indicated_ = d[0] & kBlockSizeIndicated;
   indicated_ = size_indicated_ ? get_u32(d + 4) : 0;
   if (size_indicated_) {
     if (SdoAbort a = check_download_size(*e, indicated_); !ok(a)) return abort(a);
   }
   crc_ = d[0] & kBlockCrc;
-  blksize_ = kMaxBlkSize;
+  blksize_ = kMaxBlockSize;
   seqno_ = 0;
   size_ = 0;
   last_segment_ = false;
   start(State::kBlockDownloadSub, now);
   arm_block_ack(now);
   std::uint8_t blk = blksize_;
-  send_initiate_response(0xA0 | kBlockCrc, &blk, 1);
+  send_initiate_response(kScsBlockDownload | kScInitiate | kBlockCrc, &blk, 1);
 }
 
 void SdoServer::initiate_block_upload(Bytes d, TimeUs now) {
@@ -394,7 +318,7 @@ void SdoServer::initiate_block_upload(Bytes d, TimeUs now) {
   if (!e) return;
   std::uint8_t blk = d[4];
   std::uint8_t pst = d[5];
-  if (blk == 0 || blk > kMaxBlkSize) return abort(SdoAbort::kBlockSize);
+  if (blk == 0 || blk > kMaxBlockSize) return abort(SdoAbort::kBlockSize);
   if (!snapshot(*e, now)) return;
   // CiA 301 §7.2.4.3.13: protocol switch threshold, the server may answer
   // with a normal (expedited / segmented) upload instead.
@@ -403,9 +327,9 @@ void SdoServer::initiate_block_upload(Bytes d, TimeUs now) {
   blksize_ = blk;
   offset_ = 0;
   std::uint8_t size[4] = {};
-  std::uint8_t cs = 0xC0 | kBlockCrc;
+  std::uint8_t cs = kScsBlockUpload | kScInitiate | kBlockCrc;
   if (node_.options().sdo_upload_size_indicated) {
-    cs |= kBlockSize;
+    cs |= kBlockSizeIndicated;
     put_u32(size, size_);
   }
   start(State::kBlockUploadStart, now);
@@ -416,28 +340,28 @@ void SdoServer::initiate_block_upload(Bytes d, TimeUs now) {
 
 void SdoServer::on_download_segment(Bytes d, TimeUs now) {
   if (ccs(d) != kCcsDownloadSegment) return abort(SdoAbort::kCommandSpecifier);
-  if ((d[0] & 0x10) != toggle_) return abort(SdoAbort::kToggleBit);
-  std::uint32_t n = 7u - ((d[0] >> 1) & 0x07u);
+  if ((d[0] & kToggle) != toggle_) return abort(SdoAbort::kToggleBit);
+  std::uint32_t n = segment_bytes(d[0]);
   std::uint32_t limit = size_indicated_ ? indicated_ : entry_->capacity;
   if (size_ + n > limit) return abort(SdoAbort::kLengthTooHigh);
   std::memcpy(buf_.data() + size_, d + 1, n);
   size_ += n;
-  std::uint8_t confirm = 0x20 | toggle_;
-  toggle_ ^= 0x10;
-  if (d[0] & 0x01) return finish_download(now, confirm);
+  std::uint8_t confirm = kScsDownloadSegment | toggle_;
+  toggle_ ^= kToggle;
+  if (d[0] & kLastSegment) return finish_download(now, confirm);
   touch(now);
   send_command(confirm);
 }
 
 void SdoServer::on_upload_segment(Bytes d, TimeUs now) {
   if (ccs(d) != kCcsUploadSegment) return abort(SdoAbort::kCommandSpecifier);
-  if ((d[0] & 0x10) != toggle_) return abort(SdoAbort::kToggleBit);
+  if ((d[0] & kToggle) != toggle_) return abort(SdoAbort::kToggleBit);
   std::uint32_t n = std::min<std::uint32_t>(7, size_ - offset_);
   bool last = offset_ + n == size_;
-  std::uint8_t cs = std::uint8_t(toggle_ | ((7 - n) << 1) | (last ? 1 : 0));
+  std::uint8_t cs = std::uint8_t(kScsUploadSegment | toggle_ | segment_unused(n) | (last ? kLastSegment : 0));
   send_segment(cs, buf_.data() + offset_, int(n));
   offset_ += n;
-  toggle_ ^= 0x10;
+  toggle_ ^= kToggle;
   if (last) return idle();
   touch(now);
 }
@@ -465,7 +389,7 @@ void SdoServer::finish_download(TimeUs now, std::uint8_t confirm) {
 
 void SdoServer::on_block_download_segment(Bytes d, TimeUs now) {
   if (drop_segment()) return;
-  std::uint8_t seq = d[0] & 0x7F;
+  std::uint8_t seq = d[0] & kSeqMask;
   if (seq == 0) return abort(SdoAbort::kSequenceNumber);
   touch(now);
   arm_block_ack(now);
@@ -475,7 +399,7 @@ void SdoServer::on_block_download_segment(Bytes d, TimeUs now) {
     std::memcpy(buf_.data() + size_, d + 1, 7);
     size_ += 7;
     seqno_ = seq;
-    if (d[0] & kLastSeg) {
+    if (d[0] & kSeqLast) {
       last_segment_ = true;
       return send_block_download_ack();
     }
@@ -490,7 +414,7 @@ void SdoServer::on_block_download_segment(Bytes d, TimeUs now) {
 }
 
 void SdoServer::send_block_download_ack() {
-  std::uint8_t d[8] = {0xA2, seqno_, blksize_};
+  std::uint8_t d[8] = {kScsBlockDownload | kScAck, seqno_, blksize_};
   send_raw(d);
   seqno_ = 0;
   if (last_segment_) {
@@ -504,18 +428,18 @@ void SdoServer::arm_block_ack(TimeUs now) {
 }
 
 void SdoServer::on_block_download_end(Bytes d, TimeUs now) {
-  if ((d[0] & 0xE3) != 0xC1) return abort(SdoAbort::kCommandSpecifier);
-  std::uint32_t unused = (d[0] >> 2) & 0x07u;
+  if ((d[0] & kBlockEndMask) != (kCcsBlockDownload | kScEnd)) return abort(SdoAbort::kCommandSpecifier);
+  std::uint32_t unused = block_end_unused_bytes(d[0]);
   if (unused == 7 || unused > size_) return abort(SdoAbort::kCommandSpecifier);
   size_ -= unused;
   if (crc_ && crc16_ccitt({buf_.data(), size_}) != get_u16(d + 1)) return abort(SdoAbort::kCrc);
-  finish_download(now, 0xA1);
+  finish_download(now, kScsBlockDownload | kScEnd);
 }
 
 // ------------------------------------------------------------ block upload
 
 void SdoServer::on_block_upload_start(Bytes d, TimeUs now) {
-  if ((d[0] & 0xE3) != 0xA3) return abort(SdoAbort::kCommandSpecifier);
+  if ((d[0] & kBlockEndMask) != (kCcsBlockUpload | kScStartUpload)) return abort(SdoAbort::kCommandSpecifier);
   send_block_upload_sub(now);
 }
 
@@ -529,7 +453,7 @@ void SdoServer::send_block_upload_sub(TimeUs now) {
     last_segment_ = pos + n >= size_;
     ++seqno_;
     if (!drop_segment())
-      send_segment(std::uint8_t((last_segment_ ? kLastSeg : 0) | seqno_), buf_.data() + pos, int(n));
+      send_segment(std::uint8_t((last_segment_ ? kSeqLast : 0) | seqno_), buf_.data() + pos, int(n));
     pos += n;
   }
   state_ = State::kBlockUploadAck;
@@ -537,11 +461,11 @@ void SdoServer::send_block_upload_sub(TimeUs now) {
 }
 
 void SdoServer::on_block_upload_ack(Bytes d, TimeUs now) {
-  if ((d[0] & 0xE3) != 0xA2) return abort(SdoAbort::kCommandSpecifier);
+  if ((d[0] & kBlockEndMask) != (kCcsBlockUpload | kScAck)) return abort(SdoAbort::kCommandSpecifier);
   std::uint8_t ackseq = d[1];
   std::uint8_t blk = d[2];
   if (ackseq > seqno_) return abort(SdoAbort::kSequenceNumber);
-  if (blk == 0 || blk > kMaxBlkSize) return abort(SdoAbort::kBlockSize);
+  if (blk == 0 || blk > kMaxBlockSize) return abort(SdoAbort::kBlockSize);
   offset_ = std::min<std::uint32_t>(size_, offset_ + 7u * ackseq);
   blksize_ = blk;
   if (last_segment_ && ackseq == seqno_) return send_block_upload_end(now);
@@ -551,7 +475,7 @@ void SdoServer::on_block_upload_ack(Bytes d, TimeUs now) {
 void SdoServer::send_block_upload_end(TimeUs now) {
   // n = bytes of the last segment that carry no data (CiA 301 §7.2.4.3.15).
   std::uint32_t unused = size_ == 0 ? 7 : (7 - size_ % 7) % 7;
-  std::uint8_t d[8] = {std::uint8_t(0xC1 | (unused << 2))};
+  std::uint8_t d[8] = {std::uint8_t(kScsBlockUpload | kScEnd | block_end_unused(unused))};
   // CiA 301 §7.2.4.3.15: the CRC is only meaningful when both sides asked
   // for it, but masters that check it whenever the server offered CRC (npm
   // canopen, issue 12) exist: the real CRC is always sent, never 0x0000.
@@ -562,7 +486,7 @@ void SdoServer::send_block_upload_end(TimeUs now) {
 }
 
 void SdoServer::on_block_upload_end(Bytes d, TimeUs) {
-  if ((d[0] & 0xE3) != 0xA1) return abort(SdoAbort::kCommandSpecifier);
+  if ((d[0] & kBlockEndMask) != (kCcsBlockUpload | kScEnd)) return abort(SdoAbort::kCommandSpecifier);
   idle();
 }
 
@@ -586,10 +510,10 @@ void SdoServer::abort(SdoAbort code) { abort(std::uint32_t(code), index_, sub_);
 
 void SdoServer::abort(std::uint32_t code, std::uint16_t index, std::uint8_t sub) {
   idle();
-  std::uint8_t d[8] = {0x80};
+  std::uint8_t d[8] = {kCsAbort};
   put_u16(d + 1, index);
   d[3] = sub;
-  put_u32(d + 4, abort_map_.apply(code));
+  put_u32(d + 4, node_.options().sdo_abort_map.apply(code));
   send_raw(d);
 }
 
@@ -625,7 +549,7 @@ void SdoServer::send_raw(const std::uint8_t* d) {
 void SdoServer::set_response_delay(TimeUs delay) {
   response_delay_ = std::max<TimeUs>(delay, 0);
   // A sub-block of 127 segments plus the frames around it.
-  if (response_delay_ > 0 && delayed_.empty()) delayed_.resize(2 * kMaxBlkSize + 2);
+  if (response_delay_ > 0 && delayed_.empty()) delayed_.resize(2 * kMaxBlockSize + 2);
 }
 
 void SdoServer::set_block_drop(std::uint32_t every_n, double probability, std::uint64_t seed) {

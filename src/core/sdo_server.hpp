@@ -51,20 +51,17 @@ class Node;
 class SdoServer : private NodeService {
  public:
   explicit SdoServer(Node& node) : NodeService(node) {}
-  // Re-reads its configuration from the OD (after a reset / power-on).
+  // The NodeService contract (core/node_service.hpp):
   void reset(TimeUs now);
-  // Returns true when the frame was addressed to this service.
   bool on_frame(const CanFrame& frame, TimeUs now);
-  // Runs the work due at or before now (delayed answers, the protocol timeout).
+  // process: the delayed answers and the protocol timeout.
   void process(TimeUs now);
   TimeUs next_deadline() const {
     return std::min({deadline_, block_ack_at_, delayed_n_ ? delayed_[delayed_head_].at : kNever});
   }
-  // COB-IDs this service wants to receive (for the bus dispatcher).
   void collect_rx_ids(std::vector<std::uint32_t>& out) const;
-  // True for OD indices whose remote writes this service handles itself (0x1200).
+  // owns: 0x1200.
   bool owns(std::uint16_t index) const;
-  // A checked remote write of an owned entry: validate, store, react.
   SdoAbort write(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
 
   // ---- fault injection
@@ -84,25 +81,6 @@ class SdoServer : private NodeService {
   std::uint32_t rx_cob_id() const { return rx_id_; }
   std::uint32_t tx_cob_id() const { return tx_id_; }
   std::size_t buffer_bytes() const { return buf_.size(); }
-
-  // Parsers for the string options (also usable by the profile loader to
-  // validate them). Return false on a syntax error.
-  struct AbortMap {
-    static constexpr int kMax = 16;
-    std::uint32_t from[kMax] = {};
-    std::uint32_t to[kMax] = {};
-    int count = 0;
-    std::uint32_t apply(std::uint32_t code) const;
-  };
-  struct IndexRanges {
-    static constexpr int kMax = 16;
-    std::uint16_t lo[kMax] = {};
-    std::uint16_t hi[kMax] = {};
-    int count = 0;  // 0 = every index
-    bool contains(std::uint16_t index) const;
-  };
-  static bool parse_abort_map(const char* text, AbortMap& out);
-  static bool parse_index_ranges(const char* text, IndexRanges& out);
 
  private:
   enum class State : std::uint8_t {
@@ -177,8 +155,6 @@ class SdoServer : private NodeService {
   std::uint32_t rx_id_ = 0;
   std::uint32_t tx_id_ = 0;
   TimeUs timeout_ = 0;
-  AbortMap abort_map_;
-  IndexRanges seg_dn_indices_;
   // transfer
   State state_ = State::kIdle;
   TimeUs deadline_ = kNever;

@@ -33,6 +33,15 @@ bool blob_ok(std::span<const std::uint8_t> b) {
   return pos == body;
 }
 
+// Why a loaded blob cannot be used, or nullptr.
+const char* blob_defect(std::span<const std::uint8_t> b) {
+  if (!blob_ok(b)) return "stored parameters with a bad magic, version, length or CRC";
+  // CiA 305: LSS stores a node-ID 1..127 or 0xFF (unconfigured); 0 would send on 0x700.
+  const std::uint8_t id = b[6];
+  if (b[5] != 0 && !(id >= 1 && id <= 127) && id != 0xFF) return "stored parameters with an LSS node-ID outside 1..127";
+  return nullptr;
+}
+
 void append_u16(std::vector<std::uint8_t>& out, std::uint16_t v) {
   out.push_back(std::uint8_t(v));
   out.push_back(std::uint8_t(v >> 8));
@@ -76,9 +85,10 @@ void StoreRestore::load() {
     blob_.clear();
     return;
   }
-  if (!blob_ok(blob_)) {
+  if (const char* bad = blob_defect(blob_)) {
     blob_.clear();
     corrupt_ = true;
+    storage->rejected(bad);
     return;
   }
   lss_.valid = blob_[5] != 0;
@@ -156,13 +166,13 @@ SdoAbort StoreRestore::save_group(std::uint8_t sub) {
 }
 
 SdoAbort StoreRestore::restore_group(std::uint8_t sub) {
-  const std::string& mode = node_.options().restore_mode;
-  if (mode == "ram") {
+  const RestoreMode mode = node_.options().restore_mode;
+  if (mode == RestoreMode::kRam) {
     defaults_to_ram(sub);  // kept only if saved afterwards
     return SdoAbort::kNone;
   }
   if (!rewrite(sub, false)) return SdoAbort::kHardware;
-  if (mode == "immediate") defaults_to_ram(sub);
+  if (mode == RestoreMode::kImmediate) defaults_to_ram(sub);
   return SdoAbort::kNone;
 }
 

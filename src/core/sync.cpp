@@ -7,12 +7,10 @@ namespace cansim {
 
 namespace {
 using cob::kFrame29Bit;
-constexpr std::uint32_t kGenerate = 1u << 30;
 constexpr std::uint16_t kEmcySyncLength = 0x8240;
 
 // Validates the frame-format bits of a COB-ID (CiA 301 Table 50): with bit 29
 // clear, bits 11..28 must be 0.
-bool cob_id_format_ok(std::uint32_t v) { return (v & kFrame29Bit) || (v & 0x1FFFF800u) == 0; }
 }  // namespace
 
 void SyncConsumer::reset(TimeUs) {
@@ -27,7 +25,7 @@ void SyncConsumer::read_config() {
   present_ = c != nullptr || fixed > 0;
   std::uint32_t v = c ? std::uint32_t(node_.values().get_u(*c)) : std::uint32_t(fixed);
   extended_ = v & kFrame29Bit;
-  cob_id_ = v & (extended_ ? 0x1FFFFFFFu : 0x7FFu);
+  cob_id_ = cob::can_id(v);
   const OdEntry* o = node_.od().find(0x1019, 0);
   overflow_ = o ? std::uint8_t(node_.values().get_u(*o)) : 0;
   const OdEntry* w = node_.od().find(0x1007, 0);
@@ -76,8 +74,8 @@ SdoAbort SyncConsumer::write(const OdEntry& e, std::span<const std::uint8_t> dat
 
 SdoAbort SyncConsumer::write_cob_id(const OdEntry& e, std::uint32_t v) {
   std::int64_t generate_abort = node_.options().sync_generate_bit_abort;
-  if ((v & kGenerate) && generate_abort) return SdoAbort(std::uint32_t(generate_abort));
-  if (!cob_id_format_ok(v)) return SdoAbort::kInvalidValue;
+  if ((v & cob::kGenerate) && generate_abort) return SdoAbort(std::uint32_t(generate_abort));
+  if (!cob::format_ok(v)) return SdoAbort::kInvalidValue;
   node_.values().set_u(e, v);
   read_config();
   node_.rx_changed();

@@ -28,18 +28,13 @@ class SyncConsumer : private NodeService {
   std::uint8_t overflow() const { return overflow_; }
   TimeUs last_sync() const { return last_sync_; }
 
-  // Re-reads its configuration from the OD (after a reset / power-on).
+  // The NodeService contract (core/node_service.hpp):
   void reset(TimeUs now);
-  // Returns true when the frame was addressed to this service.
   bool on_frame(const CanFrame& frame, TimeUs now);
-  // Runs the work due at or before now.
   void process(TimeUs now);
   TimeUs next_deadline() const { return next_; }
-  // COB-IDs this service wants to receive (for the bus dispatcher).
   void collect_rx_ids(std::vector<std::uint32_t>& out) const;
-  // True for OD indices whose remote writes this service handles itself.
   bool owns(std::uint16_t index) const;
-  // A checked remote write of an owned entry: validate, store, react.
   SdoAbort write(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
 
  private:

@@ -95,6 +95,8 @@ std::uint64_t unsigned_word(const std::string& word, std::uint64_t max, const ch
 
 // ---------------------------------------------------------------- verbs
 
+Request build_help(const Words&) { return {}; }  // parse_command_line answers it
+
 Request build_list(const Words&) { return on_fleet(fleet_call("ListNodes"), Output::kNodes); }
 
 Request build_status(const Words& w) {
@@ -118,7 +120,7 @@ Request build_restore_model(const Words& w) { return on_node(w, node_call("Resto
 
 Request build_override(const Words& w) {
   bool off = w.has("--off");
-  if (w.size() != (off ? 2u : 4u)) throw UsageError("usage: cansimctl override NODE CHANNEL VALUE UNIT | --off");
+  if (w.size() != (off ? 2u : 4u)) throw UsageError("override takes NODE CHANNEL VALUE UNIT, or NODE CHANNEL --off");
   if (off) return on_node(w, node_call("ClearOverride", {text(channel(w[1]))}));
   return on_node(w, node_call("Override", {text(channel(w[1])), real(number(w[2])), text(w[3])}));
 }
@@ -186,16 +188,19 @@ Request build_write(const Words& w) {
 
 Request build_record(const Words& w) {
   bool stop = w.has("--stop");
-  if (w.size() != (stop ? 1u : 2u)) throw UsageError("usage: cansimctl record NODE PATH | --stop");
+  if (w.size() != (stop ? 1u : 2u)) throw UsageError("record takes NODE PATH, or NODE --stop");
   if (stop) return on_node(w, node_call("StopRecording"));
   // The daemon resolves relative paths from its own working directory.
   std::string path = std::filesystem::absolute(w[1]).lexically_normal().string();
   return on_node(w, node_call("StartRecording", {text(path)}));
 }
 
-// Store and Restore: the 0x1010 / 0x1011 sub-index, 1 (all parameters) by default.
+// Store and Restore: the 0x1010 / 0x1011 sub-index, 1 (all parameters) by
+// default; 1..127 as the daemon takes them (CiA 301: 128..254 reserved).
 Request build_store_call(const Words& w, const char* method) {
-  auto sub = w.size() > 1 ? unsigned_word(w[1], 0xFF, "a sub-index 1..255") : 1;
+  constexpr const char* kWhat = "a sub-index 1..127 (1: all parameters)";
+  auto sub = w.size() > 1 ? unsigned_word(w[1], 127, kWhat) : 1;
+  if (sub == 0) throw UsageError(std::string("expected ") + kWhat + ", got " + quoted(w[1]));
   return on_node(w, node_call(method, {Value(std::uint8_t(sub))}));
 }
 
@@ -205,6 +210,20 @@ Request build_restore(const Words& w) { return build_store_call(w, "Restore"); }
 Request build_watch(const Words& w) {
   Request r = on_fleet(fleet_call("Subscribe"), Output::kWatch);
   if (w.size() > 0) r.node = w[0];
+  return r;
+}
+
+Request build_monitor(const Words& w) {
+  Request r = on_fleet(fleet_call("Subscribe"), Output::kMonitor);
+  r.interfaces = w.positional;
+  if (const std::string* node = w.option("--node")) r.node = *node;
+  return r;
+}
+
+Request build_top(const Words& w) {
+  Request r = on_fleet(fleet_call("Subscribe"), Output::kTop);
+  if (w.size() > 0) r.pattern = w[0];
+  r.once = w.has("--once");
   return r;
 }
 
@@ -246,28 +265,32 @@ struct VerbSpec {
   std::size_t max_words;
   std::vector<OptionSpec> options;
   Request (*build)(const Words&);
+  bool groups = false;  // NODE may name several nodes (a glob, an ID range, a count: group)
 };
+
+constexpr bool kGroups = true;
 
 const std::vector<VerbSpec>& verbs() {
   static const std::vector<VerbSpec> kVerbs = {
+      {"help", "[COMMAND]", "this usage, or a command's help", 0, 1, {}, build_help},
       {"list", "", "list the nodes", 0, 0, {}, build_list},
       {"status", "NODE", "show a node's properties", 1, 1, {}, build_status},
       {"set", "NODE CHANNEL VALUE UNIT [--ramp DURATION]",
-       "set the true value: at once, or ramping there over DURATION", 4, 4, {{"--ramp", true}}, build_set},
+       "set the true value: at once, or ramping there over DURATION", 4, 4, {{"--ramp", true}}, build_set, kGroups},
       {"hold", "NODE CHANNEL", "keep the true value at its present level", 2, 2, {}, build_hold},
       {"model", "NODE CHANNEL YAML", "replace the process model (YAML as in the profile's physics:)", 3, 3, {},
        build_model},
       {"restore-model", "NODE CHANNEL", "back to the profile's process model", 2, 2, {}, build_restore_model},
       {"override", "NODE CHANNEL VALUE UNIT | --off",
-       "report VALUE whatever the sensor measures; --off: stop doing so", 2, 4, {{"--off", false}}, build_override},
+       "report VALUE whatever the sensor measures; --off: stop doing so", 2, 4, {{"--off", false}}, build_override, kGroups},
       {"fault", "NODE KIND [--for DURATION] [--at TIME] [KEY=VALUE...]",
        "arm a fault (kind and keys as in a profile's faults:), print its id", 2, kAny,
-       {{"--for", true}, {"--at", true}}, build_fault},
+       {{"--for", true}, {"--at", true}}, build_fault, kGroups},
       {"faults", "NODE", "list the armed faults", 1, 1, {}, build_faults},
-      {"cancel", "NODE ID", "end fault ID", 2, 2, {}, build_cancel},
+      {"cancel", "NODE ID", "end fault ID", 2, 2, {}, build_cancel, kGroups},
       {"power-cycle", "NODE [--off DURATION]", "power off, on again after DURATION (default 0: reboot)", 1, 1,
-       {{"--off", true}}, build_power_cycle},
-      {"nmt", "NODE start|stop|preop|reset|reset-comm", "a local NMT transition", 2, 2, {}, build_nmt},
+       {{"--off", true}}, build_power_cycle, kGroups},
+      {"nmt", "NODE start|stop|preop|reset|reset-comm", "a local NMT transition", 2, 2, {}, build_nmt, kGroups},
       {"read", "NODE INDEX[:SUB]", "read an object (0x6130:1, 1017h, 4119; SUB default 0)", 2, 2, {}, build_read},
       {"write", "NODE INDEX[:SUB] VALUE [--type TYPE]",
        "write an object; VALUE typed by its look unless TYPE is given", 3, 3, {{"--type", true}}, build_write},
@@ -279,6 +302,12 @@ const std::vector<VerbSpec>& verbs() {
       {"dcf", "NODE [--output FILE]", "the node's CiA 306 DCF (current values), printed or written to FILE", 1, 1,
        {{"--output", true}}, build_dcf},
       {"watch", "[NODE]", "print events and property changes until Ctrl-C", 0, 1, {}, build_watch},
+      {"monitor", "[IFACE...] [--node NODE]",
+       "print every frame decoded (PDO values in engineering units, SDO, NMT, EMCY...) until Ctrl-C", 0, kAny,
+       {{"--node", true}}, build_monitor},
+      {"top", "[GLOB] [--once]",
+       "the fleet at a glance, refreshed twice a second (GLOB: keys or names like 'generic/*'); --once: one table",
+       0, 1, {{"--once", false}}, build_top},
       {"add", "FILE.yaml", "add the nodes of a fleet YAML fragment, print them", 1, 1, {}, build_add},
       {"remove", "NODE", "remove a node", 1, 1, {}, build_remove},
       {"reload", "", "re-read the configuration file (as SIGHUP)", 0, 0, {}, build_reload},
@@ -288,11 +317,16 @@ const std::vector<VerbSpec>& verbs() {
   return kVerbs;
 }
 
-const VerbSpec& find_verb(const std::string& name) {
+const VerbSpec* lookup_verb(std::string_view name) {
   for (const VerbSpec& v : verbs()) {
-    if (v.name == name) return v;
+    if (v.name == name) return &v;
   }
-  throw UsageError("unknown command " + quoted(name));
+  return nullptr;
+}
+
+const VerbSpec& find_verb(const std::string& name) {
+  if (const VerbSpec* v = lookup_verb(name)) return *v;
+  throw UsageError("unknown command " + quoted(name) + " (cansimctl help lists them)");
 }
 
 const OptionSpec* find_option(const VerbSpec& verb, const std::string& name) {
@@ -400,14 +434,65 @@ std::string verb_synopsis(const VerbSpec& v) {
   return v.synopsis.empty() ? std::string(v.name) : std::string(v.name) + " " + std::string(v.synopsis);
 }
 
-}  // namespace
+// ---------------------------------------------------------------- help
 
-CommandLine parse_command_line(const std::vector<std::string>& args) {
-  CommandLine line;
-  const VerbSpec* verb = nullptr;
+bool mentions(const VerbSpec& v, std::string_view word) { return v.synopsis.find(word) != std::string_view::npos; }
+
+// What an argument of a verb's synopsis means, printed by `VERB --help`.
+struct ArgumentHelp {
+  bool (*applies)(const VerbSpec&);
+  const char* text;
+};
+
+const std::vector<ArgumentHelp>& argument_help() {
+  static const std::vector<ArgumentHelp> kHelp = {
+      {[](const VerbSpec& v) { return mentions(v, "NODE") && !v.groups; },
+       "NODE: a node's name (dps, or generic/1 in a count: group), its fleet key\n"
+       "  (vcan0/dps/0) or IFACE/ID (vcan0/0x10).\n"},
+      {[](const VerbSpec& v) { return v.groups; },
+       "NODE: a node's name (dps, or generic/1 in a count: group), its fleet key\n"
+       "  (vcan0/dps/0) or IFACE/ID (vcan0/0x10); or several nodes, each acted on and\n"
+       "  reported on its own line (exit status 1 when one refused): a glob of keys or\n"
+       "  names ('generic/*', 'vcan1/*'), an ID range (vcan0/0x10-0x13) or the name of\n"
+       "  a count: group (generic).\n"},
+      {[](const VerbSpec& v) { return mentions(v, "CHANNEL"); }, "CHANNEL: pressure or temperature.\n"},
+      {[](const VerbSpec& v) { return mentions(v, "UNIT"); },
+       "UNIT: bar, mbar, psi, Pa, kPa, MPa (pressure); degC, degF, K (temperature).\n"},
+      {[](const VerbSpec& v) { return mentions(v, "DURATION") || mentions(v, "TIME"); },
+       "DURATION, TIME: a number and s, ms, us, min or h (\"500ms\", \"2 s\"), seconds if bare;\n"
+       "  TIME is simulated time since the daemon's start.\n"},
+      {[](const VerbSpec& v) { return mentions(v, "KIND"); },
+       "KIND: open, short, stuck, drift, spikes, noise_burst, over_temperature,\n"
+       "  eeprom_error, silent, power_cycle, bus_off, heartbeat_stop, slow_sdo,\n"
+       "  sdo_block_drop; KEY=VALUE as in a profile's faults: (value=2 bar,\n"
+       "  drift=0.5 bar, channel=temperature, count=3, period=1 s, ...).\n"},
+      {[](const VerbSpec& v) { return mentions(v, "INDEX"); },
+       "INDEX[:SUB]: 0x6130:1, 1017h, 4119 (SUB 0 when omitted). read prints a process\n"
+       "  value with its unit (3.5 bar; an integer view as 350 (0x15e) = 3.50 bar).\n"},
+      {[](const VerbSpec& v) { return v.name == "write"; },
+       "VALUE: integers, 0x hex, decimals, \"quoted\" or other text, typed by its look;\n"
+       "  --type bool u8 u16 u32 u64 i8 i16 i32 i64 f32 f64 str bytes (bytes: 01:02:ff).\n"},
+      {[](const VerbSpec& v) { return mentions(v, "GLOB"); },
+       "GLOB: keys or names: 'generic/*', 'vcan1/*', 'dps'.\n"},
+      {[](const VerbSpec& v) { return mentions(v, "IFACE"); },
+       "IFACE: CAN interfaces to listen on (default: every interface of the fleet).\n"},
+  };
+  return kHelp;
+}
+
+std::string arguments_text(std::size_t n) { return n == 1 ? "1 argument" : std::to_string(n) + " arguments"; }
+
+std::string count_error(const VerbSpec& v, std::size_t given) {
+  const std::string expected = v.min_words == v.max_words ? std::to_string(v.min_words)
+                               : v.max_words == kAny     ? "at least " + std::to_string(v.min_words)
+                                                         : std::to_string(v.min_words) + " to " + std::to_string(v.max_words);
+  return std::string(v.name) + ": " + arguments_text(given) + " given, expected " + expected;
+}
+
+// The line after the global options: the verb's words, checked and built.
+void parse_verb_line(Scanner& s, CommandLine& line, const VerbSpec*& verb) {
   Words words;
   bool options_ended = false;
-  Scanner s(args);
   while (s.more()) {
     const std::string& arg = s.take();
     if (!options_ended && arg == "--") {
@@ -418,18 +503,68 @@ CommandLine parse_command_line(const std::vector<std::string>& args) {
       else
         verb = &find_verb(arg);
     } else if (OptionWord o = split_option(arg); take_global(o, s, line.global)) {
-      if (line.global.help || line.global.version) return line;
+      if (line.global.version) return;
     } else if (verb) {
       take_verb_option(o, s, *verb, words);
     } else {
       throw UsageError("unknown option " + o.name);
     }
   }
+  if (line.global.help) {
+    if (verb) line.help_verb = verb->name;
+    return;
+  }
   if (!verb) throw UsageError("no command given");
+  if (verb->name == "help") {
+    line.global.help = true;
+    if (words.size() == 1) line.help_verb = find_verb(words[0]).name;
+    if (words.size() > 1) throw UsageError(count_error(*verb, words.size()), "help");
+    return;
+  }
   if (words.size() < verb->min_words || words.size() > verb->max_words)
-    throw UsageError("usage: cansimctl " + verb_synopsis(*verb));
+    throw UsageError(count_error(*verb, words.size()));
   line.request = verb->build(words);
+  line.request.group = verb->groups;
+}
+
+}  // namespace
+
+CommandLine parse_command_line(const std::vector<std::string>& args) {
+  CommandLine line;
+  const VerbSpec* verb = nullptr;
+  Scanner s(args);
+  try {
+    parse_verb_line(s, line, verb);
+  } catch (const UsageError& e) {
+    if (e.verb.empty() && verb) throw UsageError(e.what(), std::string(verb->name));
+    throw;
+  }
   return line;
+}
+
+std::vector<std::string> verb_names() {
+  std::vector<std::string> out;
+  for (const VerbSpec& v : verbs()) out.emplace_back(v.name);
+  return out;
+}
+
+std::string verb_usage(const std::string& verb) {
+  const VerbSpec* v = lookup_verb(verb);
+  if (!v) return usage_text();
+  return "usage: cansimctl " + verb_synopsis(*v) + "\nTry 'cansimctl " + verb + " --help' for more.\n";
+}
+
+std::string verb_help(const std::string& verb) {
+  const VerbSpec* v = lookup_verb(verb);
+  if (!v) return usage_text();
+  std::string out = "usage: cansimctl " + verb_synopsis(*v) + "\n\n" + std::string(v->description) + ".\n";
+  std::string glossary;
+  for (const ArgumentHelp& a : argument_help()) {
+    if (!a.applies(*v)) continue;
+    glossary += a.text;
+  }
+  if (!glossary.empty()) out += "\n" + glossary;
+  return out + "\nGlobal options (--socket, --system, --user, --json, --timeout): cansimctl --help.\n";
 }
 
 std::string usage_text() {
@@ -437,6 +572,7 @@ std::string usage_text() {
       "usage: cansimctl [OPTIONS] COMMAND [ARGUMENTS]\n"
       "\n"
       "Controls a running cansimd through its D-Bus control API.\n"
+      "cansimctl COMMAND --help (or cansimctl help COMMAND) explains one command.\n"
       "\n"
       "Commands:\n";
   constexpr std::size_t kColumn = 44;
@@ -448,7 +584,9 @@ std::string usage_text() {
   }
   out += "\n"
          "NODE: a node's name (dps, or generic/1 in a count: group), its fleet key\n"
-         "  (vcan0/dps/0) or IFACE/ID (vcan0/0x10).\n"
+         "  (vcan0/dps/0) or IFACE/ID (vcan0/0x10); set, override, fault, cancel,\n"
+         "  power-cycle and nmt also take several: a glob ('generic/*'), an ID range\n"
+         "  (vcan0/0x10-0x13) or a count: group's name (generic).\n"
          "CHANNEL: pressure or temperature. UNIT: bar, mbar, psi, Pa, kPa, MPa, degC, degF, K.\n"
          "DURATION, TIME: a number and s, ms, us, min or h (\"500ms\", \"2 s\"), seconds if bare;\n"
          "  TIME is simulated time since the daemon's start.\n"
@@ -462,7 +600,8 @@ std::string usage_text() {
          "                     default: the private socket if it exists ($CANSIM_CONTROL_SOCKET, else\n"
          "                     $XDG_RUNTIME_DIR/cansimd/control, /run/cansimd/control,\n"
          "                     /tmp/cansimd-$UID/control), else the system bus as root, else the user bus\n"
-         "  --json             machine-readable output (JSON; watch: one object per line)\n"
+         "  --json             machine-readable output (JSON; watch, monitor: one object per\n"
+         "                     line); errors too, on stderr: {\"error\": ..., \"exit_status\": N}\n"
          "  --timeout SECONDS  method call timeout (default 10)\n"
          "  --version          print the version and exit\n"
          "  -h, --help         print this help and exit\n"

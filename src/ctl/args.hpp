@@ -10,9 +10,13 @@
 
 namespace cansim::ctl {
 
+// `verb`: the command the line is for ("" when none is known): its usage is
+// printed instead of the whole usage.
 class UsageError : public std::runtime_error {
  public:
-  using std::runtime_error::runtime_error;
+  explicit UsageError(const std::string& what, std::string verb = "")
+      : std::runtime_error(what), verb(std::move(verb)) {}
+  std::string verb;
 };
 
 enum class BusKind {
@@ -33,12 +37,20 @@ struct GlobalOptions {
 
 struct CommandLine {
   GlobalOptions global;
-  Request request;  // unset when help or version was asked for
+  std::string help_verb;  // `VERB --help`, `help VERB`: that command's help
+  Request request;        // unset when help or version was asked for
 };
 
 // args excludes argv[0].
 CommandLine parse_command_line(const std::vector<std::string>& args);
 
 std::string usage_text();
+// "usage: cansimctl set NODE CHANNEL VALUE UNIT [--ramp DURATION]\n" and a
+// pointer to the verb's help: what a bad line of that verb prints.
+std::string verb_usage(const std::string& verb);
+// The verb's usage, what it does and the forms of its arguments.
+std::string verb_help(const std::string& verb);
+// Every verb, in the order of the usage.
+std::vector<std::string> verb_names();
 
 }  // namespace cansim::ctl

@@ -1,14 +1,16 @@
 #include "ctl/commands.hpp"
 
-#include <systemd/sd-event.h>
-
-#include <csignal>
+#include <algorithm>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 
+#include "ctl/client_loop.hpp"
 #include "ctl/decode.hpp"
+#include "ctl/monitor.hpp"
+#include "ctl/targets.hpp"
+#include "ctl/top.hpp"
 
 #ifndef CANSIM_VERSION
 #define CANSIM_VERSION "unknown"
@@ -39,9 +41,22 @@ std::vector<NodeRef> node_refs(const std::vector<std::string>& paths) {
   return refs;
 }
 
-void print_reply(const Request& r, const std::string& path, sd_bus_message* reply, Printer& p) {
+// The object's unit and scale (ListObjects) for `read`.
+std::unique_ptr<ObjectInfo> meaning_of(Connection& c, const std::string& path, const ObjectAddress& a) {
+  MessagePtr reply = c.call(path, kNodeInterface, "ListObjects");
+  for (ObjectInfo& o : read_object_infos(reply.get()))
+    if (o.index == a.index && o.sub == a.sub) return std::make_unique<ObjectInfo>(std::move(o));
+  return nullptr;
+}
+
+void print_reply(const Request& r, const std::string& path, sd_bus_message* reply, Printer& p,
+                 const std::unique_ptr<ObjectInfo>& meaning) {
   switch (r.output) {
-    case Output::kNodes: return p.nodes(read_node_rows(reply));
+    case Output::kNodes: {
+      std::vector<NodeRow> rows = read_node_rows(reply);
+      std::sort(rows.begin(), rows.end(), [](const NodeRow& a, const NodeRow& b) { return natural_less(a.key, b.key); });
+      return p.nodes(rows);
+    }
     case Output::kStatus: {
       NodeStatus status = read_node_status(reply);
       status.path = path;
@@ -49,96 +64,59 @@ void print_reply(const Request& r, const std::string& path, sd_bus_message* repl
     }
     case Output::kFaultId: return p.fault_id(read_uint32(reply));
     case Output::kFaults: return p.faults(read_fault_rows(reply));
-    case Output::kValue: return p.value(r.object, read_value(reply));
+    case Output::kValue: return p.value(r.object, read_value(reply), meaning.get());
     case Output::kAdded: return p.added(node_refs(read_object_paths(reply)));
     case Output::kTime: return p.time(read_int64(reply));
     case Output::kStats: return;  // run_request: three replies
     case Output::kDcf: return r.file.empty() ? p.document("dcf", read_text(reply)) : write_text_file(r.file, read_text(reply));
     case Output::kNothing:
-    case Output::kWatch: return;
+    case Output::kWatch:
+    case Output::kMonitor:
+    case Output::kTop: return;
   }
 }
 
 // ---------------------------------------------------------------- watch
 
-struct EventUnref {
-  void operator()(sd_event* e) const { sd_event_unref(e); }
-};
-struct SlotUnref {
-  void operator()(sd_bus_slot* s) const { sd_bus_slot_unref(s); }
-};
-
 // Prints the signals of the fleet (or of one node) until SIGINT / SIGTERM.
-class Watch {
- public:
-  Watch(Connection& connection, Printer& printer) : connection_(connection), printer_(printer) {}
-  int run(const std::string& node_path);
-
- private:
-  static int on_message(sd_bus_message* m, void* self, sd_bus_error*);
-  static int on_stop(sd_event_source* source, const struct signalfd_siginfo*, void*);
-  void print(sd_bus_message* m);
-  void add_stop_signals();
-
-  Connection& connection_;
-  Printer& printer_;
-  std::unique_ptr<sd_event, EventUnref> event_;
-  std::string error_;
-};
-
-int Watch::on_stop(sd_event_source* source, const struct signalfd_siginfo*, void*) {
-  return sd_event_exit(sd_event_source_get_event(source), 0);
-}
-
-int Watch::on_message(sd_bus_message* m, void* self, sd_bus_error*) {
-  auto* watch = static_cast<Watch*>(self);
-  try {
-    watch->print(m);
-  } catch (const std::exception& e) {
-    watch->error_ = e.what();
-    sd_event_exit(watch->event_.get(), 1);
-  }
-  return 0;
-}
-
-void Watch::print(sd_bus_message* m) {
-  Event e = read_event(m);
-  // Property changes and fleet signals carry no time: the daemon's clock now
-  // is the time of the loop pass that sent them.
-  if (!e.time_us) e.time_us = connection_.simulated_time_us();
-  printer_.event(e);
-}
-
-// sd-event takes signals through a signalfd: they must be blocked first.
-void Watch::add_stop_signals() {
-  sigset_t set;
-  sigemptyset(&set);
-  for (int sig : {SIGINT, SIGTERM}) sigaddset(&set, sig);
-  expect(sigprocmask(SIG_BLOCK, &set, nullptr) < 0 ? -errno : 0, "cannot block signals");
-  for (int sig : {SIGINT, SIGTERM})
-    expect(sd_event_add_signal(event_.get(), nullptr, sig, on_stop, nullptr), "cannot watch signals");
-}
-
-int Watch::run(const std::string& node_path) {
-  sd_event* event = nullptr;
-  expect(sd_event_new(&event), "cannot create an event loop");
-  event_.reset(event);
-  add_stop_signals();
-  sd_bus* bus = connection_.bus();
-  expect(sd_bus_attach_event(bus, event, SD_EVENT_PRIORITY_NORMAL), "cannot attach the connection");
-  sd_bus_set_exit_on_disconnect(bus, 1);  // the loop ends with 1 when the daemon goes
+int watch(Connection& connection, Printer& printer, const std::string& node_path) {
+  ClientLoop loop(connection);
   std::string rule = "type='signal'," + (node_path.empty() ? "path_namespace='" + std::string(kFleetPath) + "'"
                                                            : "path='" + node_path + "'");
-  sd_bus_slot* slot = nullptr;
-  expect(sd_bus_add_match(bus, &slot, rule.c_str(), on_message, this), "cannot add a match rule");
-  std::unique_ptr<sd_bus_slot, SlotUnref> match(slot);
-  connection_.call(kFleetPath, kFleetInterface, "Subscribe");
-  int r = sd_event_loop(event);
-  sd_bus_detach_event(bus);
-  if (!error_.empty()) throw Failure(error_);
-  expect(r, "event loop failed");
-  if (r != 0) throw Failure("cansimd closed the connection");
-  return 0;
+  loop.on_signals(rule, [&](sd_bus_message* m) {
+    Event e = read_event(m);
+    // Property changes and fleet signals carry no time: the daemon's clock now
+    // is the time of the loop pass that sent them.
+    if (!e.time_us) e.time_us = connection.simulated_time_us();
+    printer.event(e);
+  });
+  connection.call(kFleetPath, kFleetInterface, "Subscribe");
+  return loop.run();
+}
+
+// ---------------------------------------------------------------- groups
+
+// An acting verb on each node of a group, one result per node; exit 1 when one refused.
+int run_on_group(Connection& connection, const Request& request, const std::vector<NodeRow>& targets,
+                 Printer& printer) {
+  if (targets.empty()) throw Failure("no node matches '" + request.node + "'", control::kErrorUnknownNode);
+  std::vector<GroupResult> results;
+  std::size_t refused = 0;
+  for (const NodeRow& n : targets) {
+    GroupResult r{n.key};
+    try {
+      MessagePtr reply = connection.call(n.path, request.call.interface, request.call.method, request.call.args);
+      if (request.output == Output::kFaultId) r.fault_id = read_uint32(reply.get());
+      r.ok = true;
+    } catch (const Failure& e) {
+      r.error = e.what();
+      ++refused;
+    }
+    results.push_back(std::move(r));
+  }
+  printer.group(results);
+  if (refused == 0) return 0;
+  throw Failure(std::to_string(refused) + " of " + std::to_string(results.size()) + " nodes refused");
 }
 
 // GetBusStatistics, then the BusLoad and BusStates properties of the same buses.
@@ -161,9 +139,18 @@ bool is_socket(const std::string& path) {
 }  // namespace
 
 int run_request(Connection& connection, const Request& request, Printer& printer) {
+  if (request.output == Output::kMonitor)
+    return run_monitor(connection, {request.interfaces, request.node, printer.json()}, printer.stream());
+  if (request.output == Output::kTop)
+    return run_top(connection, {request.pattern, request.once, printer.json()}, printer.stream());
   if (request.output == Output::kWatch) {
     std::string node_path = request.node.empty() ? "" : connection.node_path(request.node);
-    return Watch(connection, printer).run(node_path);
+    return watch(connection, printer, node_path);
+  }
+  if (request.group) {
+    MessagePtr list = connection.call(kFleetPath, kFleetInterface, "ListNodes");
+    if (auto targets = group_targets(request.node, read_node_rows(list.get())))
+      return run_on_group(connection, request, *targets, printer);
   }
   std::string path = request.call.target == Target::kNode ? connection.node_path(request.node) : kFleetPath;
   std::vector<Arg> args = request.call.args;
@@ -173,7 +160,9 @@ int run_request(Connection& connection, const Request& request, Printer& printer
     printer.stats(bus_statistics(connection, reply.get()));
     return 0;
   }
-  print_reply(request, path, reply.get(), printer);
+  std::unique_ptr<ObjectInfo> meaning;
+  if (request.output == Output::kValue) meaning = meaning_of(connection, path, request.object);
+  print_reply(request, path, reply.get(), printer, meaning);
   return 0;
 }
 
@@ -182,11 +171,13 @@ int cansimctl_main(const std::vector<std::string>& args, std::ostream& out, std:
   try {
     line = parse_command_line(args);
   } catch (const UsageError& e) {
-    err << "cansimctl: " << e.what() << "\n\n" << usage_text();
+    const bool json = std::find(args.begin(), args.end(), "--json") != args.end();
+    Printer::error(err, json, e.what(), "", 2);
+    if (!json) err << '\n' << (e.verb.empty() ? usage_text() : verb_usage(e.verb));
     return 2;
   }
   if (line.global.help) {
-    out << usage_text();
+    out << (line.help_verb.empty() ? usage_text() : verb_help(line.help_verb));
     return 0;
   }
   if (line.global.version) {
@@ -199,7 +190,7 @@ int cansimctl_main(const std::vector<std::string>& args, std::ostream& out, std:
     return run_request(connection, line.request, printer);
   } catch (const Failure& e) {
     out.flush();
-    err << "cansimctl: " << e.what() << '\n';
+    Printer::error(err, line.global.json, e.what(), e.name, 1);
     return 1;
   }
 }

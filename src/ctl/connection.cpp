@@ -60,16 +60,19 @@ bool address_char_is_plain(unsigned char c) {
   return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || std::strchr("-_/.\\*", c);
 }
 
+// A full listen backlog (EAGAIN: the daemon is accepting a burst of other
+// clients) is retried for up to a second.
 sd_bus* open_socket(const std::string& path) {
-  sd_bus* bus = nullptr;
-  expect(sd_bus_new(&bus), "cannot create a D-Bus connection");
-  int r = sd_bus_set_address(bus, socket_address(path).c_str());
-  if (r >= 0) r = sd_bus_start(bus);
-  if (r < 0) {
+  for (int attempt = 0;; ++attempt) {
+    sd_bus* bus = nullptr;
+    expect(sd_bus_new(&bus), "cannot create a D-Bus connection");
+    int r = sd_bus_set_address(bus, socket_address(path).c_str());
+    if (r >= 0) r = sd_bus_start(bus);
+    if (r >= 0) return bus;
     sd_bus_unref(bus);
-    expect(r, ("cannot connect to the control socket " + path).c_str());
+    if (r != -EAGAIN || attempt == 100) expect(r, ("cannot connect to the control socket " + path).c_str());
+    ::usleep(10'000);
   }
-  return bus;
 }
 
 sd_bus* open_bus(const Endpoint& endpoint) {
@@ -155,7 +158,7 @@ MessagePtr Connection::call(const std::string& path, const std::string& interfac
   int r = sd_bus_call(bus_, m, timeout_us_, &e.error, &reply);
   if (r >= 0) return MessagePtr(reply);
   if (is_missing_service(e.error)) throw Failure("cansimd is not running on " + where_ + " (no " + kBusName + ")");
-  if (sd_bus_error_is_set(&e.error)) throw Failure(e.error.message ? e.error.message : e.error.name);
+  if (sd_bus_error_is_set(&e.error)) throw Failure(e.error.message ? e.error.message : e.error.name, e.error.name);
   throw Failure("no answer on " + where_ + ": " + std::strerror(-r));
 }
 

@@ -17,9 +17,11 @@
 namespace cansim::ctl {
 
 // A refused request or a failed connection: main prints it, exit 1.
+// `name`: the D-Bus error name when the daemon refused (io.cansim.Error.UnknownNode).
 class Failure : public std::runtime_error {
  public:
-  using std::runtime_error::runtime_error;
+  explicit Failure(const std::string& what, std::string name = "") : std::runtime_error(what), name(std::move(name)) {}
+  std::string name;
 };
 
 // r of an sd-bus call: below 0 throws Failure("what: strerror").

@@ -157,6 +157,7 @@ constexpr PropertyReader kNodeProperties[] = {
     {"EmcyCount", "u", [](sd_bus_message* m, NodeStatus& s) { s.emcy_count = read_basic<std::uint32_t>(m, 'u'); }},
     {"LastEmcy", "(xqyay)", [](sd_bus_message* m, NodeStatus& s) { s.last_emcy = read_emcy(m); }},
     {"Recording", "s", [](sd_bus_message* m, NodeStatus& s) { s.recording = read_string(m); }},
+    {"FramesSent", "t", [](sd_bus_message* m, NodeStatus& s) { s.frames_sent = read_basic<std::uint64_t>(m, 't'); }},
 };
 
 // One a{sv} entry: a known property of the expected type is read, any other skipped.
@@ -221,7 +222,8 @@ Value read_field(sd_bus_message* m) {
     return v;
   }
   if (t.type == 'a' && t.contents == "(usb)") return format_fault_briefs(read_array(m, "(usb)", read_fault_brief));
-  if (is_basic(t.type) || (t.type == 'a' && t.contents == "y")) return read_value(m);
+  if (t.type == 'a' && t.contents == "y") return read_value(m);
+  if (is_basic(t.type)) return read_value(m);
   expect(sd_bus_message_skip(m, nullptr));
   return std::string("…");
 }
@@ -232,7 +234,15 @@ void read_properties_changed(sd_bus_message* m, Event& e) {
   while (!at_end(m)) {
     enter(m, 'e', "sv");
     std::string name = read_string(m);
-    e.fields.push_back({name, read_field(m)});
+    PeekedType t = peek(m);  // a variant
+    if (t.contents == "a(usb)") {
+      enter(m, 'v', "a(usb)");
+      std::vector<FaultBrief> faults = read_array(m, "(usb)", read_fault_brief);
+      leave(m);
+      e.fields.push_back({name, format_fault_briefs(faults), IntegerStyle::kDecimal, faults});
+    } else {
+      e.fields.push_back({name, read_field(m)});
+    }
     leave(m);
   }
   leave(m);
@@ -355,6 +365,87 @@ NodeStatus read_node_status(sd_bus_message* m) {
   while (!at_end(m)) read_node_property(m, status);
   leave(m);
   return status;
+}
+
+std::vector<NodeStatus> read_managed_nodes(sd_bus_message* m) {
+  std::vector<NodeStatus> out;
+  enter(m, 'a', "{oa{sa{sv}}}");
+  while (!at_end(m)) {
+    enter(m, 'e', "oa{sa{sv}}");
+    const std::string path = read_object_path(m);
+    enter(m, 'a', "{sa{sv}}");
+    while (!at_end(m)) {
+      enter(m, 'e', "sa{sv}");
+      if (read_string(m) == kNodeInterface) {
+        out.push_back(read_node_status(m));
+        out.back().path = path;
+      } else {
+        expect(sd_bus_message_skip(m, "a{sv}"));
+      }
+      leave(m);
+    }
+    leave(m);
+    leave(m);
+  }
+  leave(m);
+  return out;
+}
+
+namespace {
+
+// (s name, s type, d scale, s unit) of ListObjects and GetPdoMapping.
+void read_meaning(sd_bus_message* m, ObjectInfo& o) {
+  const char *name = "", *type = "", *unit = "";
+  expect_value(sd_bus_message_read(m, "ssds", &name, &type, &o.scale, &unit));
+  o.name = name, o.type = type, o.unit = unit;
+}
+
+PdoEntryInfo read_pdo_entry(sd_bus_message* m) {
+  PdoEntryInfo e;
+  enter(m, 'r', "qyyssds");
+  expect_value(sd_bus_message_read(m, "qyy", &e.object.index, &e.object.sub, &e.bits));
+  read_meaning(m, e.object);
+  leave(m);
+  return e;
+}
+
+PdoInfo read_pdo_info(sd_bus_message* m) {
+  PdoInfo p;
+  const char* name = "";
+  int valid = 0;
+  enter(m, 'r', "subya(qyyssds)");
+  expect_value(sd_bus_message_read(m, "suby", &name, &p.cob_id, &valid, &p.transmission_type));
+  p.name = name, p.valid = valid;
+  p.entries = read_array(m, "(qyyssds)", read_pdo_entry);
+  leave(m);
+  return p;
+}
+
+}  // namespace
+
+std::vector<PdoInfo> read_pdo_infos(sd_bus_message* m) { return read_array(m, "(subya(qyyssds))", read_pdo_info); }
+
+std::vector<ObjectInfo> read_object_infos(sd_bus_message* m) {
+  return read_array(m, "(qyssds)", [](sd_bus_message* m) {
+    ObjectInfo o;
+    enter(m, 'r', "qyssds");
+    expect_value(sd_bus_message_read(m, "qy", &o.index, &o.sub));
+    read_meaning(m, o);
+    leave(m);
+    return o;
+  });
+}
+
+std::map<std::uint16_t, std::string> read_emcy_codes(sd_bus_message* m) {
+  std::map<std::uint16_t, std::string> out;
+  for (auto& [code, meaning] : read_array(m, "(qs)", [](sd_bus_message* m) {
+         std::uint16_t code = 0;
+         const char* meaning = "";
+         expect_value(sd_bus_message_read(m, "(qs)", &code, &meaning));
+         return std::make_pair(code, std::string(meaning));
+       }))
+    out[code] = std::move(meaning);
+  return out;
 }
 
 std::string node_key_of_path(const std::string& path) {

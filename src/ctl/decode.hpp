@@ -5,10 +5,12 @@
 #include <systemd/sd-bus.h>
 
 #include <cstdint>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "ctl/frame_decoder.hpp"
 #include "ctl/replies.hpp"
 
 namespace cansim::ctl {
@@ -29,6 +31,11 @@ std::vector<BusStats> read_bus_stats(sd_bus_message* m);
 void read_bus_load(sd_bus_message* m, std::vector<BusStats>& rows);
 void read_bus_states(sd_bus_message* m, std::vector<BusStats>& rows);
 NodeStatus read_node_status(sd_bus_message* m);  // a{sv} of io.cansim.Node1
+// ObjectManager.GetManagedObjects of the fleet object: each node's io.cansim.Node1 properties.
+std::vector<NodeStatus> read_managed_nodes(sd_bus_message* m);
+std::vector<PdoInfo> read_pdo_infos(sd_bus_message* m);      // GetPdoMapping: a(subya(qyyssds))
+std::vector<ObjectInfo> read_object_infos(sd_bus_message* m);  // ListObjects: a(qyssds)
+std::map<std::uint16_t, std::string> read_emcy_codes(sd_bus_message* m);  // ListEmcyCodes: a(qs)
 
 // "vcan0/dps/0" for a node object path, "" for any other path.
 std::string node_key_of_path(const std::string& path);

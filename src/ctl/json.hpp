@@ -57,4 +57,24 @@ class JsonWriter {
   bool after_key_ = false;
 };
 
+// An array of objects, one per item; `members(json, item)` writes its members.
+template <typename Items, typename Members>
+void write_objects(JsonWriter& json, const Items& items, Members members) {
+  json.begin_array();
+  for (const auto& item : items) {
+    json.begin_object();
+    members(json, item);
+    json.end_object();
+  }
+  json.end_array();
+}
+
+// The same as one JSON document on its own line.
+template <typename Items, typename Members>
+void print_objects(std::ostream& out, const Items& items, Members members) {
+  JsonWriter json(out);
+  write_objects(json, items, members);
+  out << '\n';
+}
+
 }  // namespace cansim::ctl

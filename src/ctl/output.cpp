@@ -81,27 +81,24 @@ void write_reading(JsonWriter& json, std::string_view name, const Reading& r) {
   json.end_object();
 }
 
-void write_status_lists(JsonWriter& json, const NodeStatus& s) {
-  json.key("overrides");
-  json.begin_array();
-  for (const OverrideRow& o : s.overrides) {
-    json.begin_object();
-    json.member("channel", o.channel);
-    json.member("value", o.value);
-    json.member("unit", o.unit);
-    json.end_object();
-  }
-  json.end_array();
-  json.key("faults");
-  json.begin_array();
-  for (const FaultBrief& f : s.faults) {
-    json.begin_object();
+// [{"id", "kind", "active"}]: status's faults and watch's Faults alike.
+void write_fault_briefs(JsonWriter& json, const std::vector<FaultBrief>& faults) {
+  write_objects(json, faults, [](JsonWriter& json, const FaultBrief& f) {
     json.member("id", f.id);
     json.member("kind", f.kind);
     json.member("active", f.active);
-    json.end_object();
-  }
-  json.end_array();
+  });
+}
+
+void write_status_lists(JsonWriter& json, const NodeStatus& s) {
+  json.key("overrides");
+  write_objects(json, s.overrides, [](JsonWriter& json, const OverrideRow& o) {
+    json.member("channel", o.channel);
+    json.member("value", o.value);
+    json.member("unit", o.unit);
+  });
+  json.key("faults");
+  write_fault_briefs(json, s.faults);
 }
 
 void write_last_emcy(JsonWriter& json, const EmcyRecord& e) {
@@ -146,10 +143,7 @@ std::string format_event(const Event& e) {
 
 void Printer::nodes(const std::vector<NodeRow>& rows) {
   if (json_) {
-    JsonWriter json(out_);
-    json.begin_array();
-    for (const NodeRow& r : rows) {
-      json.begin_object();
+    return print_objects(out_, rows, [](JsonWriter& json, const NodeRow& r) {
       json.member("path", r.path);
       json.member("key", r.key);
       json.member("name", r.name);
@@ -158,11 +152,7 @@ void Printer::nodes(const std::vector<NodeRow>& rows) {
       json.member("profile", r.profile);
       json.member("personality", r.personality);
       json.member("nmt_state", r.nmt_state);
-      json.end_object();
-    }
-    json.end_array();
-    out_ << '\n';
-    return;
+    });
   }
   Table table({"KEY", "NAME", "INTERFACE", "ID", "PROFILE", "PERSONALITY", "NMT"});
   for (const NodeRow& r : rows)
@@ -234,10 +224,7 @@ void Printer::fault_id(std::uint32_t id) {
 
 void Printer::faults(const std::vector<FaultRow>& rows) {
   if (json_) {
-    JsonWriter json(out_);
-    json.begin_array();
-    for (const FaultRow& f : rows) {
-      json.begin_object();
+    return print_objects(out_, rows, [](JsonWriter& json, const FaultRow& f) {
       json.member("id", f.id);
       json.member("kind", f.kind);
       json.member("channel", f.channel);
@@ -246,11 +233,7 @@ void Printer::faults(const std::vector<FaultRow>& rows) {
       json.member("duration_us", f.duration_us);
       json.member("period_us", f.period_us);
       json.member("count", f.count);
-      json.end_object();
-    }
-    json.end_array();
-    out_ << '\n';
-    return;
+    });
   }
   Table table({"ID", "KIND", "CHANNEL", "ACTIVE", "START", "DURATION", "PERIOD", "COUNT"});
   for (const FaultRow& f : rows) {
@@ -261,9 +244,17 @@ void Printer::faults(const std::vector<FaultRow>& rows) {
   table.print(out_);
 }
 
-void Printer::value(const ObjectAddress& object, const Value& v) {
+void Printer::value(const ObjectAddress& object, const Value& v, const ObjectInfo* meaning) {
+  const bool scaled = meaning && meaning->scale != 1.0 && !std::holds_alternative<double>(v);
+  const std::string unit = meaning ? meaning->unit : "";
   if (!json_) {
-    out_ << format_value(v) << '\n';
+    std::string text = format_value(v);
+    if (scaled) {
+      text += " = " + engineering_text(v, meaning->scale) + (unit.empty() ? "" : " " + unit);
+    } else if (!unit.empty()) {
+      text += " " + unit;
+    }
+    out_ << text << '\n';
     return;
   }
   JsonWriter json(out_);
@@ -273,8 +264,42 @@ void Printer::value(const ObjectAddress& object, const Value& v) {
   json.member("type", signature(v));
   json.key("value");
   write_json(json, v);
+  json.key("unit");
+  if (unit.empty()) json.null(); else json.value(unit);
+  json.member("scale", meaning ? meaning->scale : 1.0);
   json.end_object();
   out_ << '\n';
+}
+
+void Printer::group(const std::vector<GroupResult>& results) {
+  if (!json_) {
+    Table table({"NODE", "RESULT"});
+    for (const GroupResult& r : results)
+      table.add({r.key, r.ok ? (r.fault_id ? std::to_string(*r.fault_id) : "ok") : "refused: " + r.error});
+    table.print(out_);
+    return;
+  }
+  print_objects(out_, results, [](JsonWriter& json, const GroupResult& r) {
+    json.member("node", r.key);
+    json.member("ok", r.ok);
+    if (r.fault_id) json.member("id", *r.fault_id);
+    if (!r.ok) json.member("error", r.error);
+  });
+}
+
+void Printer::error(std::ostream& err, bool json, const std::string& what, const std::string& name, int status) {
+  if (!json) {
+    err << "cansimctl: " << what << '\n';
+    return;
+  }
+  JsonWriter w(err);
+  w.begin_object();
+  w.member("error", what);
+  w.key("name");
+  if (name.empty()) w.null(); else w.value(name);
+  w.member("exit_status", status);
+  w.end_object();
+  err << '\n';
 }
 
 void Printer::added(const std::vector<NodeRef>& nodes) {
@@ -282,16 +307,10 @@ void Printer::added(const std::vector<NodeRef>& nodes) {
     for (const NodeRef& n : nodes) out_ << n.key << '\n';
     return;
   }
-  JsonWriter json(out_);
-  json.begin_array();
-  for (const NodeRef& n : nodes) {
-    json.begin_object();
+  print_objects(out_, nodes, [](JsonWriter& json, const NodeRef& n) {
     json.member("path", n.path);
     json.member("key", n.key);
-    json.end_object();
-  }
-  json.end_array();
-  out_ << '\n';
+  });
 }
 
 void Printer::document(std::string_view name, const std::string& text) {
@@ -321,10 +340,7 @@ void Printer::time(std::int64_t us) {
 
 void Printer::stats(const std::vector<BusStats>& rows) {
   if (json_) {
-    JsonWriter json(out_);
-    json.begin_array();
-    for (const BusStats& b : rows) {
-      json.begin_object();
+    return print_objects(out_, rows, [](JsonWriter& json, const BusStats& b) {
       json.member("interface", b.name);
       json.member("up", b.up);
       json.member("bit_rate_kbit", b.bit_rate_kbit);
@@ -346,11 +362,7 @@ void Printer::stats(const std::vector<BusStats>& rows) {
       json.member("queued", b.queued);
       json.member("queue_capacity", b.queue_capacity);
       json.member("queue_dropped", b.queue_dropped);
-      json.end_object();
-    }
-    json.end_array();
-    out_ << '\n';
-    return;
+    });
   }
   Table table({"INTERFACE", "UP", "KBIT/S", "IN", "OUT", "DROPPED", "OFFLINE", "OFFERED", "MEASURED"});
   for (const BusStats& b : rows) {
@@ -392,7 +404,7 @@ void Printer::event(const Event& e) {
   json.member("event", e.name);
   for (const Field& f : e.fields) {
     json.key(f.name);
-    write_json(json, f.value);
+    if (f.faults) write_fault_briefs(json, *f.faults); else write_json(json, f.value);
   }
   json.end_object();
   out_ << std::endl;

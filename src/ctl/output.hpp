@@ -6,6 +6,7 @@
 #include <string_view>
 #include <vector>
 
+#include "ctl/frame_decoder.hpp"
 #include "ctl/replies.hpp"
 
 namespace cansim::ctl {
@@ -35,12 +36,20 @@ class Printer {
   void status(const NodeStatus& s);
   void fault_id(std::uint32_t id);
   void faults(const std::vector<FaultRow>& rows);
-  void value(const ObjectAddress& object, const Value& v);
+  // A Read value; `meaning` (ListObjects) adds its unit: "3.5 bar", "350 (3.50 bar)".
+  void value(const ObjectAddress& object, const Value& v, const ObjectInfo* meaning = nullptr);
+  void group(const std::vector<GroupResult>& results);  // one line (or object) per node
+  // A refusal or a bad command line on stderr: "cansimctl: what", or with
+  // --json {"error": what, "name": D-Bus error or null, "exit_status": n}.
+  static void error(std::ostream& err, bool json, const std::string& what, const std::string& name, int status);
   void added(const std::vector<NodeRef>& nodes);
   void time(std::int64_t us);
   void stats(const std::vector<BusStats>& rows);
   void document(std::string_view name, const std::string& text);  // as it is; JSON: {"name": text}
   void event(const Event& e);  // one line, flushed
+
+  std::ostream& stream() const { return out_; }
+  bool json() const { return json_; }
 
  private:
   void status_text(const NodeStatus& s);

@@ -19,6 +19,14 @@ struct NodeRow {
   std::string profile, personality, nmt_state;
 };
 
+// What an acting verb did on one node of a group.
+struct GroupResult {
+  std::string key;
+  bool ok = false;
+  std::optional<std::uint32_t> fault_id{};  // fault: the id armed on this node
+  std::string error{};                     // refused: the reason
+};
+
 // A node object and its fleet key (AddNodes).
 struct NodeRef {
   std::string path, key;
@@ -89,6 +97,7 @@ struct NodeStatus {
   std::uint32_t emcy_count = 0;
   EmcyRecord last_emcy;
   std::string recording;
+  std::uint64_t frames_sent = 0;
 };
 
 // One argument of a signal, or one changed property.
@@ -96,6 +105,7 @@ struct Field {
   std::string name;
   Value value;
   IntegerStyle style = IntegerStyle::kDecimal;  // human output; JSON always prints numbers
+  std::optional<std::vector<FaultBrief>> faults{};  // the Faults property: value is its text, JSON a list
 };
 
 // A signal as watch prints it.

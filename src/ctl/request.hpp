@@ -57,6 +57,8 @@ enum class Output {
   kStats,    // GetBusStatistics
   kDcf,      // GetDcf: written to Request::file, or printed when it is ""
   kWatch,    // Subscribe, then print signals until SIGINT/SIGTERM (only Request::node's, if given)
+  kMonitor,  // decode the frames of Request::interfaces (all: none given) until SIGINT/SIGTERM
+  kTop,      // the fleet table (Request::pattern, Request::once) until q / SIGINT / SIGTERM
 };
 
 struct Request {
@@ -65,6 +67,10 @@ struct Request {
   Output output = Output::kNothing;
   std::string file;       // kAdded: read; kDcf: written
   ObjectAddress object;   // kValue
+  std::vector<std::string> interfaces;  // kMonitor
+  std::string pattern;    // kTop: GLOB
+  bool once = false;      // kTop
+  bool group = false;     // node may name several nodes (glob, ID range, count: group)
 };
 
 }  // namespace cansim::ctl

@@ -332,6 +332,25 @@ std::string format_value(const Value& v, IntegerStyle style) {
   }, v);
 }
 
+bool natural_less(std::string_view a, std::string_view b) {
+  std::size_t i = 0, j = 0;
+  while (i < a.size() && j < b.size()) {
+    if (is_digit(a[i]) && is_digit(b[j])) {
+      std::size_t i0 = i, j0 = j;
+      while (i0 < a.size() && a[i0] == '0') ++i0;  // leading zeros do not count
+      while (j0 < b.size() && b[j0] == '0') ++j0;
+      std::size_t i1 = i0 + count_digits(a, i0), j1 = j0 + count_digits(b, j0);
+      if (i1 - i0 != j1 - j0) return i1 - i0 < j1 - j0;
+      if (int c = a.substr(i0, i1 - i0).compare(b.substr(j0, j1 - j0)); c != 0) return c < 0;
+      i = i1, j = j1;
+      continue;
+    }
+    if (a[i] != b[j]) return a[i] < b[j];
+    ++i, ++j;
+  }
+  return a.size() - i < b.size() - j;
+}
+
 void write_json(JsonWriter& json, const Value& v) {
   std::visit([&json](const auto& x) {
     using T = std::decay_t<decltype(x)>;

@@ -82,6 +82,9 @@ enum class IntegerStyle { kDecimal, kHex, kBoth };
 // true/false, strings as they are, bytes in hex.
 std::string format_value(const Value& v, IntegerStyle style = IntegerStyle::kBoth);
 
+// Natural order: digit runs compare as numbers ("pt/2" before "pt/10").
+bool natural_less(std::string_view a, std::string_view b);
+
 // Numbers, booleans and strings as themselves, bytes as a hex string "0102ff".
 void write_json(JsonWriter& json, const Value& v);
 

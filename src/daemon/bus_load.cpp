@@ -1,11 +1,10 @@
 #include "daemon/bus_load.hpp"
 
+#include "core/cob_id.hpp"
+
 namespace cansim::daemon {
 
 namespace {
-
-constexpr std::uint32_t kCobInvalid = 0x80000000u;
-constexpr std::uint32_t kCobFrame29 = 0x20000000u;
 
 void add_frames(Traffic& t, double per_s, int dlc, bool extended) {
   if (per_s <= 0) return;
@@ -48,10 +47,10 @@ Traffic estimate_traffic(const Node& node) {
   for (std::uint16_t comm = 0x1800; comm < 0x1A00; ++comm) {
     if (!od.find(comm, 1)) continue;
     std::uint32_t cob = std::uint32_t(v.u(comm, 1));
-    if (cob & kCobInvalid) continue;
+    if (cob & cob::kInvalid) continue;
     unsigned type = od.find(comm, 2) ? unsigned(v.u(comm, 2)) : 255;
     int dlc = tpdo_length(node, std::uint16_t(comm + 0x200));
-    bool ext = cob & kCobFrame29;
+    bool ext = cob & cob::kFrame29Bit;
     if (type >= 254) {
       std::uint64_t timer_ms = od.find(comm, 5) ? v.u(comm, 5) : 0;
       if (timer_ms > 0) add_frames(t, 1000.0 / double(timer_ms), dlc, ext);

@@ -44,18 +44,20 @@ config::ProfileSearch profile_search(const std::string& config_file) {
 }
 
 NodeSetup node_setup(const config::NodeConfig& node) {
-  NodeSetup setup = config::node_setup(*node.profile, node.node_id);
+  NodeSetup setup = config::node_setup(*node.profile, node.node_id, node.index);
   setup.bit_rate_index = config::bit_rate_selector(node.bit_rate_kbit);
-  setup.serial_number = node.serial;
+  if (node.serial) setup.serial_number = node.serial;
   return setup;
 }
 
-std::unique_ptr<Application> make_node_application(const config::NodeConfig& node, std::uint64_t seed) {
+std::unique_ptr<Application> make_node_application(const config::NodeConfig& node, std::uint64_t seed,
+                                                   const std::string& state_dir) {
   personalities::NodeContext ctx;
   ctx.fleet_seed = seed;
   ctx.index = node.index;
   ctx.key = node.key;
   ctx.record_file = node.record_file;
+  ctx.state_dir = state_dir;
   if (!ctx.record_file.empty()) {
     std::error_code ec;  // a failure shows when the file is opened
     std::filesystem::create_directories(std::filesystem::path(ctx.record_file).parent_path(), ec);
@@ -108,11 +110,21 @@ std::string describe(const BitRateMismatch& m) {
          "` on the node entry (or `bit_rate: " + std::to_string(m.node_kbit) + "` on interface " + m.interface + ")";
 }
 
+std::vector<std::string> load_warnings(const config::FleetConfig& fleet) {
+  std::vector<std::string> out;
+  std::set<std::string> seen;  // a fleet entry's variant carries its profile's
+  for (const auto& p : fleet.profiles)
+    for (const std::string& w : p->warnings)
+      if (seen.insert(w).second) out.push_back(w);
+  return out;
+}
+
 std::string check_fleet(config::FleetConfig& fleet, std::vector<std::string>* warnings) {
   for (config::NodeConfig n : fleet.nodes) {
     n.record_file.clear();  // --check must not truncate recordings
     make_node_application(n, fleet.seed);
   }
+  if (warnings) *warnings = load_warnings(fleet);
   if (warnings)
     for (const BitRateMismatch& m : bit_rate_mismatches(fleet, effective_bit_rate)) warnings->push_back(describe(m));
   return fleet.file + ": ok, " + std::to_string(fleet.nodes.size()) + " node(s) on " +
@@ -420,76 +432,18 @@ void Daemon::remove_node(NodeEntry& e) {
 
 void Daemon::apply(config::FleetConfig cfg, TimeUs now) {
   const std::uint64_t seed = settings_.seed.value_or(cfg.seed);
-  auto bus_rate = [&](const std::string& iface) {
-    return config::bit_rate_selector(resolve_bit_rate(*cfg.interface(iface)));
-  };
   // Phase 1 (may throw): decide what changes and build the new applications,
   // so an invalid reload leaves the running fleet untouched.
-  std::vector<Pending> to_add;
   std::set<std::string> wanted;
-  for (const auto& n : cfg.nodes) {
-    wanted.insert(n.key);
-    auto it = nodes_.find(n.key);
-    if (it != nodes_.end() && it->second.cfg.fingerprint == n.fingerprint && it->second.seed == seed &&
-        it->second.cfg.interface == n.interface && it->second.bus_rate == bus_rate(n.interface))
-      continue;
-    to_add.push_back({&n, make_node_application(n, seed)});
-  }
+  std::vector<Pending> to_add = plan(cfg, seed, wanted);
   // Phase 2: interfaces, removals, additions.
   for (auto& i : interfaces_) i->configured = false;
   for (const auto& ic : cfg.interfaces) ensure_interface(ic);
-  std::size_t removed = 0, changed = 0;
-  for (auto it = nodes_.begin(); it != nodes_.end();) {
-    bool replaced = std::any_of(to_add.begin(), to_add.end(), [&](const Pending& p) { return p.cfg->key == it->first; });
-    if (!wanted.count(it->first) || replaced) {
-      const auto subject = LogSubject::node(it->first);
-      spdlog::info("{}: node 0x{:02X} {}", it->first, it->second.cfg.node_id, replaced ? "changed, restarting" : "removed");
-      (replaced ? changed : removed) += 1;
-      if (control_) control_->node_removed(it->first);
-      remove_node(it->second);
-      it = nodes_.erase(it);
-    } else {
-      ++it;
-    }
-  }
+  const auto [removed, changed] = remove_stale(wanted, to_add);
   std::vector<io::NodeRef> fresh;
   std::vector<BitRateMismatch> mismatched;  // (re)started nodes at another rate than their bus: one warning per entry
-  for (auto& p : to_add) {
-    const config::NodeConfig& n = *p.cfg;
-    Interface* iface = nullptr;
-    for (auto& i : interfaces_)
-      if (i->can.name() == n.interface) iface = i.get();
-    const NodeSetup setup = node_setup(n);
-    auto storage = std::make_unique<FileStorage>(settings_.state_dir, n.key);
-    NodeEntry e;
-    e.cfg = n;
-    e.seed = seed;
-    e.bus_rate = config::bit_rate_selector(iface->bit_rate_kbit);
-    e.ref = core_.add_node(iface->bus, setup, std::move(p.app), std::move(storage));
-    if (setup.bit_rate_index != e.bus_rate) add_mismatch(mismatched, n, iface->bit_rate_kbit);
-    e.handle.key = n.key;
-    e.handle.name = n.name;
-    e.handle.index = n.index;
-    e.handle.profile = n.profile->name;
-    e.handle.personality = n.profile->personality;
-    e.handle.interface = n.interface;
-    e.handle.ref = e.ref;
-    e.handle.app = core_.app(e.ref);
-    fresh.push_back(e.ref);
-    NodeEntry& stored = nodes_[n.key] = std::move(e);
-    {
-      const auto subject = LogSubject::node(n.key);
-      spdlog::debug("{}: node 0x{:02X} ({}, {})", n.key, n.node_id, n.profile->name, n.profile->personality);
-    }
-    if (control_) control_->node_added(stored.handle);
-  }
-  for (auto& i : interfaces_)
-    if (!i->configured && i->can.is_open()) {
-      const auto subject = LogSubject::interface(i->can.name());
-      spdlog::info("{}: no longer configured, closed", i->can.name());
-      i->can.close();
-      i->in_epoll = false;
-    }
+  for (Pending& p : to_add) fresh.push_back(add_node(p, seed, mismatched));
+  close_unconfigured_interfaces();
   // Open new interfaces now, so the boot-up frames reach the bus. Building
   // the nodes took time: they power on now, not when the reload began (their
   // heartbeat would come early by as much).
@@ -504,6 +458,88 @@ void Daemon::apply(config::FleetConfig cfg, TimeUs now) {
     spdlog::warn("{}", describe(m));
   }
   check_bus_load();
+}
+
+// The nodes of `cfg` that are new or changed, with their applications built;
+// `wanted` receives every key of `cfg`.
+std::vector<Daemon::Pending> Daemon::plan(const config::FleetConfig& cfg, std::uint64_t seed,
+                                          std::set<std::string>& wanted) {
+  auto bus_rate = [&](const std::string& iface) {
+    return config::bit_rate_selector(resolve_bit_rate(*cfg.interface(iface)));
+  };
+  std::vector<Pending> to_add;
+  for (const auto& n : cfg.nodes) {
+    wanted.insert(n.key);
+    auto it = nodes_.find(n.key);
+    if (it != nodes_.end() && it->second.cfg.fingerprint == n.fingerprint && it->second.seed == seed &&
+        it->second.cfg.interface == n.interface && it->second.bus_rate == bus_rate(n.interface))
+      continue;
+    to_add.push_back({&n, make_node_application(n, seed, settings_.state_dir)});
+  }
+  return to_add;
+}
+
+// Removes the running nodes that are no longer wanted or are about to be
+// replaced; returns how many of each.
+std::pair<std::size_t, std::size_t> Daemon::remove_stale(const std::set<std::string>& wanted,
+                                                         const std::vector<Pending>& to_add) {
+  std::size_t removed = 0, changed = 0;
+  for (auto it = nodes_.begin(); it != nodes_.end();) {
+    bool replaced = std::any_of(to_add.begin(), to_add.end(), [&](const Pending& p) { return p.cfg->key == it->first; });
+    if (!wanted.count(it->first) || replaced) {
+      const auto subject = LogSubject::node(it->first);
+      spdlog::info("{}: node 0x{:02X} {}", it->first, it->second.cfg.node_id, replaced ? "changed, restarting" : "removed");
+      (replaced ? changed : removed) += 1;
+      if (control_) control_->node_removed(it->first);
+      remove_node(it->second);
+      it = nodes_.erase(it);
+    } else {
+      ++it;
+    }
+  }
+  return {removed, changed};
+}
+
+// Adds a planned node to the loop and the control API (not yet powered).
+io::NodeRef Daemon::add_node(Pending& p, std::uint64_t seed, std::vector<BitRateMismatch>& mismatched) {
+  const config::NodeConfig& n = *p.cfg;
+  Interface* iface = nullptr;
+  for (auto& i : interfaces_)
+    if (i->can.name() == n.interface) iface = i.get();
+  const NodeSetup setup = node_setup(n);
+  auto storage = std::make_unique<FileStorage>(settings_.state_dir, n.key);
+  NodeEntry e;
+  e.cfg = n;
+  e.seed = seed;
+  e.bus_rate = config::bit_rate_selector(iface->bit_rate_kbit);
+  e.ref = core_.add_node(iface->bus, setup, std::move(p.app), std::move(storage));
+  if (setup.bit_rate_index != e.bus_rate) add_mismatch(mismatched, n, iface->bit_rate_kbit);
+  e.handle.key = n.key;
+  e.handle.name = n.name;
+  e.handle.index = n.index;
+  e.handle.profile = n.profile->name;
+  e.handle.personality = n.profile->personality;
+  e.handle.interface = n.interface;
+  e.handle.ref = e.ref;
+  e.handle.app = core_.app(e.ref);
+  e.handle.emcy_codes = &e.cfg.profile->emcy_codes;
+  NodeEntry& stored = nodes_[n.key] = std::move(e);
+  {
+    const auto subject = LogSubject::node(n.key);
+    spdlog::debug("{}: node 0x{:02X} ({}, {})", n.key, n.node_id, n.profile->name, n.profile->personality);
+  }
+  if (control_) control_->node_added(stored.handle);
+  return stored.ref;
+}
+
+void Daemon::close_unconfigured_interfaces() {
+  for (auto& i : interfaces_)
+    if (!i->configured && i->can.is_open()) {
+      const auto subject = LogSubject::interface(i->can.name());
+      spdlog::info("{}: no longer configured, closed", i->can.name());
+      i->can.close();
+      i->in_epoll = false;
+    }
 }
 
 config::FleetConfig Daemon::combined() const {
@@ -566,9 +602,12 @@ const control::NodeHandle* Daemon::find(const std::string& key) const {
 std::vector<std::string> Daemon::add_nodes(const std::string& yaml) {
   const std::string label = "<AddNodes #" + std::to_string(++fragments_) + ">";
   config::FleetConfig running = combined();
-  config::ProfileSearch search = profile_search("");
+  config::ProfileSearch search = profile_search(settings_.config_file);
   search.strict = settings_.strict;
+  search.strict_eds = settings_.strict_eds;
+  search.confined_to = profile_folders();
   config::FleetConfig extra = config::parse_fleet_fragment(yaml, label, search, running);
+  for (const std::string& w : load_warnings(extra)) spdlog::warn("{}", w);
   config::merge_fleet(running, extra);  // throws on a collision
   added_.push_back(extra);
   try {
@@ -588,7 +627,23 @@ void Daemon::remove_node(const std::string& key) {
   for (config::FleetConfig& extra : added_)
     runtime |= std::erase_if(extra.nodes, [&](const config::NodeConfig& n) { return n.key == key; }) > 0;
   if (!runtime) removed_.insert(key);
+  std::erase_if(added_, [](const config::FleetConfig& f) { return f.nodes.empty(); });  // and their profiles
   apply(combined(), clock_now());
+}
+
+// Where AddNodes may take profiles from: the profile search folders, the
+// fleet file's folder and every folder the running fleet took one from.
+std::vector<std::string> Daemon::profile_folders() const {
+  std::vector<std::string> dirs = profile_search(settings_.config_file).dirs;
+  const auto folder = [](const std::string& file) {
+    const std::string dir = std::filesystem::path(file).parent_path().string();
+    return dir.empty() ? std::string(".") : dir;
+  };
+  if (!settings_.config_file.empty()) dirs.push_back(folder(settings_.config_file));
+  for (const auto& p : file_config_.profiles) dirs.push_back(folder(p->file));
+  std::sort(dirs.begin(), dirs.end());
+  dirs.erase(std::unique(dirs.begin(), dirs.end()), dirs.end());
+  return dirs;
 }
 
 std::vector<control::BusStatistics> Daemon::buses() const {
@@ -627,10 +682,21 @@ std::vector<control::BusStatistics> Daemon::bus_statistics() const {
   return out;
 }
 
+bool Daemon::interface_up(const std::string& name) const {
+  for (const auto& i : interfaces_)
+    if (i->configured && i->can.name() == name) return i->can.is_open();
+  return false;
+}
+
+void Daemon::log_action(const control::ActionRecord& r) {
+  LogSubject subject = LogSubject::action(r.interface, r.node, r.uid ? std::optional<unsigned>(*r.uid) : std::nullopt);
+  spdlog::info("{}", r.text);
+}
+
 void Daemon::start_control() {
   control_ = std::make_unique<control::ControlService>(*this);
   core_.set_observer(control_.get());
-  endpoints_ = std::make_unique<control::ControlEndpoints>(loop_, *control_);
+  endpoints_ = std::make_unique<control::ControlEndpoints>(loop_, *control_, settings_.max_clients);
   if (settings_.control_socket != "none") {
     const std::string path =
         settings_.control_socket.empty() ? control::default_control_socket() : settings_.control_socket;

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "config/fleet.hpp"
+#include "config/limits.hpp"
 #include "control/control_host.hpp"
 #include "control/endpoints.hpp"
 #include "control/service.hpp"
@@ -29,8 +30,10 @@ namespace cansim::daemon {
 config::ProfileSearch profile_search(const std::string& config_file);
 
 // The node's Application: the personality's, wrapped so the configured serial
-// number (0x1018:04) survives every reset. May return nullptr.
-std::unique_ptr<Application> make_node_application(const config::NodeConfig& node, std::uint64_t seed);
+// number (0x1018:04) survives every reset. May return nullptr. Its recordings
+// never go into `state_dir` (when given).
+std::unique_ptr<Application> make_node_application(const config::NodeConfig& node, std::uint64_t seed,
+                                                   const std::string& state_dir = {});
 
 // Nodes of one fleet entry (same interface and name) whose own bit rate is not
 // their bus's: they neither hear nor speak until it matches.
@@ -53,10 +56,14 @@ std::string describe(const BitRateMismatch& m);
 // The interface's effective rate: configured, else the kernel's (real CAN), else 250.
 std::uint32_t effective_bit_rate(const config::InterfaceConfig& ic);
 
+// What the loaders repaired in the fleet's profiles (EDS / DCF), each once.
+std::vector<std::string> load_warnings(const config::FleetConfig& fleet);
+
 // --check: loads, prepares and builds every node without touching the bus.
 // Returns a one-line summary; throws config::ConfigError. `warnings` (when
-// given) receives what is valid but probably not meant: nodes at another bit
-// rate than their bus (describe()).
+// given) receives what the loaders repaired (load_warnings()) and what is
+// valid but probably not meant: nodes at another bit rate than their bus
+// (describe()).
 std::string check_fleet(config::FleetConfig& fleet, std::vector<std::string>* warnings = nullptr);
 
 // How the core builds the node of a fleet entry: its profile's layout and
@@ -70,7 +77,9 @@ struct DaemonSettings {
   std::string config_file;                       // the fleet file or the single profile
   control::BusChoice bus = control::BusChoice::kAuto;
   std::string control_socket;                    // empty: the default path; "none": no socket
+  std::size_t max_clients = limits::kDefaultMaxClients;  // private-socket clients served at once
   bool strict = false;                           // --strict: nodes added at run time too
+  bool strict_eds = false;                       // --strict-eds: nodes added at run time too
 };
 
 class Daemon : public control::ControlHost {
@@ -91,6 +100,8 @@ class Daemon : public control::ControlHost {
   void reload() override;
   std::vector<control::BusStatistics> bus_statistics() const override;
   std::vector<control::BusStatistics> buses() const override;
+  bool interface_up(const std::string& name) const override;
+  void log_action(const control::ActionRecord& r) override;
   std::string config_file() const override { return settings_.config_file; }
 
  private:
@@ -108,7 +119,13 @@ class Daemon : public control::ControlHost {
   // The running fleet: the file's nodes plus those added at run time, less
   // those removed at run time.
   config::FleetConfig combined() const;
+  std::vector<std::string> profile_folders() const;
   void apply(config::FleetConfig cfg, TimeUs now);
+  std::vector<Pending> plan(const config::FleetConfig& cfg, std::uint64_t seed, std::set<std::string>& wanted);
+  std::pair<std::size_t, std::size_t> remove_stale(const std::set<std::string>& wanted,
+                                                   const std::vector<Pending>& to_add);
+  io::NodeRef add_node(Pending& p, std::uint64_t seed, std::vector<BitRateMismatch>& mismatched);
+  void close_unconfigured_interfaces();
   void reload(TimeUs now);
   void start_control();
   Interface& ensure_interface(const config::InterfaceConfig& ic);

@@ -2,12 +2,14 @@
 
 #include <fcntl.h>
 #include <spdlog/spdlog.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
 
+#include "config/limits.hpp"
 #include "core/can_frame.hpp"
 #include "daemon/logging.hpp"
 
@@ -18,6 +20,19 @@ namespace {
 constexpr std::uint8_t kMagic[4] = {'C', 'S', 'N', 'S'};
 constexpr std::uint32_t kVersion = 1;
 constexpr std::size_t kHeader = 16;
+
+std::vector<std::uint8_t> read_all(int fd, std::size_t size) {
+  std::vector<std::uint8_t> out(size);
+  std::size_t got = 0;
+  while (got < size) {
+    const ssize_t n = ::read(fd, out.data() + got, size - got);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) break;
+    got += std::size_t(n);
+  }
+  out.resize(got);
+  return out;
+}
 
 bool write_all(int fd, const std::uint8_t* p, std::size_t n) {
   while (n > 0) {
@@ -61,32 +76,49 @@ std::string FileStorage::file_name(const std::string& key) {
 FileStorage::FileStorage(std::string dir, const std::string& key)
     : key_(key), dir_(std::move(dir)), path_(dir_ + "/" + file_name(key)) {}
 
+// Read as the loop may: without blocking (O_NONBLOCK, a regular file only:
+// a FIFO would wait for a writer, a device never end), at most
+// limits::kParameterFileBytes, and a symbolic link only into the state folder.
 bool FileStorage::read_file() {
   cached_ = true;
   cache_.clear();
-  int fd = ::open(path_.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) return errno == ENOENT;
+  error_.clear();
+  ::unlink((path_ + ".tmp").c_str());  // a save a kill interrupted: the file itself is whole
+  struct stat st{};
+  if (::lstat(path_.c_str(), &st) != 0) return reject(errno == ENOENT ? "" : std::strerror(errno));
+  if (S_ISLNK(st.st_mode) && !link_stays_inside()) return reject("a symbolic link out of the state folder");
+  const int fd = ::open(path_.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
+  if (fd < 0) return reject(std::strerror(errno));
   std::vector<std::uint8_t> raw;
-  std::uint8_t buf[4096];
-  for (;;) {
-    ssize_t n = ::read(fd, buf, sizeof buf);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) break;
-    raw.insert(raw.end(), buf, buf + n);
-  }
+  const char* why = nullptr;
+  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) why = "not a regular file";
+  else if (std::size_t(st.st_size) > limits::kParameterFileBytes) why = "larger than any cansimd parameter file";
+  else raw = read_all(fd, std::size_t(st.st_size));
   ::close(fd);
+  if (why) return reject(why);
   if (raw.size() < kHeader || std::memcmp(raw.data(), kMagic, 4) != 0 || get_u32(raw.data() + 4) != kVersion ||
-      get_u32(raw.data() + 8) != raw.size() - kHeader) {
-    error_ = path_ + ": not a cansimd parameter file (ignored)";
-    return false;
-  }
+      get_u32(raw.data() + 8) != raw.size() - kHeader)
+    return reject("not a cansimd parameter file");
   std::span<const std::uint8_t> blob(raw.data() + kHeader, raw.size() - kHeader);
-  if (crc32(blob) != get_u32(raw.data() + 12)) {
-    error_ = path_ + ": CRC mismatch (ignored)";
-    return false;
-  }
+  if (crc32(blob) != get_u32(raw.data() + 12)) return reject("CRC mismatch");
   cache_.assign(blob.begin(), blob.end());
   return true;
+}
+
+// Records why the file is not used ("" when there is none: not an error).
+bool FileStorage::reject(const std::string& why) {
+  if (!why.empty()) error_ = path_ + ": " + why + " (ignored: the node starts with its defaults)";
+  return why.empty();
+}
+
+bool FileStorage::link_stays_inside() const {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path target = fs::canonical(path_, ec);
+  const fs::path dir = fs::canonical(dir_, ec);
+  if (target.empty() || dir.empty()) return false;
+  const fs::path rel = target.lexically_relative(dir);
+  return !rel.empty() && *rel.begin() != "..";
 }
 
 bool FileStorage::load(std::vector<std::uint8_t>& blob) {
@@ -96,6 +128,13 @@ bool FileStorage::load(std::vector<std::uint8_t>& blob) {
   }
   blob = cache_;
   return !cache_.empty();
+}
+
+void FileStorage::rejected(const char* why) {
+  if (rejected_) return;  // load() runs at every reset: once per stored blob
+  rejected_ = true;
+  const auto subject = LogSubject::node(key_);
+  spdlog::warn("{}: {} (ignored: the node starts with its defaults)", path_, why);
 }
 
 bool FileStorage::save(std::span<const std::uint8_t> blob) {
@@ -132,6 +171,7 @@ bool FileStorage::save(std::span<const std::uint8_t> blob) {
   }
   cache_.assign(blob.begin(), blob.end());
   cached_ = true;
+  rejected_ = false;
   spdlog::info("{}: parameters stored in {}", key_, path_);
   return true;
 }

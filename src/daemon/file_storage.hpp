@@ -2,8 +2,11 @@
 // under the state directory, named after the node's stable key (interface +
 // config name + index: LSS may change the node-ID). Writes are atomic (temp
 // file, fsync, rename, fsync of the directory): a kill at any moment leaves
-// either the old or the new file. The blob is cached in memory because the
-// core calls load() at every reset.
+// either the old or the new file (the `.tmp` such a kill leaves is removed at
+// the next start). The blob is cached in memory because the core calls load()
+// at every reset. Reading never blocks the loop: a regular file only (a
+// symbolic link only into the state folder), at most limits::kParameterFileBytes;
+// anything else is ignored with a warning naming the file and why.
 //
 // File layout: "CSNS" u32 version=1, u32 length, u32 CRC-32 of the blob, blob.
 #pragma once
@@ -23,6 +26,7 @@ class FileStorage : public NodeStorage {
 
   bool load(std::vector<std::uint8_t>& blob) override;
   bool save(std::span<const std::uint8_t> blob) override;
+  void rejected(const char* why) override;  // a warning, once per stored blob
 
   const std::string& path() const { return path_; }
   const std::string& error() const { return error_; }
@@ -31,6 +35,8 @@ class FileStorage : public NodeStorage {
 
  private:
   bool read_file();
+  bool reject(const std::string& why);
+  bool link_stays_inside() const;
 
   std::string key_;
   std::string dir_;
@@ -38,6 +44,7 @@ class FileStorage : public NodeStorage {
   std::string error_;
   std::vector<std::uint8_t> cache_;
   bool cached_ = false;
+  bool rejected_ = false;  // the node dropped the cached blob (warned)
 };
 
 std::uint32_t crc32(std::span<const std::uint8_t> data);

@@ -45,7 +45,8 @@ class JournalSink : public spdlog::sinks::base_sink<spdlog::details::null_mutex>
 
 }  // namespace
 
-LogSubject::LogSubject(std::string_view iface, std::string_view node) : iface_(iface), node_(node), outer_(g_subject) {
+LogSubject::LogSubject(std::string_view iface, std::string_view node, std::string_view uid)
+    : iface_(iface), node_(node), uid_(uid), outer_(g_subject) {
   g_subject = this;
 }
 
@@ -53,6 +54,7 @@ LogSubject::~LogSubject() { g_subject = outer_; }
 
 std::string_view LogSubject::current_interface() { return g_subject ? std::string_view(g_subject->iface_) : ""; }
 std::string_view LogSubject::current_node() { return g_subject ? std::string_view(g_subject->node_) : ""; }
+std::string_view LogSubject::current_caller_uid() { return g_subject ? std::string_view(g_subject->uid_) : ""; }
 
 std::vector<std::string> journal_fields(spdlog::level::level_enum level, std::string_view message) {
   std::vector<std::string> f;
@@ -61,6 +63,8 @@ std::vector<std::string> journal_fields(spdlog::level::level_enum level, std::st
   f.push_back("SYSLOG_IDENTIFIER=cansimd");
   if (!LogSubject::current_interface().empty()) f.push_back("CANSIM_IFACE=" + std::string(LogSubject::current_interface()));
   if (!LogSubject::current_node().empty()) f.push_back("CANSIM_NODE=" + std::string(LogSubject::current_node()));
+  if (!LogSubject::current_caller_uid().empty())
+    f.push_back("CANSIM_CALLER_UID=" + std::string(LogSubject::current_caller_uid()));
   return f;
 }
 

@@ -4,7 +4,8 @@
 //
 // Journal entries about one interface or one node carry structured fields:
 // CANSIM_IFACE=vcan0, and for a node also CANSIM_NODE=vcan0/dps/0 (its fleet
-// key), so `journalctl -u cansimd CANSIM_NODE=vcan0/dps/0` selects one node.
+// key), so `journalctl -u cansimd CANSIM_NODE=vcan0/dps/0` selects one node;
+// a control action's line also CANSIM_CALLER_UID=.
 // A LogSubject names them for the lines logged while it lives (the daemon is
 // one thread); an inner one replaces the outer until it ends.
 #pragma once
@@ -12,6 +13,7 @@
 #include <spdlog/common.h>
 #include <sys/types.h>
 
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -26,6 +28,11 @@ class LogSubject {
   static LogSubject interface(std::string_view name) { return LogSubject(name, {}); }
   // key: the node's fleet key "<interface>/<name>/<index>".
   static LogSubject node(std::string_view key) { return LogSubject(key.substr(0, key.find('/')), key); }
+  // A control action: its node (or interface, or neither) and the caller's uid
+  // (CANSIM_CALLER_UID=).
+  static LogSubject action(std::string_view iface, std::string_view node, std::optional<unsigned> uid) {
+    return LogSubject(iface, node, uid ? std::to_string(*uid) : "");
+  }
   ~LogSubject();
   LogSubject(const LogSubject&) = delete;
   LogSubject& operator=(const LogSubject&) = delete;
@@ -33,10 +40,11 @@ class LogSubject {
   // The subject in force ("" when none).
   static std::string_view current_interface();
   static std::string_view current_node();
+  static std::string_view current_caller_uid();
 
  private:
-  LogSubject(std::string_view iface, std::string_view node);
-  std::string iface_, node_;
+  LogSubject(std::string_view iface, std::string_view node, std::string_view uid = {});
+  std::string iface_, node_, uid_;
   const LogSubject* outer_;
 };
 

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -11,6 +12,7 @@
 #include "config/fleet.hpp"
 #include "daemon/cli.hpp"
 #include "daemon/daemon.hpp"
+#include "daemon/dbc_export.hpp"
 #include "daemon/logging.hpp"
 #include "config/strict_mode.hpp"
 #include "personalities/registry.hpp"
@@ -27,40 +29,54 @@ config::FleetConfig load(const daemon::CliOptions& o) {
   const bool single = o.config.empty();
   config::ProfileSearch search = daemon::profile_search(single ? "" : o.config);
   search.strict = o.strict;
+  search.strict_eds = o.strict_eds;
   config::FleetConfig fleet = single ? config::single_node_fleet(o.profile, o.interface, o.node_id, search)
                                      : config::load_fleet(o.config, search);
   config::apply_record_option(fleet, o.record, single);
   return fleet;
 }
 
-// cansimd --export-eds: the profile's EDS, or with --node-id the DCF of that
-// node at power-on. Exit 0, or 1 with the error on stderr.
-int export_eds(const daemon::CliOptions& o) {
+// An export (--export-eds, --export-dbc) to --output FILE or stdout. Exit 0,
+// or 1 with the error on stderr.
+int exported(const std::string& path, const std::function<std::string()>& text) {
   try {
-    const std::string path = config::find_profile(o.export_eds, ".", daemon::profile_search(""));
-    if (path.empty()) throw config::ConfigError(o.export_eds + ": profile not found (expected a file or a profile name)");
-    const config::Profile profile = config::load_any_profile(path, o.strict);
-    std::string text;
-    if (o.node_id) {
-      text = config::write_default_dcf(profile, std::uint8_t(*o.node_id));
-    } else {
-      config::EdsIdentity id = config::identity_of(profile);
-      id.created = config::eds_time_now();
-      text = config::write_eds(*profile.layout, *profile.options, id);
-    }
-    if (o.output.empty()) {
-      std::fputs(text.c_str(), stdout);
+    const std::string t = text();
+    if (path.empty()) {
+      std::fputs(t.c_str(), stdout);
       return 0;
     }
-    std::ofstream out(o.output, std::ios::binary);
-    out << text;
+    std::ofstream out(path, std::ios::binary);
+    out << t;
     out.close();
-    if (!out) throw config::ConfigError(o.output + ": cannot write the file");
+    if (!out) throw config::ConfigError(path + ": cannot write the file");
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "cansimd: %s\n", e.what());
     return 1;
   }
+}
+
+// cansimd --export-eds: the profile's EDS, or with --node-id the DCF of that
+// node at power-on.
+std::string eds_text(const daemon::CliOptions& o) {
+  const std::string path = config::find_profile(o.export_eds, ".", daemon::profile_search(""));
+  if (path.empty()) throw config::ConfigError(o.export_eds + ": profile not found (expected a file or a profile name)");
+  const config::Profile profile = config::load_any_profile(path, o.strict, o.strict_eds);
+  if (o.node_id) return config::write_default_dcf(profile, std::uint8_t(*o.node_id));
+  config::EdsIdentity id = config::identity_of(profile);
+  id.created = config::eds_time_now();
+  return config::write_eds(*profile.layout, *profile.options, id);
+}
+
+// cansimd --export-dbc: the DBC of one bus of a fleet file, or of one node of a profile.
+std::string dbc_text(const daemon::CliOptions& o) {
+  config::ProfileSearch search = daemon::profile_search(o.export_dbc);
+  search.strict = o.strict;
+  search.strict_eds = o.strict_eds;
+  const bool fleet_file = config::is_fleet_file(o.export_dbc);
+  config::FleetConfig fleet = fleet_file ? config::load_fleet(o.export_dbc, search)
+                                         : config::single_node_fleet(o.export_dbc, o.interface, o.node_id, search);
+  return daemon::export_dbc(fleet, fleet_file && o.interface_given ? o.interface : "");
 }
 
 // `cansimd --profile P --quirks`: the deviations faithful mode has, as a
@@ -97,7 +113,8 @@ int main(int argc, char** argv) {
     std::printf("cansimd %s\n", CANSIM_VERSION);
     return 0;
   }
-  if (!o.export_eds.empty()) return export_eds(o);
+  if (!o.export_eds.empty()) return exported(o.output, [&] { return eds_text(o); });
+  if (!o.export_dbc.empty()) return exported(o.output, [&] { return dbc_text(o); });
   daemon::setup_logging(o.log_level);
   try {
     if (o.quirks) return print_quirks(o);
@@ -115,14 +132,20 @@ int main(int argc, char** argv) {
     daemon::DaemonSettings settings;
     settings.state_dir = o.state_dir;
     settings.seed = o.seed;
-    settings.load = [o] { return load(o); };
+    settings.load = [o] {
+      config::FleetConfig fleet = load(o);
+      for (const std::string& w : daemon::load_warnings(fleet)) spdlog::warn("{}", w);
+      return fleet;
+    };
     settings.config_file = o.config.empty() ? o.profile : o.config;
     settings.strict = o.strict;
+    settings.strict_eds = o.strict_eds;
     settings.bus = o.bus == "system" ? control::BusChoice::kSystem
                    : o.bus == "user" ? control::BusChoice::kUser
                    : o.bus == "none" ? control::BusChoice::kNone
                                      : control::BusChoice::kAuto;
     settings.control_socket = o.control_socket;
+    settings.max_clients = o.max_clients;
     spdlog::info("cansimd {} starting, stored parameters in {}", CANSIM_VERSION, o.state_dir);
     daemon::Daemon d(std::move(settings));
     return d.run();

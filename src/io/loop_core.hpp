@@ -49,6 +49,7 @@ class LoopObserver {
   virtual void on_emcy(NodeRef, std::uint16_t /*code*/, std::uint8_t /*reg*/, const std::uint8_t /*vendor*/[5], TimeUs) {}
   virtual void on_remote_write(NodeRef, const OdEntry&, WriteVia, TimeUs) {}
   virtual void on_power(NodeRef, bool /*powered*/, TimeUs) {}
+  virtual void on_pdo_config(NodeRef, TimeUs) {}
 };
 
 enum class BusModel : std::uint8_t {
@@ -171,6 +172,7 @@ class LoopCore {
       core->observer_->on_remote_write(ref, e, via, t);
     }
     void on_power(Node&, bool powered, TimeUs t) override { core->observer_->on_power(ref, powered, t); }
+    void on_pdo_config(Node&, TimeUs t) override { core->observer_->on_pdo_config(ref, t); }
   };
   struct Bus {
     std::string name;

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <string>
 #include <utility>
@@ -50,6 +51,10 @@ struct Profile {
   IdentitySettings identity;
   DeviceSettings device;
   PhysicsConfig physics;
+  // `emcy:` what the manual says each EMCY error code this device sends means
+  // (cansimctl monitor, the DBC's value table); codes not listed mean what
+  // CiA 301 / 404 say.
+  std::map<std::uint16_t, std::string> emcy_codes;
 
   // Strict mode (config/strict_mode.hpp): the profile as written, the
   // entries strict mode replaces or adds, the manual reference per deviation.
@@ -60,6 +65,10 @@ struct Profile {
   std::vector<std::pair<std::string, std::string>> quirks;  // name -> manual reference
   bool quirks_checked = false;     // has a `quirks:` map (checked against the deviations)
   std::vector<Quirk> setting_quirks;  // chain / device settings strict mode changes
+
+  // What the loader repaired in the file, "file:line: ..." (EDS / DCF:
+  // config/eds_reader.hpp); `cansimd --check` and the start log show them.
+  std::vector<std::string> warnings;
 };
 
 }  // namespace cansim::model

@@ -5,7 +5,6 @@
 #include <cstring>
 #include <limits>
 #include <string>
-#include <typeinfo>
 
 #include "physics/quantize.hpp"
 #include "physics/random.hpp"
@@ -35,17 +34,29 @@ double decode_view(const OdEntry& e, const std::uint8_t* p, int digits) {
 
 }  // namespace
 
-// ---------------------------------------------------------------- application
+// ---------------------------------------------------------------- values
 
-Cia404Application::Cia404Application(std::shared_ptr<const Cia404Profile> profile,
-                                     std::unique_ptr<MeasurementSource> source, IdentitySettings identity,
-                                     std::uint32_t node_index)
-    : profile_(std::move(profile)),
-      source_(std::move(source)),
-      sensor_(dynamic_cast<SensorSource*>(source_.get())),
-      identity_(identity),
-      node_index_(node_index),
-      comm_faults_(source_->fault_set(), 0x9E3779B97F4A7C15ull * (node_index + 1)) {
+float LinearInput::scale(double fv) const {
+  const float x = float(fv) - offset;
+  return std::clamp(gain * x + pv1, cmin, cmax);
+}
+
+SourceSlot::SourceSlot(std::unique_ptr<MeasurementSource> source)
+    : source_(std::move(source)), sensor_(dynamic_cast<SensorSource*>(source_.get())) {}
+
+SourceSlot::SourceSlot(const SourceSlot& other)
+    : source_(other.source_ ? other.source_->snapshot() : nullptr),
+      sensor_(dynamic_cast<SensorSource*>(source_.get())) {}
+
+SourceSlot& SourceSlot::operator=(const SourceSlot& other) {
+  if (this != &other && source_ && other.source_) source_->restore(*other.source_);
+  return *this;
+}
+
+// ---------------------------------------------------------------- chain
+
+Cia404Chain::Cia404Chain(std::shared_ptr<const Cia404Profile> profile, std::unique_ptr<MeasurementSource> source)
+    : profile_(std::move(profile)), source_(std::move(source)) {
   state_.resize(profile_->channels.size());
   for (std::size_t ch = 0; ch < state_.size(); ++ch) {
     state_[ch].captured.assign(kRoleCount + profile_->channels[ch].extras.size(), 0.0);
@@ -53,18 +64,26 @@ Cia404Application::Cia404Application(std::shared_ptr<const Cia404Profile> profil
   }
 }
 
-int Cia404Application::digits(const Node& node, std::size_t ch) const {
+int Cia404Chain::digits(const Node& node, std::size_t ch) const {
   const OdEntry* d = profile_->channels[ch].param(Role::kDigits).views[0];
   return d ? int(std::min<std::uint64_t>(node.values().get_u(*d), 18)) : 0;
 }
 
-double Cia404Application::param_value(const Node& node, const Param& p, int dd) const {
+Cia404Chain::EntryScale Cia404Chain::entry_scale(const Node& node, const OdEntry& e) const {
+  const Cia404Profile::Binding& b = profile_->binding(e);
+  const bool in_unit = b.role == Role::kPv || model::is_valued(b.role);
+  if (!in_unit || b.channel >= state_.size()) return {};
+  const double scale = is_real(e.type) ? 1.0 : std::pow(10.0, -digits(node, b.channel));
+  return {scale, unit(b.channel).name};
+}
+
+double Cia404Chain::param_value(const Node& node, const Param& p, int dd) const {
   if (!p.present()) return 0.0;
   const OdEntry& e = *p.views[0];
   return is_real(e.type) ? node.values().get_f(e) : physics::from_decimal(node.values().get_i(e), dd);
 }
 
-void Cia404Application::store_param(Node& node, const Param& p, double value, int dd) {
+void Cia404Chain::store_param(Node& node, const Param& p, double value, int dd) {
   // Integer twins are rendered from the REAL32 value the node reports
   // (float32(1.92) x 100 -> 192, round half away from zero, saturated).
   const bool has_real = p.present() && is_real(p.views[0]->type);
@@ -81,16 +100,16 @@ void Cia404Application::store_param(Node& node, const Param& p, double value, in
   }
 }
 
-double Cia404Application::get(const Node& node, std::size_t ch, Role role) const {
+double Cia404Chain::get(const Node& node, std::size_t ch, Role role) const {
   return param_value(node, profile_->channels[ch].param(role), digits(node, ch));
 }
 
-void Cia404Application::set(Node& node, std::size_t ch, Role role, double value) {
+void Cia404Chain::set(Node& node, std::size_t ch, Role role, double value) {
   invalidate();
   store_param(node, profile_->channels[ch].param(role), value, digits(node, ch));
 }
 
-UnitChoice Cia404Application::resolve(const Node& node, const UnitChoice& u) const {
+UnitChoice Cia404Chain::resolve(const Node& node, const UnitChoice& u) const {
   UnitChoice r = u;
   if (u.scale_object) {
     r.scale.si_per_unit *= node.values().get_f(*u.scale_object);
@@ -99,13 +118,13 @@ UnitChoice Cia404Application::resolve(const Node& node, const UnitChoice& u) con
   return r;
 }
 
-const UnitChoice* Cia404Application::find_unit(const ChannelConfig& c, std::uint32_t code) const {
+const UnitChoice* Cia404Chain::find_unit(const ChannelConfig& c, std::uint32_t code) const {
   for (const UnitChoice& u : c.units)
     if (u.code == code) return &u;
   return nullptr;
 }
 
-const Cia404Application::ChannelParams& Cia404Application::params(const Node& node, std::size_t ch) {
+const Cia404Chain::ChannelParams& Cia404Chain::params(const Node& node, std::size_t ch) {
   ChannelParams& p = state_[ch].params;
   if (p.epoch == config_epoch_) return p;
   const ChannelConfig& c = profile_->channels[ch];
@@ -121,7 +140,7 @@ const Cia404Application::ChannelParams& Cia404Application::params(const Node& no
   return p;
 }
 
-Cia404Application::Measurement Cia404Application::measure(Node& node, std::size_t ch, TimeUs now) {
+Cia404Chain::Measurement Cia404Chain::measure(Node& node, std::size_t ch, TimeUs now) {
   ChannelState& st = state_[ch];
   if (st.measured_at != now || st.measured_epoch != config_epoch_) {
     st.measured = evaluate(node, ch, now);
@@ -142,7 +161,7 @@ Cia404Application::Measurement Cia404Application::measure(Node& node, std::size_
   return m;
 }
 
-Cia404Application::Measurement Cia404Application::evaluate(const Node& node, std::size_t ch, TimeUs now) {
+Cia404Chain::Measurement Cia404Chain::evaluate(const Node& node, std::size_t ch, TimeUs now) {
   const ChannelConfig& c = profile_->channels[ch];
   const ChannelState& st = state_[ch];
   const MeasurementSource::Sample s = source_->sample(c.source, now);
@@ -155,7 +174,7 @@ Cia404Application::Measurement Cia404Application::evaluate(const Node& node, std
     m.input = m.pv - p.offset;
     m.status = status_bits(ch, p, m, 0);
   } else {
-    m.input = input_value(c, s, st.unit.scale) + st.unit.scale.delta_from_si(st.zero_si);
+    m.input = input_value(ch, s) + st.unit.scale.delta_from_si(st.zero_si);
     m.pv = m.input + p.offset;
     m.status = status_bits(ch, p, m, s.status);
   }
@@ -164,7 +183,7 @@ Cia404Application::Measurement Cia404Application::evaluate(const Node& node, std
 
 // 0x6150: bit 0 from the sensor; overload against the span objects when
 // the profile has them, else the sensor's own range check.
-std::uint8_t Cia404Application::status_bits(std::size_t ch, const ChannelParams& p, const Measurement& m,
+std::uint8_t Cia404Chain::status_bits(std::size_t ch, const ChannelParams& p, const Measurement& m,
                                             std::uint8_t sensor_status) const {
   const ChannelConfig& c = profile_->channels[ch];
   std::uint8_t status = sensor_status & physics::kStatusInvalid;
@@ -180,7 +199,7 @@ std::uint8_t Cia404Application::status_bits(std::size_t ch, const ChannelParams&
   return status;
 }
 
-void Cia404Application::apply_filter(Node& node, std::size_t ch) {
+void Cia404Chain::apply_filter(Node& node, std::size_t ch) {
   const ChannelConfig& c = profile_->channels[ch];
   const OdEntry* type = c.param(Role::kFilterType).views[0];
   const std::uint64_t fallback = profile_->settings.filter_type_without_object;
@@ -197,9 +216,8 @@ void Cia404Application::apply_filter(Node& node, std::size_t ch) {
   source_->set_filter(c.source, f);
 }
 
-void Cia404Application::on_reset(Node& node, ResetKind kind, TimeUs now) {
+void Cia404Chain::on_reset(Node& node, ResetKind kind, TimeUs now) {
   ++config_epoch_;
-  if (identity_.serial_per_node) node.values().set_u(0x1018, 4, identity_.serial_base + node_index_);
   if (kind != ResetKind::kCommunication) source_->reboot(now);
   for (std::size_t ch = 0; ch < state_.size(); ++ch) {
     const ChannelConfig& c = profile_->channels[ch];
@@ -219,27 +237,26 @@ void Cia404Application::on_reset(Node& node, ResetKind kind, TimeUs now) {
   event_channels_ = change_channels_ = 0;
   rescan_ = true;
   next_check_ = now;
-  next_supervision_ = now;
 }
 
-void Cia404Application::on_nmt_state(Node& node, NmtState, TimeUs now) {
+void Cia404Chain::on_nmt_state(Node& node, TimeUs now) {
   rescan_ = true;  // PDOs may have become allowed
   node.wake_app(now);
 }
 
-void Cia404Application::on_pdo_config(Node& node, TimeUs now) {
+void Cia404Chain::on_pdo_config(Node& node, TimeUs now) {
   rescan_ = true;  // the event TPDO set may have changed
   node.wake_app(now);
 }
 
-void Cia404Application::refresh(Node& node, const OdEntry& e, TimeUs now) {
+void Cia404Chain::refresh(Node& node, const OdEntry& e, TimeUs now) {
   const Cia404Profile::Binding& b = profile_->binding(e);
   if (b.role == Role::kPv || b.role == Role::kFieldValue || b.role == Role::kStatus) measure(node, b.channel, now);
 }
 
 // ---- writes
 
-void Cia404Application::capture(const Node& node, std::size_t ch) {
+void Cia404Chain::capture(const Node& node, std::size_t ch) {
   const ChannelConfig& c = profile_->channels[ch];
   ChannelState& st = state_[ch];
   const int dd = digits(node, ch);
@@ -249,7 +266,7 @@ void Cia404Application::capture(const Node& node, std::size_t ch) {
 
 // Stores the captured values again with the current digits, converted
 // between units for the unit-dependent ones when from/to are given.
-void Cia404Application::rerender(Node& node, std::size_t ch, const UnitScale* from, const UnitScale* to) {
+void Cia404Chain::rerender(Node& node, std::size_t ch, const UnitScale* from, const UnitScale* to) {
   const ChannelConfig& c = profile_->channels[ch];
   const ChannelState& st = state_[ch];
   const int dd = digits(node, ch);
@@ -285,7 +302,7 @@ double decode_data(const OdEntry& e, std::span<const std::uint8_t> data, int dd)
 }
 }  // namespace
 
-SdoAbort Cia404Application::check_write(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs) {
+SdoAbort Cia404Chain::check_write(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs) {
   ++config_epoch_;
   const Cia404Profile::Binding& b = profile_->binding(e);
   if (b.role == Role::kNone) return SdoAbort::kNone;
@@ -324,14 +341,14 @@ SdoAbort Cia404Application::check_write(Node& node, const OdEntry& e, std::span<
   }
 }
 
-void Cia404Application::after_param_write(Node& node, std::size_t ch, const Param& p, const OdEntry& written) {
+void Cia404Chain::after_param_write(Node& node, std::size_t ch, const Param& p, const OdEntry& written) {
   // The written view is the truth; its twins follow.
   const int dd = digits(node, ch);
   const double v = decode_view(written, node.values().bytes(written).data(), dd);
   store_param(node, p, v, dd);
 }
 
-void Cia404Application::autozero(Node& node, std::size_t ch, TimeUs now) {
+void Cia404Chain::autozero(Node& node, std::size_t ch, TimeUs now) {
   // CiA 404 0x6125: the offset is set so that the PV reads 0 now.
   // Autozero target "correction" (or no offset object): a hidden correction,
   // kept in SI so it survives unit changes.
@@ -348,7 +365,7 @@ void Cia404Application::autozero(Node& node, std::size_t ch, TimeUs now) {
   measure(node, ch, now);
 }
 
-void Cia404Application::after_write(Node& node, const OdEntry& e, TimeUs now) {
+void Cia404Chain::after_write(Node& node, const OdEntry& e, TimeUs now) {
   ++config_epoch_;
   const Cia404Profile::Binding& b = profile_->binding(e);
   if (b.role == Role::kNone) return;
@@ -377,6 +394,7 @@ void Cia404Application::after_write(Node& node, const OdEntry& e, TimeUs now) {
       if (model::is_valued(b.role)) after_param_write(node, ch, c.param(b.role), e);
       break;
   }
+  if ((b.role == Role::kUnit || b.role == Role::kDigits) && node.observer()) node.observer()->on_pdo_config(node, now);
   if (b.role >= Role::kDelta && b.role <= Role::kHysteresis) {
     st.have_ref = false;
     st.upper_armed = st.lower_armed = true;
@@ -388,7 +406,7 @@ void Cia404Application::after_write(Node& node, const OdEntry& e, TimeUs now) {
 
 // The channels whose PV a valid TPDO of one of `types` maps (CiA 404: the
 // analogue-input interrupts act on mapped channels).
-std::uint32_t Cia404Application::scan_event_channels(const Node& node, const ByteSet& types) const {
+std::uint32_t Cia404Chain::scan_event_channels(const Node& node, const ByteSet& types) const {
   std::uint32_t mask = 0;
   const PdoEngine& pdo = node.pdo();
   for (const Tpdo& t : pdo.tpdos()) {
@@ -402,14 +420,14 @@ std::uint32_t Cia404Application::scan_event_channels(const Node& node, const Byt
   return mask;
 }
 
-TimeUs Cia404Application::check_period(std::size_t ch) const {
+TimeUs Cia404Chain::check_period(std::size_t ch) const {
   const TimeUs p = profile_->settings.event_check_period_us;
   return p > 0 ? p : source_->sample_period_us(profile_->channels[ch].source);
 }
 
 // Change of state: the mapped PV or field value differs from the one of the
 // last change event (the first check after arming always fires).
-bool Cia404Application::changed(Node& node, std::size_t ch) {
+bool Cia404Chain::changed(Node& node, std::size_t ch) {
   const ChannelConfig& c = profile_->channels[ch];
   ChannelState& st = state_[ch];
   std::uint8_t bytes[8] = {};  // PV in bytes 0-3, field value in bytes 4-7
@@ -427,101 +445,88 @@ bool Cia404Application::changed(Node& node, std::size_t ch) {
   return true;
 }
 
-bool Cia404Application::check_events(Node& node, std::size_t ch, TimeUs now) {
+// Limits: one event per crossing; re-armed once back inside by the hysteresis.
+unsigned Cia404Chain::check_limits(std::size_t ch, const ChannelParams& p, double pv, double hyst) {
+  const ChannelConfig& c = profile_->channels[ch];
+  ChannelState& st = state_[ch];
+  const bool level = profile_->settings.limit_level;
+  unsigned events = 0;
+  if (c.param(Role::kUpperLimit).present()) {
+    if (pv > p.upper && (st.upper_armed || level)) {
+      events |= kEventUpperUp;
+      st.upper_armed = false;
+    } else if (pv <= p.upper - hyst) {
+      if (!st.upper_armed) events |= kEventUpperDown;
+      st.upper_armed = true;
+    }
+  }
+  if (c.param(Role::kLowerLimit).present()) {
+    if (pv < p.lower && (st.lower_armed || level)) {
+      events |= kEventLowerDown;
+      st.lower_armed = false;
+    } else if (pv >= p.lower + hyst) {
+      if (!st.lower_armed) events |= kEventLowerUp;
+      st.lower_armed = true;
+    }
+  }
+  return events;
+}
+
+bool Cia404Chain::check_events(Node& node, std::size_t ch, TimeUs now, EventRoute route) {
   const ChannelConfig& c = profile_->channels[ch];
   ChannelState& st = state_[ch];
   const double pv = measure(node, ch, now).pv;
   const ChannelParams& p = params(node, ch);
   unsigned events = (change_channels_ >> ch) & 1 && changed(node, ch) ? kEventChange : 0u;
   // Delta: |PV - PV at the last event| > delta (delta 0 = off).
-  const double delta = p.delta;
-  if (c.param(Role::kDelta).present() && delta > 0) {
+  if (c.param(Role::kDelta).present() && p.delta > 0) {
     if (!st.have_ref) {
       st.delta_ref = pv;
       st.have_ref = true;
-    } else if (std::fabs(pv - st.delta_ref) > delta) {
+    } else if (std::fabs(pv - st.delta_ref) > p.delta) {
       events |= kEventDelta;
     }
   }
-  // Limits: one event per crossing; re-armed once back inside by the hysteresis.
-  const double hyst = limit_hysteresis(node, ch);
-  const bool level = profile_->settings.limit_level;
-  if (c.param(Role::kUpperLimit).present()) {
-    const double upper = p.upper;
-    if (pv > upper && (st.upper_armed || level)) {
-      events |= kEventUpperUp;
-      st.upper_armed = false;
-    } else if (pv <= upper - hyst) {
-      if (!st.upper_armed) events |= kEventUpperDown;
-      st.upper_armed = true;
-    }
-  }
-  if (c.param(Role::kLowerLimit).present()) {
-    const double lower = p.lower;
-    if (pv < lower && (st.lower_armed || level)) {
-      events |= kEventLowerDown;
-      st.lower_armed = false;
-    } else if (pv >= lower + hyst) {
-      if (!st.lower_armed) events |= kEventLowerUp;
-      st.lower_armed = true;
-    }
-  }
+  events |= check_limits(ch, p, pv, limit_hysteresis(node, ch));
   if (events & kEventsRaising) {
     st.delta_ref = pv;  // the TPDO carries this value
     st.have_ref = true;
   }
-  if (events) on_channel_events(node, ch, events, now);
+  if (events) {
+    if (route) route(ch, events);
+    else raise_events(node, ch, events);
+  }
   return (events & kEventsRaising) != 0;
 }
 
-void Cia404Application::on_channel_events(Node& node, std::size_t ch, unsigned events, TimeUs) {
+// Hysteresis of the limit interrupts: CiA 404 0x6136, or what the device set.
+double Cia404Chain::limit_hysteresis(const Node& node, std::size_t ch) const {
+  const std::optional<double>& h = state_[ch].hysteresis;
+  return h ? *h : get(node, ch, Role::kHysteresis);
+}
+
+// Source value -> value in the current unit before the offset.
+double Cia404Chain::input_value(std::size_t ch, const MeasurementSource::Sample& s) const {
+  const ChannelState& st = state_[ch];
+  return st.input ? st.input->scale(st.input->field_value(s.si)) : st.unit.scale.from_si(s.si);
+}
+
+void Cia404Chain::set_linear_input(std::size_t ch, const std::optional<LinearInput>& input) {
+  if (state_[ch].input == input) return;
+  state_[ch].input = input;
+  invalidate();  // the PV of this instant changes too
+}
+
+void Cia404Chain::raise_events(Node& node, std::size_t ch, unsigned events) {
   if (!(events & kEventsRaising)) return;
   for (Role r : {Role::kPv, Role::kFieldValue, Role::kStatus}) {
     const Param& p = profile_->channels[ch].param(r);
-    for (int i = 0; i < p.count; ++i) raise_pdo_event(node, *p.views[i]);
+    for (int i = 0; i < p.count; ++i) node.pdo().raise_event_for(*p.views[i]);
   }
-}
-
-std::unique_ptr<Application> Cia404Application::snapshot() const {
-  if (typeid(*this) != typeid(Cia404Application)) return nullptr;
-  std::unique_ptr<MeasurementSource> source = source_->snapshot();
-  if (!source) return nullptr;
-  auto copy = std::make_unique<Cia404Application>(profile_, std::move(source), identity_, node_index_);
-  copy->restore(*this);
-  return copy;
-}
-
-// Every member but the configuration (profile, identity, node index) and
-// the pointers into the source.
-void Cia404Application::restore(const Application& snapshot) {
-  const auto& from = dynamic_cast<const Cia404Application&>(snapshot);
-  source_->restore(*from.source_);
-  override_si_[0] = from.override_si_[0];
-  override_si_[1] = from.override_si_[1];
-  state_ = from.state_;
-  config_epoch_ = from.config_epoch_;
-  comm_faults_.restore(from.comm_faults_);
-  event_channels_ = from.event_channels_;
-  change_channels_ = from.change_channels_;
-  rescan_ = from.rescan_;
-  next_check_ = from.next_check_;
-  next_supervision_ = from.next_supervision_;
-}
-
-TimeUs Cia404Application::process(Node& node, TimeUs now) {
-  TimeUs next = check_events_due(node, now);
-  if (const TimeUs period = supervision_period(); period > 0) {
-    if (now >= next_supervision_) {
-      supervise(node, now);
-      next_supervision_ = now + period;
-    }
-    next = std::min(next, next_supervision_);
-  }
-  return next;
 }
 
 // Delta / limit / change events of the channels mapped into event TPDOs.
-TimeUs Cia404Application::check_events_due(Node& node, TimeUs now) {
+TimeUs Cia404Chain::process(Node& node, TimeUs now, EventRoute route) {
   if (!node.allowed(Service::kPdo)) {
     event_channels_ = change_channels_ = 0;
     rescan_ = true;  // once PDOs are allowed again
@@ -531,7 +536,7 @@ TimeUs Cia404Application::check_events_due(Node& node, TimeUs now) {
   TimeUs period = kNever;
   for (std::size_t ch = 0; ch < state_.size() && ch < 32; ++ch) {
     if (!((event_channels_ >> ch) & 1)) continue;
-    check_events(node, ch, now);
+    check_events(node, ch, now, route);
     period = std::min(period, check_period(ch));
   }
   if (period == kNever) return kNever;
@@ -543,7 +548,7 @@ TimeUs Cia404Application::check_events_due(Node& node, TimeUs now) {
 }
 
 // A channel that joins the event set starts with fresh references.
-void Cia404Application::rescan_event_channels(const Node& node) {
+void Cia404Chain::rescan_event_channels(const Node& node) {
   const Cia404Settings& s = profile_->settings;
   const std::uint32_t change = scan_event_channels(node, s.change_event_tpdo_types);
   const std::uint32_t all = state_.size() >= 32 ? ~0u : (1u << state_.size()) - 1u;

@@ -5,17 +5,18 @@
 // seen through up to four OD views: REAL32 (0x61xx) and the INTEGER16
 // (0x71xx) / INTEGER24 (0x81xx) / INTEGER32 (0x91xx) twins, whose integers are value x 10^digits
 // (0x6132). Which objects exist, their types, the accepted units and which
-// objects follow a unit change are profile data; a device personality
-// derives from Cia404Application and overrides only what its manual says
-// differs (see the virtual hooks).
+// objects follow a unit change are profile data; a device personality holds
+// a Cia404Chain (a plain value) and changes what its manual says differs as
+// data (a linear input stage, a limit hysteresis, its event routing).
 //
 //   source (physics::Sensor, SI) -> unit 0x6131 -> + offset 0x6124 -> PV 0x6130 / 0x7130 / 0x9130
 //   raw ADC counts -> FV 0x6100 / 0x7100 / 0x9100;  span 0x6148/0x6149 -> status 0x6150
 //   delta 0x6133, limits 0x6134/0x6135 with hysteresis 0x6136 -> TPDO events (type 254/255)
 //
-// Files: cia404.cpp the chain and its events, cia404_faults.cpp the fault
-// glue, cia404_control.cpp the control API hooks, sensor_source.* the
-// physics adapter; the chain's profile data is model/cia404_profile.hpp.
+// Files: cia404.cpp the chain and its events, cia404_control.cpp its control
+// API side, sensor_source.* the physics adapter; the chain's profile data is
+// model/cia404_profile.hpp. device_part.* has what a sensor device adds
+// (faults, supervision), sensor_application.hpp how a personality holds both.
 #pragma once
 
 #include <cstdint>
@@ -25,15 +26,13 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <type_traits>
 #include <vector>
 
-#include "core/application.hpp"
 #include "core/node.hpp"
 #include "core/node_options.hpp"
 #include "model/cia404_profile.hpp"
-#include "model/device_settings.hpp"
 #include "model/units.hpp"
-#include "personalities/comm_faults.hpp"
 #include "personalities/sensor_source.hpp"
 
 namespace cansim::personalities {
@@ -43,7 +42,6 @@ using model::ChannelConfig;
 using model::Cia404Profile;
 using model::Cia404Settings;
 using model::DigitsOnUnitChange;
-using model::IdentitySettings;
 using model::kRoleCount;
 using model::Param;
 using model::QuantityKind;
@@ -51,7 +49,7 @@ using model::Role;
 using model::UnitChoice;
 using model::UnitScale;
 
-// What one event check of a channel found (Cia404Application::on_channel_events).
+// What one event check of a channel found (the events an EventRoute gets).
 enum : unsigned {
   kEventChange = 0x01,     // the mapped value changed (change_event_tpdo_types)
   kEventDelta = 0x02,      // |PV - reference| > delta
@@ -62,26 +60,80 @@ enum : unsigned {
   kEventsRaising = kEventChange | kEventDelta | kEventUpperUp | kEventLowerDown,
 };
 
-// The per-node Application of a CiA 404 sensor. Device personalities derive
-// from it; every override should call the base for the CiA 404 part.
-class Cia404Application : public Application {
+// A non-owning reference to a callable `void(std::size_t channel, unsigned
+// events)`: how a personality routes the events of one check (the chain's
+// default raises the CiA 404 TPDO events).
+class EventRoute {
  public:
-  Cia404Application(std::shared_ptr<const Cia404Profile> profile, std::unique_ptr<MeasurementSource> source,
-                    IdentitySettings identity = {}, std::uint32_t node_index = 0);
+  EventRoute() = default;
+  template <class F>
+    requires(!std::is_same_v<std::remove_cv_t<F>, EventRoute>)
+  EventRoute(F& f)  // NOLINT: implicit, like std::function_ref
+      : obj_(&f), call_([](void* o, std::size_t ch, unsigned events) { (*static_cast<F*>(o))(ch, events); }) {}
+  explicit operator bool() const { return call_ != nullptr; }
+  void operator()(std::size_t ch, unsigned events) const { call_(obj_, ch, events); }
 
-  void on_reset(Node& node, ResetKind kind, TimeUs now) override;
-  void on_nmt_state(Node& node, NmtState state, TimeUs now) override;
-  void on_pdo_config(Node& node, TimeUs now) override;
-  void refresh(Node& node, const OdEntry& e, TimeUs now) override;
-  SdoAbort check_write(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now) override;
-  void after_write(Node& node, const OdEntry& e, TimeUs now) override;
-  TimeUs process(Node& node, TimeUs now) override;
-  TimeUs environment(Node& node, TimeUs now) override;
-  // The chain state, the measurement source (physics, fault schedule) and
-  // the communication faults. Null for a device personality deriving from
-  // this class (its own state would be missing) or a source without snapshots.
-  std::unique_ptr<Application> snapshot() const override;
-  void restore(const Application& snapshot) override;
+ private:
+  void* obj_ = nullptr;
+  void (*call_)(void*, std::size_t, unsigned) = nullptr;
+};
+
+// CiA 404 v1.2 linear input scaling (field value -> PV through PV1 / PV2,
+// 0x6120-0x6127) with an input offset and an output clamp, in float as the
+// devices compute it (the SMC's §5 chain). The field value spans
+// 0..field_span over the sensor's SI range si_min..si_max.
+struct LinearInput {
+  double si_min = 0, si_max = 1, field_span = 1;
+  float gain = 1.0f, pv1 = 0.0f;   // 0x6126 / 0x6127
+  float offset = 0.0f;             // input offset (field value counts)
+  float cmin = 0.0f, cmax = 0.0f;  // output clamp
+  double field_value(double si) const { return (si - si_min) / (si_max - si_min) * field_span; }
+  float scale(double fv) const;    // PV of a field value: offset, scaling, clamping
+  bool operator==(const LinearInput&) const = default;
+};
+
+// The measurement source of a chain as a value: a copy clones the source
+// (MeasurementSource::snapshot), an assignment restores the copy's state
+// into this one (no allocation), so a chain is copied and assigned as a
+// plain value. A source without snapshots makes an empty copy (copyable() false).
+class SourceSlot {
+ public:
+  explicit SourceSlot(std::unique_ptr<MeasurementSource> source);
+  SourceSlot(const SourceSlot& other);
+  SourceSlot& operator=(const SourceSlot& other);
+  MeasurementSource& operator*() const { return *source_; }
+  MeasurementSource* operator->() const { return source_.get(); }
+  bool copyable() const { return source_ != nullptr; }
+  SensorSource* sensor() const { return sensor_; }  // the node's physics, else null
+
+ private:
+  std::unique_ptr<MeasurementSource> source_;
+  SensorSource* sensor_;
+};
+
+// The CiA 404 measurement chain of one node: channel states, parameters as
+// the OD holds them, events, overrides and the measurement source. A value
+// type (copies are snapshots) with methods taking the node; a personality
+// holds one and calls it from its Application hooks (sensor_application.hpp).
+class Cia404Chain {
+ public:
+  Cia404Chain(std::shared_ptr<const Cia404Profile> profile, std::unique_ptr<MeasurementSource> source);
+  bool copyable() const { return source_.copyable(); }
+
+  // ---- what the Application hooks of a CiA 404 sensor do
+  void on_reset(Node& node, ResetKind kind, TimeUs now);
+  void on_nmt_state(Node& node, TimeUs now);
+  void on_pdo_config(Node& node, TimeUs now);
+  void refresh(Node& node, const OdEntry& e, TimeUs now);
+  SdoAbort check_write(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
+  void after_write(Node& node, const OdEntry& e, TimeUs now);
+  // Delta / limit / change checks of the channels mapped into event TPDOs,
+  // on the device's check grid; each check's kEvent* bits go to `route`
+  // (default: raise_events). Returns when the next check is due.
+  TimeUs process(Node& node, TimeUs now, EventRoute route = {});
+  // CiA 404's routing: a TPDO event for the mapped PV, field value and
+  // status on kEventsRaising (CiA 301 §7.2.2.2).
+  void raise_events(Node& node, std::size_t ch, unsigned events);
 
   // ---- the chain, for personalities and tests
   struct Measurement {
@@ -97,35 +149,49 @@ class Cia404Application : public Application {
   double get(const Node& node, std::size_t ch, Role role) const;
   void set(Node& node, std::size_t ch, Role role, double value);
   const UnitScale& unit(std::size_t ch) const { return state_[ch].unit.scale; }
+  // What a raw value of entry `e` means: a valued object of a channel (PV,
+  // offset, span, limits) is in the channel's current unit, its integer views
+  // x 10^digits (0x6132); anything else has no unit (scale 1, unit "").
+  struct EntryScale {
+    double scale = 1.0;        // engineering value = raw value x scale
+    std::string_view unit;     // as the control API names it ("bar", "degC"); "" for none
+  };
+  EntryScale entry_scale(const Node& node, const OdEntry& e) const;
   const Cia404Profile& profile() const { return *profile_; }
   MeasurementSource& source() { return *source_; }
+  const MeasurementSource& source() const { return *source_; }
+  physics::FaultSet* fault_set() { return source_->fault_set(); }
+  const physics::FaultSet* fault_set() const { return source_->fault_set(); }
+  int digits(const Node& node, std::size_t ch) const;
+  double param_value(const Node& node, const Param& p, int digits) const;
+  void store_param(Node& node, const Param& p, double value, int digits);
 
-  // ---- fault injection at run time (the profile's faults are armed at boot)
-  // Returns physics::kInvalidFaultHandle when the source has no fault schedule.
-  physics::FaultHandle arm_fault(Node& node, const physics::FaultSpec& spec, TimeUs now);
-  bool cancel_fault(Node& node, physics::FaultHandle h, TimeUs now);
-  // Is a fault of this kind in force (false when the source has no schedule)?
-  bool fault_active(physics::FaultKind kind, TimeUs now) {
-    const physics::FaultSet* set = source_->fault_set();
-    return set && set->active(kind, now);
+  // ---- what a device changes in the chain (as data: a copy keeps it)
+  // Channel `ch` measures through `input` instead of the unit conversion
+  // (nullopt: back to it); a changed input invalidates the measurement.
+  void set_linear_input(std::size_t ch, const std::optional<LinearInput>& input);
+  // The limit hysteresis of channel `ch` (nullopt: CiA 404 0x6136).
+  void set_limit_hysteresis(std::size_t ch, std::optional<double> hysteresis) { state_[ch].hysteresis = hysteresis; }
+  // Something a measurement depends on changed outside the OD hooks (a
+  // vendor input chain, a hidden correction, the fault schedule): the next
+  // measure() evaluates.
+  void invalidate() { ++config_epoch_; }
+  // A personality rewrote live objects (PV, field value, status) in place:
+  // the next measure() renders them again even within the same instant.
+  void live_objects_rewritten() {
+    for (ChannelState& s : state_) s.rendered = false;
   }
-  // The faults still armed at `now` (ids = handles), profile faults included.
-  std::vector<physics::FaultInfo> faults(TimeUs now) const;
-  // Told of every start / end edge of every armed fault (measurement and
-  // communication, profile and run time) when the node reaches it: at the
-  // edge time, or at power-on for edges in a power-off time. The listener
-  // must not arm or cancel faults.
-  void set_fault_listener(FaultListener listener) { comm_faults_.set_listener(std::move(listener)); }
 
-  // ---- runtime control: the hooks of the control API (docs/control-api.md).
-  // A physics channel is served by the first chain channel with that source.
-  // Each change acts at `now` and wakes the node, so PV reads, event TPDOs
-  // and change events follow as for a sensor change.
+  // ---- runtime control: the chain's side of the control API
+  // (docs/control-api.md, measurement_control.hpp). A physics channel is
+  // served by the first chain channel with that source. Each change acts at
+  // `now` and wakes the node, so PV reads, event TPDOs and change events
+  // follow as for a sensor change.
   std::optional<std::size_t> chain_channel(physics::Channel ch) const;
   bool has_channel(physics::Channel ch) const { return chain_channel(ch).has_value(); }
   // The source has a process model (false: a test's fake source; then the
   // process methods below return false and change nothing).
-  bool has_process() const { return sensor_ != nullptr; }
+  bool has_process() const { return source_.sensor() != nullptr; }
   // The channel's process model from `now` on (the terms' time 0 is `now`).
   // Throws std::invalid_argument, changing nothing, on invalid terms.
   bool set_process(Node& node, physics::Channel ch, const std::vector<physics::TermSpec>& terms, TimeUs now);
@@ -162,40 +228,6 @@ class Cia404Application : public Application {
   void stop_recording();
   const std::string& recording() const;  // "" when none
 
- protected:
-  // ---- override points for device personalities
-  // Source value -> value in the current unit before the offset.
-  virtual double input_value(const ChannelConfig& c, const MeasurementSource::Sample& s, const UnitScale& unit) {
-    (void)c;
-    return unit.from_si(s.si);
-  }
-  // Hysteresis of the limit interrupts (CiA 404 0x6136; vendors may derive it).
-  virtual double limit_hysteresis(const Node& node, std::size_t ch) const { return get(node, ch, Role::kHysteresis); }
-  // Raises a TPDO event for a mapped entry (CiA 301 §7.2.2.2).
-  virtual void raise_pdo_event(Node& node, const OdEntry& e) { node.pdo().raise_event_for(e); }
-  // Vendor supervision (status monitoring, counters, min/max capture), run
-  // in every NMT state from the reset on, every supervision_period()
-  // (0: the device has none).
-  virtual void supervise(Node&, TimeUs) {}
-  virtual TimeUs supervision_period() const { return 0; }
-  // Delta / limit results of one check of channel `ch` (kEvent* bits). The
-  // default raises a TPDO event for the mapped PV, field value and status on
-  // kEventsRaising; vendors with their own event routing override it.
-  virtual void on_channel_events(Node& node, std::size_t ch, unsigned events, TimeUs now);
-
-  // Something a measurement depends on changed outside the OD hooks (a
-  // vendor input chain, a hidden correction): the next measure() evaluates.
-  void invalidate() { ++config_epoch_; }
-  // A personality rewrote live objects (PV, field value, status) in place:
-  // the next measure() renders them again even within the same instant.
-  void live_objects_rewritten() {
-    for (ChannelState& s : state_) s.rendered = false;
-  }
-
-  double param_value(const Node& node, const Param& p, int digits) const;
-  void store_param(Node& node, const Param& p, double value, int digits);
-  int digits(const Node& node, std::size_t ch) const;
-
  private:
   // The chain's parameters as the OD holds them, read again only after a
   // change of the configuration epoch (every hooked write bumps it).
@@ -222,6 +254,8 @@ class Cia404Application : public Application {
     std::uint32_t measured_epoch = 0;
     Measurement measured;
     bool rendered = false;  // the live objects hold `measured`
+    std::optional<LinearInput> input;       // set_linear_input
+    std::optional<double> hysteresis;       // set_limit_hysteresis
   };
   const UnitChoice* find_unit(const ChannelConfig& c, std::uint32_t code) const;
   UnitChoice resolve(const Node& node, const UnitChoice& u) const;
@@ -233,33 +267,25 @@ class Cia404Application : public Application {
   std::uint32_t scan_event_channels(const Node& node, const ByteSet& types) const;
   void rescan_event_channels(const Node& node);
   bool changed(Node& node, std::size_t ch);
-  bool check_events(Node& node, std::size_t ch, TimeUs now);
+  unsigned check_limits(std::size_t ch, const ChannelParams& p, double pv, double hysteresis);
+  bool check_events(Node& node, std::size_t ch, TimeUs now, EventRoute route);
   TimeUs check_period(std::size_t ch) const;
-  TimeUs check_events_due(Node& node, TimeUs now);
+  double limit_hysteresis(const Node& node, std::size_t ch) const;
+  double input_value(std::size_t ch, const MeasurementSource::Sample& s) const;
   const ChannelParams& params(const Node& node, std::size_t ch);
   Measurement evaluate(const Node& node, std::size_t ch, TimeUs now);
   std::uint8_t status_bits(std::size_t ch, const ChannelParams& p, const Measurement& m, std::uint8_t sensor_status) const;
-  void fault_schedule_changed(Node& node, TimeUs now);
   void control_changed(Node& node, TimeUs now);
 
   std::shared_ptr<const Cia404Profile> profile_;
-  std::unique_ptr<MeasurementSource> source_;
-  SensorSource* sensor_;  // source_ when it is the node's physics, else null
+  SourceSlot source_;
   std::optional<double> override_si_[2];  // per physics::Channel
-  IdentitySettings identity_;
-  std::uint32_t node_index_;
   std::vector<ChannelState> state_;
   std::uint32_t config_epoch_ = 1;  // bumped by every change that can alter a measurement
-  CommFaultDriver comm_faults_;
   std::uint32_t event_channels_ = 0;  // bit per channel mapped into an event TPDO
   std::uint32_t change_channels_ = 0;  // subset mapped into a change-event TPDO
   bool rescan_ = true;  // the event channels follow the TPDO configuration
   TimeUs next_check_ = 0;  // the next point of the event-check grid (anchored at reset)
-  TimeUs next_supervision_ = 0;
 };
-
-// The Cia404Application behind a node's Application (null: none, e.g. a
-// plain CiA 301 node). Pass the personality's own application, not a wrapper.
-inline Cia404Application* as_cia404(Application* app) { return dynamic_cast<Cia404Application*>(app); }
 
 }  // namespace cansim::personalities

@@ -5,6 +5,9 @@
 #include <cstring>
 #include <string>
 
+#include "core/cob_id.hpp"
+#include "personalities/sensor_application.hpp"
+
 
 namespace cansim::personalities::cmp {
 
@@ -54,34 +57,38 @@ std::uint8_t lower_bit(QuantityKind k) { return k == QuantityKind::kPressure ? 0
 std::uint8_t upper_bit(QuantityKind k) { return k == QuantityKind::kPressure ? 0x02 : 0x08; }
 std::uint8_t delta_bit(QuantityKind k) { return k == QuantityKind::kPressure ? 0x10 : 0x20; }
 
-class CmpApplication : public Cia404Application {
+class CmpApplication final : public SensorApplication {
  public:
   CmpApplication(const model::Profile& profile, const Settings& settings, std::unique_ptr<SensorSource> source,
                  std::uint32_t node_index)
-      : Cia404Application(profile.cia404, std::move(source), profile.identity, node_index), settings_(settings) {}
+      : chain_(profile.cia404, std::move(source)), device_(DevicePart::seed_of(node_index)), settings_(settings) {}
+
+  Cia404Chain& chain() override { return chain_; }
+  const Cia404Chain& chain() const override { return chain_; }
+  DevicePart& device() override { return device_; }
+  std::unique_ptr<Application> snapshot() const override { return snapshot_of(*this); }
+  void restore(const Application& snapshot) override { restore_from(*this, snapshot); }
 
   void on_reset(Node& node, ResetKind kind, TimeUs now) override {
-    Cia404Application::on_reset(node, kind, now);
+    SensorApplication::on_reset(node, kind, now);
     if (kind != ResetKind::kCommunication) apply_baud_rate(node);
     for (unsigned n = 1; n <= kPdoCount; ++n) apply_mapping_mode(node, n, false, now);
-    limit_state_.fill(kNoLimitEvent);
-    repeat_due_.fill(kNever);
-    indication_due_ = kNever;
-    auto_resume_ = false;
-    auto_start_ = node.values().u(kAutoStart, 0) == 1;
+    state_ = State{};
+    state_.auto_start = node.values().u(kAutoStart, 0) == 1;
     if (kind != ResetKind::kCommunication) self_test_at_start_up(node, now);
     // Auto-Start: OPERATIONAL after initialisation (NMT section); 0x1F80 bit 3
     // is read by the core. A start-up fault holds the node in (AUTO-)PRE-OPERATIONAL.
     const bool fault = node.emcy().active_count() != 0;
     BootPlan& plan = node.nmt().boot_plan();
-    plan.self_start = !fault && (plan.self_start || auto_start_);
-    auto_resume_ = auto_start_ && fault;
+    plan.self_start = !fault && (plan.self_start || state_.auto_start);
+    state_.auto_resume = state_.auto_start && fault;
   }
 
   void on_nmt_state(Node& node, NmtState state, TimeUs now) override {
-    Cia404Application::on_nmt_state(node, state, now);
+    SensorApplication::on_nmt_state(node, state, now);
     const bool indication = (node.values().u(0x1F80, 0) & 0x02) != 0;
-    indication_due_ = state == NmtState::kOperational && indication ? now + settings_.start_indication_delay : kNever;
+    state_.indication_due =
+        state == NmtState::kOperational && indication ? now + settings_.start_indication_delay : kNever;
     node.wake_app(now);
   }
 
@@ -95,7 +102,7 @@ class CmpApplication : public Cia404Application {
         node.values().set_u(e, newest);
         return;
       }
-      default: Cia404Application::refresh(node, e, now);
+      default: chain_.refresh(node, e, now);
     }
   }
 
@@ -105,51 +112,59 @@ class CmpApplication : public Cia404Application {
       return mode <= kMaxMode && settings_.modes[mode].defined ? SdoAbort::kNone : SdoAbort::kInvalidValue;
     }
     if (e.index == kBaudRate) return bit_rate_index(decode_u(e.type, data.data())) < 0 ? SdoAbort::kInvalidValue : SdoAbort::kNone;
-    return Cia404Application::check_write(node, e, data, now);
+    return chain_.check_write(node, e, data, now);
   }
 
   void after_write(Node& node, const OdEntry& e, TimeUs now) override {
     if (e.index == kMappingMode) return apply_mapping_mode(node, e.sub, true, now);
     if (e.index == kBaudRate) return;  // active after the next reset (like the LSS bit rate)
-    Cia404Application::after_write(node, e, now);
+    chain_.after_write(node, e, now);
   }
 
   TimeUs process(Node& node, TimeUs now) override {
-    TimeUs next = Cia404Application::process(node, now);
+    auto route = [&](std::size_t ch, unsigned events) { route_events(node, ch, events, now); };
+    TimeUs next = chain_.process(node, now, route);
     check_faults(node, now);
-    if (indication_due_ <= now) {
-      indication_due_ = kNever;
-      node.send(CanFrame::make(0x000, {0x01, settings_.start_indication_node_id}));
+    if (state_.indication_due <= now) {
+      state_.indication_due = kNever;
+      node.send(CanFrame::make(cob::kNmt, {kNmtStart, settings_.start_indication_node_id}));
     }
-    next = std::min({next, repeat_beyond_limits(node, now), indication_due_, now + kFaultPoll});
+    next = std::min({next, repeat_beyond_limits(node, now), state_.indication_due, now + kFaultPoll});
     return next;
   }
 
- protected:
+ private:
+  struct State {
+    std::array<std::uint8_t, 2> limit_state{};
+    std::array<TimeUs, kPdoCount> repeat_due{kNever, kNever, kNever, kNever};
+    TimeUs indication_due = kNever;
+    bool auto_start = false;
+    bool auto_resume = false;
+  };
+
   // Delta and threshold events go to the PDOs whose EventMask selects them,
   // for transmission types 0 and 254 only (manual, "Event Mask").
-  void on_channel_events(Node& node, std::size_t ch, unsigned events, TimeUs now) override {
-    const QuantityKind kind = profile().channels[ch].kind;
+  void route_events(Node& node, std::size_t ch, unsigned events, TimeUs now) {
+    const QuantityKind kind = chain_.profile().channels[ch].kind;
     std::uint8_t bits = 0;
     if (events & kEventDelta) bits |= delta_bit(kind);
     if (events & (kEventUpperUp | kEventUpperDown)) bits |= upper_bit(kind);
     if (events & (kEventLowerDown | kEventLowerUp)) bits |= lower_bit(kind);
-    if (events & kEventUpperUp) limit_state_[ch] = kUpperLimitUp;
-    if (events & kEventUpperDown) limit_state_[ch] = kUpperLimitDown;
-    if (events & kEventLowerDown) limit_state_[ch] = kLowerLimitDown;
-    if (events & kEventLowerUp) limit_state_[ch] = kLowerLimitUp;
-    node.values().set_u(kLimitEventType, std::uint8_t(ch + 1), limit_state_[ch]);
+    if (events & kEventUpperUp) state_.limit_state[ch] = kUpperLimitUp;
+    if (events & kEventUpperDown) state_.limit_state[ch] = kUpperLimitDown;
+    if (events & kEventLowerDown) state_.limit_state[ch] = kLowerLimitDown;
+    if (events & kEventLowerUp) state_.limit_state[ch] = kLowerLimitUp;
+    node.values().set_u(kLimitEventType, std::uint8_t(ch + 1), state_.limit_state[ch]);
     if (!bits) return;
     for (unsigned n = 1; n <= kPdoCount; ++n) {
-      const std::uint64_t type = node.values().u(std::uint16_t(0x1800 + n - 1), 2);
-      if ((type == 0 || type == 254) && (node.values().u(kEventMask, std::uint8_t(n)) & bits)) {
+      const Tpdo* t = node.pdo().tpdo(n);
+      if (t && (t->cfg.type == 0 || t->cfg.type == 254) && (node.values().u(kEventMask, std::uint8_t(n)) & bits)) {
         node.pdo().raise_event(n, now);
-        repeat_due_[n - 1] = kNever;  // the timer counts from this transmission
+        state_.repeat_due[n - 1] = kNever;  // the timer counts from this transmission
       }
     }
   }
 
- private:
   // 0x2001 (kbit/s, 0 = automatic): a saved value is the bit rate from the next
   // power-on / reset node on; the object then shows the active rate.
   void apply_baud_rate(Node& node) {
@@ -175,8 +190,8 @@ class CmpApplication : public Cia404Application {
 
   void render_special_message(Node& node, const OdEntry& e, unsigned ch) {
     std::uint8_t bytes[8] = {};
-    if (ch < limit_state_.size() && limit_state_[ch] != kNoLimitEvent) {
-      const auto index = std::uint16_t(kSpecialMessages + 4 * ch + limit_state_[ch] - 1);
+    if (ch < state_.limit_state.size() && state_.limit_state[ch] != kNoLimitEvent) {
+      const auto index = std::uint16_t(kSpecialMessages + 4 * ch + state_.limit_state[ch] - 1);
       if (const OdEntry* msg = node.od().find(index, 0)) {
         const auto v = node.values().bytes(*msg);
         std::memcpy(bytes, v.data(), std::min<std::size_t>(v.size(), sizeof bytes));
@@ -190,15 +205,15 @@ class CmpApplication : public Cia404Application {
   // threshold" (manual, Transmission Type; table footnote *).
   TimeUs repeat_beyond_limits(Node& node, TimeUs now) {
     if (!settings_.timer_repeats_beyond_limits || !node.allowed(Service::kPdo)) {
-      repeat_due_.fill(kNever);
+      state_.repeat_due.fill(kNever);
       return kNever;
     }
     TimeUs next = kNever;
     for (unsigned n = 1; n <= kPdoCount; ++n) {
-      TimeUs& due = repeat_due_[n - 1];
-      const auto comm = std::uint16_t(0x1800 + n - 1);
-      const std::uint64_t timer_ms = node.values().u(comm, 5);
-      if ((node.values().u(comm, 1) & 0x80000000u) || node.values().u(comm, 2) != 254 || !timer_ms ||
+      TimeUs& due = state_.repeat_due[n - 1];
+      const Tpdo* t = node.pdo().tpdo(n);
+      const TimeUs timer_ms = t ? t->cfg.event_ms : 0;
+      if (!t || !node.pdo().valid(t->cfg) || t->cfg.type != 254 || !timer_ms ||
           !beyond_limits(node.values().u(kEventMask, std::uint8_t(n)))) {
         due = kNever;
         continue;
@@ -215,10 +230,10 @@ class CmpApplication : public Cia404Application {
   }
 
   bool beyond_limits(std::uint64_t mask) const {
-    for (std::size_t ch = 0; ch < limit_state_.size() && ch < profile().channels.size(); ++ch) {
-      const QuantityKind kind = profile().channels[ch].kind;
-      if ((mask & upper_bit(kind)) && limit_state_[ch] == kUpperLimitUp) return true;
-      if ((mask & lower_bit(kind)) && limit_state_[ch] == kLowerLimitDown) return true;
+    for (std::size_t ch = 0; ch < state_.limit_state.size() && ch < chain_.profile().channels.size(); ++ch) {
+      const QuantityKind kind = chain_.profile().channels[ch].kind;
+      if ((mask & upper_bit(kind)) && state_.limit_state[ch] == kUpperLimitUp) return true;
+      if ((mask & lower_bit(kind)) && state_.limit_state[ch] == kLowerLimitDown) return true;
     }
     return false;
   }
@@ -226,7 +241,7 @@ class CmpApplication : public Cia404Application {
   // "The contents of the memory (EEProm) are checked at start-up."
   void self_test_at_start_up(Node& node, TimeUs now) {
     std::uint16_t sub = 0;
-    if (node.store().corrupt() || fault_active(physics::FaultKind::EepromError, now)) sub = kSubUserPageChecksums;
+    if (DevicePart::boot_data_error(node, chain_, now)) sub = kSubUserPageChecksums;
     node.values().set_u(kNodeSubError, 0, sub);
     if (sub) raise(node, kEmcyDataSet, sub, now);
   }
@@ -243,25 +258,23 @@ class CmpApplication : public Cia404Application {
   // fault forces PRE-OPERATIONAL; with Auto-Start the node returns to
   // OPERATIONAL by itself once every fault is gone (AUTO-PRE-OPERATIONAL).
   void check_faults(Node& node, TimeUs now) {
-    const bool hot = fault_active(physics::FaultKind::OverTemperature, now);
+    const bool hot = DevicePart::fault_active(chain_, physics::FaultKind::OverTemperature, now);
     if (hot && !node.emcy().active(kEmcyDeviceTemperature)) raise(node, kEmcyDeviceTemperature, 0, now);
     if (!hot && node.emcy().active(kEmcyDeviceTemperature)) node.emcy().clear(kEmcyDeviceTemperature, now);
     const bool fault = node.emcy().active_count() != 0;
     if (fault) {
       if (node.state() == NmtState::kOperational) node.nmt().command(kNmtEnterPreOperational, now);
-      if (auto_start_ && node.state() == NmtState::kPreOperational) auto_resume_ = true;
-    } else if (auto_resume_) {
-      auto_resume_ = false;
+      if (state_.auto_start && node.state() == NmtState::kPreOperational) state_.auto_resume = true;
+    } else if (state_.auto_resume) {
+      state_.auto_resume = false;
       if (node.state() == NmtState::kPreOperational) node.nmt().command(kNmtStart, now);
     }
   }
 
+  Cia404Chain chain_;
+  DevicePart device_;
   Settings settings_;
-  std::array<std::uint8_t, 2> limit_state_{};
-  std::array<TimeUs, kPdoCount> repeat_due_{};
-  TimeUs indication_due_ = kNever;
-  bool auto_start_ = false;
-  bool auto_resume_ = false;
+  State state_;
 };
 
 }  // namespace

@@ -10,6 +10,10 @@
 //
 // It polls the edges of every fault, measurement faults included, so it runs
 // at the next edge of any fault: a listener hears each edge then.
+//
+// A value: it keeps no pointer into the schedule (the owner passes it), so a
+// copy of the device part it belongs to is a snapshot. The listener is
+// wiring, not state: a copy starts without one, an assignment keeps its own.
 #pragma once
 
 #include <functional>
@@ -22,28 +26,39 @@ namespace cansim::personalities {
 // Told of a fault's start / end edge (edge.time_us: when it was due).
 using FaultListener = std::function<void(const physics::FaultEdge&)>;
 
+// A listener slot with wiring semantics (see above).
+class FaultListenerSlot {
+ public:
+  FaultListenerSlot() = default;
+  FaultListenerSlot(const FaultListenerSlot&) {}
+  FaultListenerSlot& operator=(const FaultListenerSlot&) { return *this; }
+  void set(FaultListener listener) { listener_ = std::move(listener); }
+  void operator()(const physics::FaultEdge& edge) const {
+    if (listener_) listener_(edge);
+  }
+
+ private:
+  FaultListener listener_;
+};
+
 class CommFaultDriver {
  public:
   // seed: varies the dropped SDO segments from node to node.
-  CommFaultDriver(physics::FaultSet* faults, std::uint64_t seed) : faults_(faults), seed_(seed) {}
+  explicit CommFaultDriver(std::uint64_t seed) : seed_(seed) {}
 
-  // Applies what is due at `now`; returns the next fault edge. May
-  // power-cycle the node.
-  TimeUs apply(Node& node, TimeUs now);
+  // Applies what of `faults` (null: none) is due at `now`; returns the next
+  // fault edge. May power-cycle the node.
+  TimeUs apply(Node& node, physics::FaultSet* faults, TimeUs now);
   // A fault was armed or cancelled at run time (the set may have moved its entries).
-  void changed() { drop_spec_ = nullptr; }
-  void set_listener(FaultListener listener) { listener_ = std::move(listener); }
-  // Takes the state of a driver of a copy of this schedule (Cia404Application
-  // snapshots; the owner restores the schedule); the listener stays.
-  void restore(const CommFaultDriver& snapshot);
+  void changed() { drop_ = physics::kInvalidFaultHandle; }
+  void set_listener(FaultListener listener) { listener_.set(std::move(listener)); }
 
  private:
-  void apply_levels(Node& node, TimeUs now);
+  void apply_levels(Node& node, physics::FaultSet& faults, TimeUs now);
 
-  physics::FaultSet* faults_;
   std::uint64_t seed_;
-  const physics::FaultSpec* drop_spec_ = nullptr;
-  FaultListener listener_;
+  physics::FaultHandle drop_ = physics::kInvalidFaultHandle;  // the SDO block drop in force
+  FaultListenerSlot listener_;
 };
 
 }  // namespace cansim::personalities

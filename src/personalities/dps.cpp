@@ -2,7 +2,6 @@
 
 #include <algorithm>
 
-
 namespace cansim::personalities::dps {
 
 namespace {
@@ -13,70 +12,62 @@ constexpr std::uint16_t kEmcySensorFailure = 0x2201;
 constexpr std::uint16_t kEmcySpanOverflow = 0x3201;
 constexpr std::uint16_t kEmcyEeprom = 0x5000;
 constexpr std::uint8_t kManufacturerBit = 0x80;
+constexpr std::uint64_t kCounterMax = 0xFFFFFFFF;  // UNSIGNED32 counters 0x2004 / 0x2005
 
 }  // namespace
 
 DpsApplication::DpsApplication(std::shared_ptr<const Cia404Profile> profile, std::unique_ptr<MeasurementSource> source,
-                               const Settings& settings, IdentitySettings identity, std::uint32_t node_index)
-    : Cia404Application(std::move(profile), std::move(source), identity, node_index), settings_(settings) {}
+                               const Settings& settings, std::uint32_t node_index)
+    : chain_(std::move(profile), std::move(source)), device_(DevicePart::seed_of(node_index)), settings_(settings) {}
 
 void DpsApplication::on_reset(Node& node, ResetKind kind, TimeUs now) {
-  Cia404Application::on_reset(node, kind, now);
-  serial_ = node.od().find(0x1018, 4);
-  serial_copy_ = node.od().find(0x200E, 0);
-  overflows_ = node.od().find(0x2004, 0);
-  underflows_ = node.od().find(0x2005, 0);
-  if (serial_ && serial_copy_) node.values().set_u(*serial_copy_, node.values().get_u(*serial_));
-  span_ = Span::kInside;
-  sensor_failed_ = false;
-  const bool eeprom_bad = node.store().corrupt() || fault_active(physics::FaultKind::EepromError, now);
-  if (kind != ResetKind::kCommunication && eeprom_bad) node.emcy().raise(kEmcyEeprom, kManufacturerBit, now);
+  SensorApplication::on_reset(node, kind, now);
+  OdValues& v = node.values();
+  const OdEntry* serial = node.od().find(0x1018, 4);
+  if (const OdEntry* copy = node.od().find(0x200E, 0); serial && copy) v.set_u(*copy, v.get_u(*serial));
+  state_ = State{};
+  state_.overflows = node.od().find(0x2004, 0);
+  state_.underflows = node.od().find(0x2005, 0);
+  if (kind != ResetKind::kCommunication && DevicePart::boot_data_error(node, chain_, now))
+    node.emcy().raise(kEmcyEeprom, kManufacturerBit, now);
   node.wake_app(now);
 }
 
 // Manual §10.5: autozero changes "all the objects associated with process
 // value" (Table 18), so span start / end move with the offset.
 void DpsApplication::after_write(Node& node, const OdEntry& e, TimeUs now) {
-  const Cia404Profile::Binding& b = profile().binding(e);
+  const Cia404Profile::Binding& b = chain_.profile().binding(e);
   if (b.role != Role::kAutozero || !settings_.autozero_shifts_span) {
-    Cia404Application::after_write(node, e, now);
+    chain_.after_write(node, e, now);
     return;
   }
-  const double before = get(node, b.channel, Role::kOffset);
-  Cia404Application::after_write(node, e, now);
-  const double delta = get(node, b.channel, Role::kOffset) - before;
-  for (Role r : {Role::kSpanStart, Role::kSpanEnd}) set(node, b.channel, r, get(node, b.channel, r) + delta);
+  const double before = chain_.get(node, b.channel, Role::kOffset);
+  chain_.after_write(node, e, now);
+  const double delta = chain_.get(node, b.channel, Role::kOffset) - before;
+  for (Role r : {Role::kSpanStart, Role::kSpanEnd}) chain_.set(node, b.channel, r, chain_.get(node, b.channel, r) + delta);
 }
 
-
-void DpsApplication::count(Node& node, const OdEntry* counter) {
-  if (!counter) return;
-  const std::uint64_t n = node.values().get_u(*counter);
-  if (n < 0xFFFFFFFFu) node.values().set_u(*counter, n + 1);
+// Span over/underflow: EMCY 0x3201 and the counters 0x2004 / 0x2005.
+TimeUs DpsApplication::process(Node& node, TimeUs now) {
+  const TimeUs next = chain_.process(node, now);
+  return std::min(next, device_.supervise(now, settings_.span_check_period_us, [&] { check_span(node, now); }));
 }
 
 // 0x2004 / 0x2005 count crossings of span end / start (appendix); EMCY 0x3201
 // once per excursion and its reset when back inside (manual §9: "or a source
 // of error is removed").
 void DpsApplication::check_span(Node& node, TimeUs now) {
-  const Measurement m = measure(node, 0, now);
-  const bool failed = m.status & physics::kStatusInvalid;
-  if (failed != sensor_failed_) {
-    if (failed) node.emcy().raise(kEmcySensorFailure, 0, now);
-    else node.emcy().clear(kEmcySensorFailure, now);
-    sensor_failed_ = failed;
-  }
-  const Span s = (m.status & physics::kStatusPositiveOverload)   ? Span::kOver
-                 : (m.status & physics::kStatusNegativeOverload) ? Span::kUnder
-                                                                 : Span::kInside;
-  if (s == span_) return;
-  if (s == Span::kOver) count(node, overflows_);
-  if (s == Span::kUnder) count(node, underflows_);
+  const Cia404Chain::Measurement m = chain_.measure(node, 0, now);
+  follow_emcy(node, state_.sensor_failed, m.status & physics::kStatusInvalid, kEmcySensorFailure, 0, now);
+  const Span before = state_.span.span;
+  if (!state_.span.move_to(SpanMonitor::of_status(m.status))) return;
+  const Span s = state_.span.span;
+  if (s == Span::kOver) saturating_count(node, state_.overflows, kCounterMax);
+  if (s == Span::kUnder) saturating_count(node, state_.underflows, kCounterMax);
   if (settings_.span_overflow_emcy) {
-    if (span_ == Span::kInside) node.emcy().raise(kEmcySpanOverflow, 0, now);
+    if (before == Span::kInside) node.emcy().raise(kEmcySpanOverflow, 0, now);
     else if (s == Span::kInside) node.emcy().clear(kEmcySpanOverflow, now);
   }
-  span_ = s;
 }
 
 Requirements requirements() {
@@ -84,8 +75,7 @@ Requirements requirements() {
 }
 
 std::unique_ptr<Application> make(const model::Profile& profile, const Settings& settings, const NodeContext& ctx) {
-  return std::make_unique<DpsApplication>(profile.cia404, make_sensor_source(profile, ctx), settings, profile.identity,
-                                          ctx.index);
+  return std::make_unique<DpsApplication>(profile.cia404, make_sensor_source(profile, ctx), settings, ctx.index);
 }
 
 }  // namespace cansim::personalities::dps

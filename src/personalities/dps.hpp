@@ -10,36 +10,40 @@
 #include <memory>
 
 #include "personalities/registry.hpp"
+#include "personalities/sensor_application.hpp"
 
 namespace cansim::personalities::dps {
 
 using Settings = model::DpsSettings;  // the `vendor:` keys (config/vendor_settings.cpp)
 
-class DpsApplication : public Cia404Application {
+class DpsApplication final : public SensorApplication {
  public:
   DpsApplication(std::shared_ptr<const Cia404Profile> profile, std::unique_ptr<MeasurementSource> source,
-                 const Settings& settings, IdentitySettings identity = {}, std::uint32_t node_index = 0);
+                 const Settings& settings, std::uint32_t node_index = 0);
+
+  Cia404Chain& chain() override { return chain_; }
+  const Cia404Chain& chain() const override { return chain_; }
+  DevicePart& device() override { return device_; }
 
   void on_reset(Node& node, ResetKind kind, TimeUs now) override;
   void after_write(Node& node, const OdEntry& e, TimeUs now) override;
-
- protected:
-  // Span over/underflow: EMCY 0x3201 and the counters 0x2004 / 0x2005.
-  void supervise(Node& node, TimeUs now) override { check_span(node, now); }
-  TimeUs supervision_period() const override { return settings_.span_check_period_us; }
+  TimeUs process(Node& node, TimeUs now) override;
+  std::unique_ptr<Application> snapshot() const override { return snapshot_of(*this); }
+  void restore(const Application& snapshot) override { restore_from(*this, snapshot); }
 
  private:
-  enum class Span : std::uint8_t { kInside, kOver, kUnder };
+  struct State {
+    const OdEntry* overflows = nullptr;   // 0x2004
+    const OdEntry* underflows = nullptr;  // 0x2005
+    SpanMonitor span;
+    bool sensor_failed = false;           // EMCY 0x2201 reported
+  };
   void check_span(Node& node, TimeUs now);
-  void count(Node& node, const OdEntry* counter);
 
+  Cia404Chain chain_;
+  DevicePart device_;
   Settings settings_;
-  const OdEntry* serial_ = nullptr;     // 0x1018:04
-  const OdEntry* serial_copy_ = nullptr;  // 0x200E
-  const OdEntry* overflows_ = nullptr;  // 0x2004
-  const OdEntry* underflows_ = nullptr;  // 0x2005
-  Span span_ = Span::kInside;
-  bool sensor_failed_ = false;
+  State state_;
 };
 
 // The objects and channels the behaviour needs (personalities/catalog.hpp).

@@ -41,6 +41,7 @@ constexpr std::uint16_t kOverflowCounter[2] = {0x2006, 0x2008};
 constexpr std::uint16_t kUnderflowCounter[2] = {0x2007, 0x2009};
 constexpr double kSpanHysteresis = 0.005;  // of the span, so noise at a limit counts once
 constexpr std::uint16_t kReferenceCounts = 0x8000;  // 0x7100:03, mid-scale
+constexpr std::uint64_t kCounterMax = 0xFFFF;       // UNSIGNED16 counters 0x2006-0x2009
 
 bool experienced(std::uint16_t index) { return index >= kExperiencedFirst && index <= kExperiencedLast; }
 
@@ -68,21 +69,21 @@ std::size_t format_value(double v, int digits, char (&out)[9]) {
 
 GemsApplication::GemsApplication(std::shared_ptr<const Cia404Profile> profile,
                                  std::unique_ptr<MeasurementSource> source, const Settings& settings,
-                                 IdentitySettings identity, std::uint32_t node_index)
-    : Cia404Application(std::move(profile), std::move(source), identity, node_index), settings_(settings) {}
+                                 std::uint32_t node_index)
+    : chain_(std::move(profile), std::move(source)), device_(DevicePart::seed_of(node_index)), settings_(settings) {}
 
 void GemsApplication::on_reset(Node& node, ResetKind kind, TimeUs now) {
-  Cia404Application::on_reset(node, kind, now);
-  sensor_failed_[0] = sensor_failed_[1] = math_error_ = false;  // the EMCY producer forgot them
+  SensorApplication::on_reset(node, kind, now);
+  state_.sensor_failed[0] = state_.sensor_failed[1] = state_.math_error = false;  // the EMCY producer forgot them
   if (kind != ResetKind::kCommunication) {
-    unlocked_ = false;  // the PIN unlock lasts until reset node / power-off
+    state_.unlocked = false;  // the PIN unlock lasts until reset node / power-off
     for (std::size_t ch = 0; ch < 2; ++ch) {
-      peaks_valid_[ch] = false;
-      span_[ch] = Span::kInside;
-      if (ch < profile().channels.size()) apply_vendor_filter(node, ch);
+      state_.peaks_valid[ch] = false;
+      state_.span[ch] = SpanMonitor{};
+      if (ch < chain_.profile().channels.size()) apply_vendor_filter(node, ch);
     }
-    if (kind == ResetKind::kPowerOn) powered_at_ = now;
-    if (node.store().corrupt() || fault_active(physics::FaultKind::EepromError, now))
+    if (kind == ResetKind::kPowerOn) state_.powered_at = now;
+    if (DevicePart::boot_data_error(node, chain_, now))
       node.emcy().raise(kEmcyNvm, settings_.manual_error_register ? kRegMaths : 0, now);
   }
   // §3.2.1 / §4.6.3: 0x2813 = 0 enters OPERATIONAL "when excitation is
@@ -97,42 +98,42 @@ void GemsApplication::on_reset(Node& node, ResetKind kind, TimeUs now) {
 }
 
 void GemsApplication::apply_vendor_filter(Node& node, std::size_t ch) {
-  const ChannelConfig& c = profile().channels[ch];
+  const ChannelConfig& c = chain_.profile().channels[ch];
   const OdEntry* e = node.od().find(kFilter, c.sub);
   if (!e) return;
   const double tau = node.values().get_f(*e);
   physics::FilterSpec f;
   if (tau > 0) {
-    const double rate = 1e6 / double(source().sample_period_us(c.source));
+    const double rate = 1e6 / double(chain_.source().sample_period_us(c.source));
     f = physics::FilterSpec::from_time(physics::FilterType::FirstOrder, tau, rate);
   }
-  source().set_filter(c.source, f);
+  chain_.source().set_filter(c.source, f);
 }
 
 void GemsApplication::refresh(Node& node, const OdEntry& e, TimeUs now) {
-  const std::size_t ch = e.sub >= 1 && e.sub <= profile().channels.size() ? e.sub - 1u : 0u;
+  const std::size_t ch = e.sub >= 1 && e.sub <= chain_.profile().channels.size() ? e.sub - 1u : 0u;
   switch (e.index) {
     case kString: return write_string(node, e, now);
     case kMaximum:
-    case kMinimum: return track_peaks(node, ch, measure(node, ch, now).pv, false);
-    case kSeconds: node.values().set_u(e, std::uint64_t((now - powered_at_) / 1000000)); return;
+    case kMinimum: return track_peaks(node, ch, chain_.measure(node, ch, now).pv, false);
+    case kSeconds: node.values().set_u(e, std::uint64_t((now - state_.powered_at) / 1000000)); return;
     case kFieldValue: node.values().set_u(e, kReferenceCounts); return;
-    default: return Cia404Application::refresh(node, e, now);
+    default: return chain_.refresh(node, e, now);
   }
 }
 
 void GemsApplication::write_string(Node& node, const OdEntry& e, TimeUs now) {
   const std::size_t ch = e.sub - 1u;
-  if (ch >= profile().channels.size()) return;
+  if (ch >= chain_.profile().channels.size()) return;
   char text[9];
-  const std::size_t n = format_value(measure(node, ch, now).pv, digits(node, ch), text);
+  const std::size_t n = format_value(chain_.measure(node, ch, now).pv, chain_.digits(node, ch), text);
   node.values().set_string(e, std::string_view(text, n));
 }
 
 // §4.6.1: the experienced user area is writable after the PIN only; the
 // abort code is not documented (spec §11 #24: 0x08000020).
 SdoAbort GemsApplication::check_experienced(const OdEntry& e, std::span<const std::uint8_t> data) {
-  if (!unlocked_) return SdoAbort::kDataTransfer;
+  if (!state_.unlocked) return SdoAbort::kDataTransfer;
   switch (e.index) {
     case kOverflowControl:
       return data.size() == 4 && std::memcmp(data.data(), kZero, 4) == 0 ? SdoAbort::kNone : SdoAbort::kDataTransfer;
@@ -149,8 +150,8 @@ SdoAbort GemsApplication::check_write(Node& node, const OdEntry& e, std::span<co
   if (experienced(e.index)) return check_experienced(e, data);
   switch (e.index) {
     case kPin:
-      unlocked_ = data.size() >= 4 && decode_u(DataType::kUnsigned32, data.data()) == settings_.pin;
-      return unlocked_ ? SdoAbort::kNone : SdoAbort::kDataTransfer;
+      state_.unlocked = data.size() >= 4 && decode_u(DataType::kUnsigned32, data.data()) == settings_.pin;
+      return state_.unlocked ? SdoAbort::kNone : SdoAbort::kDataTransfer;
     case kFilter: {
       const double tau = real_of(data);
       return std::isfinite(tau) && tau >= 0 ? SdoAbort::kNone : SdoAbort::kInvalidValue;
@@ -160,19 +161,19 @@ SdoAbort GemsApplication::check_write(Node& node, const OdEntry& e, std::span<co
       return std::isfinite(m) && m > 0 ? SdoAbort::kNone : SdoAbort::kInvalidValue;
     }
     default:
-      return Cia404Application::check_write(node, e, data, now);
+      return chain_.check_write(node, e, data, now);
   }
 }
 
 void GemsApplication::after_write(Node& node, const OdEntry& e, TimeUs now) {
-  const std::size_t ch = e.sub >= 1 && e.sub <= profile().channels.size() ? e.sub - 1u : 0u;
+  const std::size_t ch = e.sub >= 1 && e.sub <= chain_.profile().channels.size() ? e.sub - 1u : 0u;
   if (experienced(e.index)) {
     if (e.index == kOverflowControl && ch < 2) {
       node.values().set_u(kOverflowCounter[ch], 0, 0);
       node.values().set_u(kUnderflowCounter[ch], 0, 0);
     }
     if (e.index == kBootLoad || (settings_.boot_alias_2813 && e.index == kNetwork && node.values().get_u(e) == 'b'))
-      boot_requested_ = true;
+      state_.boot_requested = true;
     // Fig. 38 writes the calibration dates after the last 'save': the area
     // goes straight to NVM (spec §11 #20).
     const OdEntry* one[] = {&e};
@@ -181,53 +182,35 @@ void GemsApplication::after_write(Node& node, const OdEntry& e, TimeUs now) {
     return;
   }
   switch (e.index) {
-    case kPeakControl: return track_peaks(node, ch, measure(node, ch, now).pv, true);
+    case kPeakControl: return track_peaks(node, ch, chain_.measure(node, ch, now).pv, true);
     case kFilter: return apply_vendor_filter(node, ch);
-    default: return Cia404Application::after_write(node, e, now);
+    default: return chain_.after_write(node, e, now);
   }
 }
 
 // Max / min since reset node, power-on or the last 0x2031 write (spec §11 #26).
 void GemsApplication::track_peaks(Node& node, std::size_t ch, double pv, bool restart) {
   if (ch >= 2 || !std::isfinite(pv)) return;
-  const std::uint8_t sub = profile().channels[ch].sub;
+  const std::uint8_t sub = chain_.profile().channels[ch].sub;
   const OdEntry* max = node.od().find(kMaximum, sub);
   const OdEntry* min = node.od().find(kMinimum, sub);
   if (!max || !min) return;
   OdValues& v = node.values();
-  const bool fresh = restart || !peaks_valid_[ch];
+  const bool fresh = restart || !state_.peaks_valid[ch];
   if (fresh || pv > v.get_f(*max)) v.set_f(*max, pv);
   if (fresh || pv < v.get_f(*min)) v.set_f(*min, pv);
-  peaks_valid_[ch] = true;
+  state_.peaks_valid[ch] = true;
 }
 
 // §4.6.2: one count per excursion beyond span start / end.
 void GemsApplication::count_span(Node& node, std::size_t ch, double pv) {
   if (ch >= 2) return;
-  const double start = get(node, ch, Role::kSpanStart);
-  const double end = get(node, ch, Role::kSpanEnd);
-  const double hyst = kSpanHysteresis * std::fabs(end - start);
-  auto bump = [&](std::uint16_t counter) {
-    const std::uint64_t n = node.values().u(counter, 0);
-    if (n < 0xFFFF) node.values().set_u(counter, 0, n + 1);
-  };
-  switch (span_[ch]) {
-    case Span::kInside:
-      if (pv > end) {
-        span_[ch] = Span::kOver;
-        bump(kOverflowCounter[ch]);
-      } else if (pv < start) {
-        span_[ch] = Span::kUnder;
-        bump(kUnderflowCounter[ch]);
-      }
-      break;
-    case Span::kOver:
-      if (pv <= end - hyst) span_[ch] = Span::kInside;
-      break;
-    case Span::kUnder:
-      if (pv >= start + hyst) span_[ch] = Span::kInside;
-      break;
-  }
+  const double start = chain_.get(node, ch, Role::kSpanStart);
+  const double end = chain_.get(node, ch, Role::kSpanEnd);
+  SpanMonitor& span = state_.span[ch];
+  if (!span.track(pv, start, end, kSpanHysteresis * std::fabs(end - start))) return;
+  if (span.span == Span::kOver) saturating_count(node, node.od().find(kOverflowCounter[ch], 0), kCounterMax);
+  if (span.span == Span::kUnder) saturating_count(node, node.od().find(kUnderflowCounter[ch], 0), kCounterMax);
 }
 
 void GemsApplication::update_emcy(Node& node, std::uint16_t code, std::uint8_t reg, bool active, TimeUs now) {
@@ -237,30 +220,34 @@ void GemsApplication::update_emcy(Node& node, std::uint16_t code, std::uint8_t r
 }
 
 void GemsApplication::supervise_channel(Node& node, std::size_t ch, TimeUs now) {
-  const Measurement m = measure(node, ch, now);
-  sensor_failed_[ch] = (m.status & physics::kStatusInvalid) != 0;
+  const Cia404Chain::Measurement m = chain_.measure(node, ch, now);
+  state_.sensor_failed[ch] = (m.status & physics::kStatusInvalid) != 0;
   if (!std::isfinite(m.pv)) {
-    math_error_ = true;
+    state_.math_error = true;
     return;
   }
   track_peaks(node, ch, m.pv, false);
   count_span(node, ch, m.pv);
 }
 
+TimeUs GemsApplication::process(Node& node, TimeUs now) {
+  const TimeUs next = chain_.process(node, now);
+  return std::min(next, device_.supervise(now, settings_.supervision_period_us, [&] { supervise(node, now); }));
+}
+
 void GemsApplication::supervise(Node& node, TimeUs now) {
-  math_error_ = false;
-  const std::size_t channels = std::min<std::size_t>(2, profile().channels.size());
+  state_.math_error = false;
+  const std::size_t channels = std::min<std::size_t>(2, chain_.profile().channels.size());
   for (std::size_t ch = 0; ch < channels; ++ch) supervise_channel(node, ch, now);
-  update_emcy(node, kEmcySensor, kRegSensor, sensor_failed_[0] || sensor_failed_[1], now);
-  update_emcy(node, kEmcyMaths, kRegMaths, math_error_, now);
+  update_emcy(node, kEmcySensor, kRegSensor, state_.sensor_failed[0] || state_.sensor_failed[1], now);
+  update_emcy(node, kEmcyMaths, kRegMaths, state_.math_error, now);
 }
 
 // ---- registry
 
 
 std::unique_ptr<Application> make(const model::Profile& profile, const Settings& settings, const NodeContext& ctx) {
-  return std::make_unique<GemsApplication>(profile.cia404, make_sensor_source(profile, ctx), settings, profile.identity,
-                                           ctx.index);
+  return std::make_unique<GemsApplication>(profile.cia404, make_sensor_source(profile, ctx), settings, ctx.index);
 }
 
 }  // namespace cansim::personalities::gems9000

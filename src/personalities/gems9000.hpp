@@ -11,48 +11,57 @@
 #include <memory>
 
 #include "personalities/registry.hpp"
+#include "personalities/sensor_application.hpp"
 
 namespace cansim::personalities::gems9000 {
 
 using Settings = model::GemsSettings;  // the `vendor:` keys (config/vendor_settings.cpp)
 
-class GemsApplication : public Cia404Application {
+class GemsApplication final : public SensorApplication {
  public:
   GemsApplication(std::shared_ptr<const Cia404Profile> profile, std::unique_ptr<MeasurementSource> source,
-                  const Settings& settings, IdentitySettings identity = {}, std::uint32_t node_index = 0);
+                  const Settings& settings, std::uint32_t node_index = 0);
+
+  Cia404Chain& chain() override { return chain_; }
+  const Cia404Chain& chain() const override { return chain_; }
+  DevicePart& device() override { return device_; }
 
   void on_reset(Node& node, ResetKind kind, TimeUs now) override;
   void refresh(Node& node, const OdEntry& e, TimeUs now) override;
   SdoAbort check_write(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now) override;
   void after_write(Node& node, const OdEntry& e, TimeUs now) override;
+  TimeUs process(Node& node, TimeUs now) override;
+  std::unique_ptr<Application> snapshot() const override { return snapshot_of(*this); }
+  void restore(const Application& snapshot) override { restore_from(*this, snapshot); }
 
-  bool unlocked() const { return unlocked_; }
+  bool unlocked() const { return state_.unlocked; }
   // True once 'boot' was written to the boot-load object (FLIP is out of scope).
-  bool boot_requested() const { return boot_requested_; }
-
- protected:
-  // Max / min, span counters, sensor and maths EMCYs.
-  void supervise(Node& node, TimeUs now) override;
-  TimeUs supervision_period() const override { return settings_.supervision_period_us; }
+  bool boot_requested() const { return state_.boot_requested; }
 
  private:
-  enum class Span : std::uint8_t { kInside, kOver, kUnder };
+  struct State {
+    bool unlocked = false;
+    bool boot_requested = false;
+    bool peaks_valid[2] = {};
+    SpanMonitor span[2];
+    bool sensor_failed[2] = {};
+    bool math_error = false;
+    TimeUs powered_at = 0;
+  };
   SdoAbort check_experienced(const OdEntry& e, std::span<const std::uint8_t> data);
   void apply_vendor_filter(Node& node, std::size_t ch);
+  // Max / min, span counters, sensor and maths EMCYs.
+  void supervise(Node& node, TimeUs now);
   void supervise_channel(Node& node, std::size_t ch, TimeUs now);
   void track_peaks(Node& node, std::size_t ch, double pv, bool restart);
   void count_span(Node& node, std::size_t ch, double pv);
   void update_emcy(Node& node, std::uint16_t code, std::uint8_t reg, bool active, TimeUs now);
   void write_string(Node& node, const OdEntry& e, TimeUs now);
 
+  Cia404Chain chain_;
+  DevicePart device_;
   Settings settings_;
-  bool unlocked_ = false;
-  bool boot_requested_ = false;
-  bool peaks_valid_[2] = {};
-  Span span_[2] = {};
-  bool sensor_failed_[2] = {};
-  bool math_error_ = false;
-  TimeUs powered_at_ = 0;
+  State state_;
 };
 
 std::unique_ptr<Application> make(const model::Profile& profile, const Settings& settings, const NodeContext& ctx);

@@ -2,6 +2,7 @@
 
 #include "core/pdo.hpp"
 
+#include <algorithm>
 #include <cstdio>
 
 #include "physics/fault.hpp"
@@ -26,6 +27,7 @@ enum : std::uint8_t { kInvalid = 0x01, kPositiveOverload = 0x02, kNegativeOverlo
 constexpr std::uint16_t kChannelEmcy[2] = {kEmcyPressure, kEmcyTemperature};
 constexpr std::uint16_t kOverflowCounter[2] = {0x3000, 0x3002};
 constexpr std::uint16_t kUnderflowCounter[2] = {0x3001, 0x3003};
+constexpr std::uint64_t kCounterMax = 0xFFFF;  // UNSIGNED16 counters
 
 constexpr std::uint16_t kMapping = 0x1A00;
 constexpr std::uint16_t kBitRate = 0x4F00;
@@ -35,16 +37,13 @@ constexpr std::uint16_t kSerial = 0x4E00;
 
 P92cApplication::P92cApplication(std::shared_ptr<const Cia404Profile> profile,
                                  std::unique_ptr<MeasurementSource> source, const Settings& settings,
-                                 IdentitySettings identity, std::uint32_t node_index)
-    : Cia404Application(std::move(profile), std::move(source), identity, node_index), settings_(settings) {}
+                                 std::uint32_t node_index)
+    : chain_(std::move(profile), std::move(source)), device_(DevicePart::seed_of(node_index)), settings_(settings) {}
 
 void P92cApplication::on_reset(Node& node, ResetKind kind, TimeUs now) {
-  Cia404Application::on_reset(node, kind, now);
+  SensorApplication::on_reset(node, kind, now);
   fill_serial(node);
-  for (int ch = 0; ch < 2; ++ch) {
-    last_status_[ch] = 0;
-    error_[ch] = false;  // the EMCY producer forgot them too
-  }
+  state_ = State{};  // the EMCY producer forgot the errors too
   if (settings_.boot_emcys) boot_checks(node, kind, now);
 }
 
@@ -66,59 +65,42 @@ void P92cApplication::fill_serial(Node& node) {
 void P92cApplication::boot_checks(Node& node, ResetKind kind, TimeUs now) {
   if (kind == ResetKind::kCommunication) return;
   if (node.store().corrupt()) node.emcy().report(kEmcyEepromInvalid, 0, nullptr, now);
-  if (!stored_mapping_valid(node)) {
+  if (!ok(node.pdo().tpdo_mapping_status(1))) {
     node.values().reset(node.node_id(), kMapping, kMapping);
     node.pdo().reset(now);
     node.emcy().report(kEmcyMapping, 0, nullptr, now);
   }
-  if (fault_active(physics::FaultKind::EepromError, now)) node.emcy().report(kEmcyStartUp, 0, nullptr, now);
-}
-
-bool P92cApplication::stored_mapping_valid(const Node& node) const {
-  const OdValues& v = node.values();
-  const std::uint64_t n = v.u(kMapping, 0);
-  unsigned bits = 0;
-  for (std::uint8_t i = 1; i <= n; ++i) {
-    const auto raw = std::uint32_t(v.u(kMapping, i));
-    if (!node.od().find(kMapping, i) || !ok(check_pdo_map_entry(node.od(), raw, true, false))) return false;
-    bits += PdoMapEntry::decode(raw).bits;
-  }
-  return bits <= 64;
+  if (DevicePart::fault_active(chain_, physics::FaultKind::EepromError, now))
+    node.emcy().report(kEmcyStartUp, 0, nullptr, now);
 }
 
 // 0x4F00: the index table of §3.3 (index 5 blank, 8 and 9 not listed) is the
 // LSS bit-rate set of the profile.
 SdoAbort P92cApplication::check_write(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now) {
-  if (e.index != kBitRate) return Cia404Application::check_write(node, e, data, now);
-  ByteSet rates;
-  ByteSet::parse(node.options().lss_bit_rates, rates);
-  return rates.has(data[0]) ? SdoAbort::kNone : SdoAbort::kInvalidValue;
+  if (e.index != kBitRate) return chain_.check_write(node, e, data, now);
+  return node.options().lss_bit_rates.has(data[0]) ? SdoAbort::kNone : SdoAbort::kInvalidValue;
 }
 
-void P92cApplication::count_edge(Node& node, std::uint16_t counter) {
-  const std::uint64_t n = node.values().u(counter, 0);
-  if (n < 0xFFFF) node.values().set_u(counter, 0, n + 1);
+TimeUs P92cApplication::process(Node& node, TimeUs now) {
+  const TimeUs next = chain_.process(node, now);
+  return std::min(next, device_.supervise(now, settings_.monitor_period_us, [&] { supervise(node, now); }));
 }
 
 // Status supervision in every NMT state: counters count each rising edge into
 // an overload (saturating), the channel's EMCY follows its error state.
 void P92cApplication::supervise(Node& node, TimeUs now) {
-  const std::size_t channels = std::min<std::size_t>(2, profile().channels.size());
+  const std::size_t channels = std::min<std::size_t>(2, chain_.profile().channels.size());
   for (std::size_t ch = 0; ch < channels; ++ch) {
-    const std::uint8_t status = measure(node, ch, now).status;
-    const std::uint8_t rising = std::uint8_t(status & ~last_status_[ch]);
-    last_status_[ch] = status;
+    const std::uint8_t status = chain_.measure(node, ch, now).status;
+    const std::uint8_t rising = std::uint8_t(status & ~state_.last_status[ch]);
+    state_.last_status[ch] = status;
     if (settings_.overload_counters) {
-      if (rising & kPositiveOverload) count_edge(node, kOverflowCounter[ch]);
-      if (rising & kNegativeOverload) count_edge(node, kUnderflowCounter[ch]);
+      if (rising & kPositiveOverload) saturating_count(node, node.od().find(kOverflowCounter[ch], 0), kCounterMax);
+      if (rising & kNegativeOverload) saturating_count(node, node.od().find(kUnderflowCounter[ch], 0), kCounterMax);
     }
     std::uint8_t error_bits = settings_.sensor_fault_emcy ? kInvalid : 0;
     if (settings_.overload_emcy) error_bits |= kPositiveOverload | kNegativeOverload;
-    const bool error = (status & error_bits) != 0;
-    if (error == error_[ch]) continue;
-    error_[ch] = error;
-    if (error) node.emcy().raise(kChannelEmcy[ch], 0, now);
-    else node.emcy().clear(kChannelEmcy[ch], now);
+    follow_emcy(node, state_.error[ch], (status & error_bits) != 0, kChannelEmcy[ch], 0, now);
   }
 }
 
@@ -126,8 +108,7 @@ void P92cApplication::supervise(Node& node, TimeUs now) {
 
 
 std::unique_ptr<Application> make(const model::Profile& profile, const Settings& settings, const NodeContext& ctx) {
-  return std::make_unique<P92cApplication>(profile.cia404, make_sensor_source(profile, ctx), settings, profile.identity,
-                                           ctx.index);
+  return std::make_unique<P92cApplication>(profile.cia404, make_sensor_source(profile, ctx), settings, ctx.index);
 }
 
 }  // namespace cansim::personalities::p92c

@@ -34,6 +34,8 @@ std::unique_ptr<Application> make_application(const model::Profile& profile, con
   return std::visit(Maker{profile, ctx}, profile.device);
 }
 
+MeasurementControl* measurement_control(Application* app) { return dynamic_cast<MeasurementControl*>(app); }
+
 std::uint64_t node_seed(const NodeContext& ctx) {
   const std::uint64_t key = ctx.key.empty() ? ctx.index : physics::hash_string(ctx.key);
   return physics::derive_seed(ctx.fleet_seed, key);
@@ -42,6 +44,7 @@ std::uint64_t node_seed(const NodeContext& ctx) {
 std::unique_ptr<SensorSource> make_sensor_source(const model::Profile& profile, const NodeContext& ctx) {
   const model::PhysicsConfig& c = profile.physics;
   auto source = std::make_unique<SensorSource>(c.sensor, c.process, c.faults, node_seed(ctx));
+  source->set_state_dir(ctx.state_dir);
   std::string error;
   if (!ctx.record_file.empty() && !source->record_to(ctx.record_file, &error))
     throw std::runtime_error(ctx.key + ": cannot record to " + ctx.record_file + ": " + error);

@@ -12,6 +12,7 @@
 #include "model/profile.hpp"
 #include "personalities/catalog.hpp"
 #include "personalities/cia404.hpp"
+#include "personalities/measurement_control.hpp"
 
 namespace cansim::personalities {
 
@@ -21,6 +22,7 @@ struct NodeContext {
   std::uint32_t index = 0;        // position in a `count:` group (serial-number offset)
   std::string key;                // stable name, e.g. "vcan0/dps-3"
   std::string record_file;        // CSV recording of truth and readings (empty: none)
+  std::string state_dir = {};     // the daemon's stored parameters: never recorded into
 };
 
 // One Application per node, by the profile's device settings.

@@ -36,7 +36,7 @@ double SensorSource::true_value(physics::Channel ch, TimeUs now) {
 
 bool SensorSource::record_to(const std::string& path, std::string* error) {
   auto rec = std::make_unique<physics::CsvRecorder>();
-  if (!rec->open(path, error)) return false;
+  if (!rec->open(path, error, physics::CsvRecorder::kDefaultBuffer, state_dir_)) return false;
   recorder_ = std::move(rec);
   recording_ = path;
   recorded_at_ = -1;

@@ -34,7 +34,7 @@ class MeasurementSource {
   virtual void reboot(TimeUs) {}
   // The node's fault schedule (null: this source has none).
   virtual physics::FaultSet* fault_set() { return nullptr; }
-  // A copy of this source's state for Cia404Application::snapshot (null:
+  // A copy of this source's state for a chain's copy (SourceSlot; null:
   // this source has none) and the way back to it.
   virtual std::unique_ptr<MeasurementSource> snapshot() const { return nullptr; }
   virtual void restore(const MeasurementSource&) {}
@@ -68,8 +68,10 @@ class SensorSource : public MeasurementSource {
 
   // Records one CSV row (physics::CsvRecorder) per instant the node reads its
   // sensor, replacing a running recording. Returns false with *error (the
-  // running recording kept) when the file cannot be created.
+  // running recording kept) when the file cannot be created, is not a
+  // regular file or lies in the state folder.
   bool record_to(const std::string& path, std::string* error);
+  void set_state_dir(std::string dir) { state_dir_ = std::move(dir); }
   // Flushes and closes the recording.
   void stop_recording();
   const std::string& recording() const { return recording_; }  // its path, "" when none
@@ -85,6 +87,7 @@ class SensorSource : public MeasurementSource {
   std::unique_ptr<physics::CsvRecorder> recorder_;
   std::string recording_;
   TimeUs recorded_at_ = -1;
+  std::string state_dir_;  // recordings never go there
 };
 
 }  // namespace cansim::personalities

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 
+#include "core/cob_id.hpp"
 #include "core/nmt.hpp"
 #include "physics/quantize.hpp"
 
@@ -19,7 +20,7 @@ constexpr std::uint32_t kRset = 0x74657372;
 constexpr std::uint16_t kEmcySensor = 0x5030;  // §4.8
 constexpr std::uint8_t kInvalidBit = 0x01;     // 0x6150 bit 0 / 0x1001 bit 0
 constexpr float kFltMax = std::numeric_limits<float>::max();
-constexpr std::uint32_t kKeepBits = 0xC0000000u;  // 0x4001:02 preserves COB-ID bits 31, 30 (§6.3.7)
+constexpr std::uint32_t kKeepBits = cob::kInvalid | cob::kNoRtr;  // 0x4001:02 keeps COB-ID bits 31, 30 (§6.3.7)
 
 bool is_field_or_process_value(std::uint16_t index) {
   return index == 0x6130 || index == 0x7100 || index == 0x7130 || index == 0x9130;
@@ -36,44 +37,36 @@ void SmcApplication::MinMax::add(std::int32_t v) {
   any = true;
 }
 
-float SmcApplication::Chain::scale(double fv) const {
-  const float x = float(fv) - offset;
-  return std::clamp(gain * x + pv1, cmin, cmax);
-}
-
 SmcApplication::SmcApplication(std::shared_ptr<const Cia404Profile> profile, std::unique_ptr<MeasurementSource> source,
-                               const Settings& settings, IdentitySettings identity, std::uint32_t node_index)
-    : Cia404Application(std::move(profile), std::move(source), identity, node_index), settings_(settings) {}
+                               const Settings& settings, std::uint32_t node_index)
+    : chain_(std::move(profile), std::move(source)), device_(DevicePart::seed_of(node_index)), settings_(settings) {}
 
 // ---------------------------------------------------------------- measurement chain (§5)
 
+// The §5 chain of both channels from its objects, into the CiA 404 chain:
+// the FV of the filtered sensor value, then the input offset, the scaling
+// and the clamp (figure 1 of §5 is missing; order per spec §3), and the limit
+// hysteresis of §6.2.9: "1 % of the total measuring span" (|PV2 - PV1|).
 void SmcApplication::load_chain(const Node& node) {
+  const OdValues& v = node.values();
   for (std::uint8_t sub = 1; sub <= 2; ++sub) {
-    Chain& c = chain_[sub - 1];
-    const Chain before = c;
-    c.gain = float(node.values().get_f(*objects_[channel_of(sub)].gain));
-    c.pv1 = float(node.values().get_f(*objects_[channel_of(sub)].scale_offset));
-    c.offset = float(node.values().get_f(*objects_[channel_of(sub)].input_offset));
-    c.cmin = float(node.values().get_f(*objects_[channel_of(sub)].clamp_min));
-    c.cmax = float(node.values().get_f(*objects_[channel_of(sub)].clamp_max));
+    const ScalingObjects& o = state_.objects[channel_of(sub)];
+    LinearInput& c = state_.input[sub - 1];
+    c.si_min = settings_.range_min[sub - 1];
+    c.si_max = settings_.range_max[sub - 1];
+    c.field_span = kFieldSpan;
+    c.gain = float(v.get_f(*o.gain));
+    c.pv1 = float(v.get_f(*o.scale_offset));
+    c.offset = float(v.get_f(*o.input_offset));
+    c.cmin = float(v.get_f(*o.clamp_min));
+    c.cmax = float(v.get_f(*o.clamp_max));
     if (!(c.cmin <= c.cmax)) c.cmax = c.cmin;
-    if (!(c == before)) invalidate();  // the PV of this instant changes too
   }
-}
-
-// FV of the filtered sensor value; the chain then subtracts the input
-// offset, scales and clamps (figure 1 of §5 is missing; order per spec §3).
-double SmcApplication::input_value(const ChannelConfig& c, const MeasurementSource::Sample& s, const UnitScale&) {
-  const std::size_t ch = channel_of(c.sub);
-  const double fv = (s.si - settings_.range_min[ch]) / (settings_.range_max[ch] - settings_.range_min[ch]) * kFieldSpan;
-  return chain_[ch].scale(fv);
-}
-
-// §6.2.9: "hysteresis equals 1 % of the total measuring span" (|PV2 - PV1|).
-double SmcApplication::limit_hysteresis(const Node& node, std::size_t ch) const {
-  const std::uint8_t sub = std::uint8_t(ch + 1);
-  return 0.01 * std::fabs(node.values().get_f(*objects_[channel_of(sub)].pv2) -
-                          node.values().get_f(*objects_[channel_of(sub)].pv1));
+  for (std::size_t ch = 0; ch < chain_.profile().channels.size(); ++ch) {
+    const ScalingObjects& o = state_.objects[channel_of(std::uint8_t(ch + 1))];
+    chain_.set_linear_input(ch, state_.input[channel_of(chain_.profile().channels[ch].sub)]);
+    chain_.set_limit_hysteresis(ch, 0.01 * std::fabs(v.get_f(*o.pv2) - v.get_f(*o.pv1)));
+  }
 }
 
 // ---------------------------------------------------------------- reset
@@ -87,7 +80,7 @@ void SmcApplication::resolve_objects(const OdLayout& od) {
     return e;
   };
   for (std::uint8_t sub = 1; sub <= 2; ++sub) {
-    ScalingObjects& o = objects_[sub - 1];
+    ScalingObjects& o = state_.objects[sub - 1];
     o = {need(0x6121, sub), need(0x6123, sub), need(0x9121, sub), need(0x9123, sub), need(0x6126, sub),
          need(0x6127, sub), need(0x3124, sub), need(0x3125, sub), need(0x3201, sub), need(0x3202, sub)};
   }
@@ -95,19 +88,19 @@ void SmcApplication::resolve_objects(const OdLayout& od) {
 
 void SmcApplication::on_reset(Node& node, ResetKind kind, TimeUs now) {
   resolve_objects(node.od());
-  Cia404Application::on_reset(node, kind, now);
+  SensorApplication::on_reset(node, kind, now);
   OdValues& v = node.values();
-  factory_serial_ = std::uint32_t(v.u(0x1018, 4));
-  if (v.u(0x4030, 1) == 0) v.set_u(0x4030, 1, factory_serial_);
+  const auto factory_serial = std::uint32_t(v.u(0x1018, 4));
+  if (v.u(0x4030, 1) == 0) v.set_u(0x4030, 1, factory_serial);
   v.set_u(0x1018, 4, v.u(0x4030, 1));
   if (kind != ResetKind::kCommunication) {
-    boot_time_ = now;
-    uptime_[0] = uptime_[1] = MinMax{};
+    state_.boot_time = now;
+    state_.uptime[0] = state_.uptime[1] = MinMax{};
   }
   if (kind == ResetKind::kPowerOn || (kind == ResetKind::kNode && settings_.reset_node_clears_error_register)) {
-    latched_error_ = false;
-    latched_status_[0] = latched_status_[1] = 0;
-  } else if (latched_error_) {
+    state_.latched_error = false;
+    state_.latched_status[0] = state_.latched_status[1] = 0;
+  } else if (state_.latched_error) {
     node.emcy().restore_active(kEmcySensor, kInvalidBit);  // §6.1.2: until power-off
   }
   refresh_device_name(node);
@@ -123,7 +116,7 @@ void SmcApplication::refresh(Node& node, const OdEntry& e, TimeUs now) {
     case 0x1002: {  // §6.1.3: bits 15..8 = 0x6150:02, bits 7..0 = 0x6150:01
       std::uint32_t reg = 0;
       for (std::size_t ch = 0; ch < 2; ++ch)
-        reg |= std::uint32_t(measure(node, ch, now).status | latched_status_[ch]) << (8 * ch);
+        reg |= std::uint32_t(chain_.measure(node, ch, now).status | state_.latched_status[ch]) << (8 * ch);
       v.set_u(e, reg);
       return;
     }
@@ -134,19 +127,19 @@ void SmcApplication::refresh(Node& node, const OdEntry& e, TimeUs now) {
     case 0x3131: {  // min / max FV, reported through the current offset, scaling and clamping
       if (e.sub == 0) return;
       const std::size_t ch = (e.sub - 1u) / 2;
-      const MinMax& m = (e.index == 0x3130 ? uptime_ : lifetime_)[ch];
+      const MinMax& m = (e.index == 0x3130 ? state_.uptime : state_.lifetime)[ch];
       const std::int32_t fv = (e.sub - 1u) % 2 ? m.max : m.min;
-      v.set_f(e, m.any ? chain_[ch].scale(fv) : 0.0);
+      v.set_f(e, m.any ? state_.input[ch].scale(fv) : 0.0);
       return;
     }
     case 0x3140:
     case 0x3141: {  // internal millisecond clock from the boot (no TIME consumer yet)
-      const TimeUs ms_total = (now - boot_time_) / 1000;
+      const TimeUs ms_total = (now - state_.boot_time) / 1000;
       v.set_u(e, e.index == 0x3140 ? std::uint64_t(ms_total / 86400000) : std::uint64_t(ms_total % 86400000));
       return;
     }
     case 0x3200: {
-      const Chain& c = chain_[channel_of(e.sub)];
+      const LinearInput& c = state_.input[channel_of(e.sub)];
       v.set_u(e, c.cmin != -kFltMax || c.cmax != kFltMax ? 1 : 0);
       return;
     }
@@ -159,8 +152,8 @@ void SmcApplication::refresh(Node& node, const OdEntry& e, TimeUs now) {
     default:
       break;
   }
-  Cia404Application::refresh(node, e, now);
-  if (e.index == 0x6150 && e.sub >= 1 && e.sub <= 2) v.set_u(e, v.get_u(e) | latched_status_[e.sub - 1]);
+  chain_.refresh(node, e, now);
+  if (e.index == 0x6150 && e.sub >= 1 && e.sub <= 2) v.set_u(e, v.get_u(e) | state_.latched_status[e.sub - 1]);
   swap_if_big_endian(node, e);
 }
 
@@ -172,7 +165,7 @@ void SmcApplication::swap_if_big_endian(Node& node, const OdEntry& e) {
   const std::size_t n = std::min<std::size_t>(bytes.size(), sizeof swapped);
   std::reverse_copy(bytes.begin(), bytes.begin() + std::ptrdiff_t(n), swapped);
   node.values().set_bytes(e, {swapped, n});
-  live_objects_rewritten();
+  chain_.live_objects_rewritten();
 }
 
 // §6.1.6 / §6.3.11: 0x1008 is the text of the character array 0x4022:1..60.
@@ -207,7 +200,7 @@ SdoAbort SmcApplication::check_write(Node& node, const OdEntry& e, std::span<con
       return (v & 0xC0000000u) == 0xC0000000u ? SdoAbort::kInvalidValue : SdoAbort::kNone;
     case 0x3126: {  // §6.3.1 fn 10: autozero only within +-10 % (2000 counts) of zero
       if (v != kZero) return SdoAbort::kDataTransfer;
-      const std::int32_t fv = measure(node, channel_of(e.sub), now).raw;
+      const std::int32_t fv = chain_.measure(node, channel_of(e.sub), now).raw;
       return std::abs(fv) <= 2000 ? SdoAbort::kNone : SdoAbort::kDataTransfer;
     }
     case 0x3130:
@@ -223,7 +216,7 @@ SdoAbort SmcApplication::check_write(Node& node, const OdEntry& e, std::span<con
       if (node.values().u(0x4022, 1) == 0) fill_device_name_chars(node);
       return SdoAbort::kNone;
     default:
-      return Cia404Application::check_write(node, e, data, now);
+      return chain_.check_write(node, e, data, now);
   }
 }
 
@@ -232,26 +225,26 @@ void SmcApplication::after_write(Node& node, const OdEntry& e, TimeUs now) {
   const std::size_t ch = channel_of(e.sub);
   switch (e.index) {
     case 0x3124:  // one input-offset register, two views
-      v.set_f(*objects_[channel_of(e.sub)].input_offset, double(v.get_i(e)));
+      v.set_f(*state_.objects[channel_of(e.sub)].input_offset, double(v.get_i(e)));
       break;
     case 0x3125:
-      v.set_i(*objects_[channel_of(e.sub)].input_offset_i16, physics::to_decimal_i16(v.get_f(e), 0).value);
+      v.set_i(*state_.objects[channel_of(e.sub)].input_offset_i16, physics::to_decimal_i16(v.get_f(e), 0).value);
       break;
     case 0x3126: {  // "recent Field Value copied into the Input Offset register"
-      invalidate();
-      const std::int32_t fv = measure(node, ch, now).raw;
-      v.set_f(*objects_[channel_of(e.sub)].input_offset, fv);
-      v.set_i(*objects_[channel_of(e.sub)].input_offset_i16, fv);
+      chain_.invalidate();
+      const std::int32_t fv = chain_.measure(node, ch, now).raw;
+      v.set_f(*state_.objects[channel_of(e.sub)].input_offset, fv);
+      v.set_i(*state_.objects[channel_of(e.sub)].input_offset_i16, fv);
       break;
     }
     case 0x3130:
     case 0x3131:
-      for (MinMax& m : e.index == 0x3130 ? uptime_ : lifetime_) m = MinMax{};
+      for (MinMax& m : e.index == 0x3130 ? state_.uptime : state_.lifetime) m = MinMax{};
       v.set_u(e, 4);
       break;
     case 0x3200:  // "least and largest possible float32 values" to min / max
-      v.set_f(*objects_[channel_of(e.sub)].clamp_min, -kFltMax);
-      v.set_f(*objects_[channel_of(e.sub)].clamp_max, kFltMax);
+      v.set_f(*state_.objects[channel_of(e.sub)].clamp_min, -kFltMax);
+      v.set_f(*state_.objects[channel_of(e.sub)].clamp_max, kFltMax);
       break;
     case 0x4001:
       return change_node_id(node, e.sub, std::uint8_t(v.get_u(e)), now);
@@ -276,9 +269,9 @@ void SmcApplication::after_write(Node& node, const OdEntry& e, TimeUs now) {
       after_scaling_write(node, e);
       break;
     default:
-      Cia404Application::after_write(node, e, now);
-      if (e.index == 0x6132) write_scaling(node, ch, float(v.get_f(*objects_[channel_of(e.sub)].pv1)),
-                                           float(v.get_f(*objects_[channel_of(e.sub)].pv2)));
+      chain_.after_write(node, e, now);
+      if (e.index == 0x6132) write_scaling(node, ch, float(v.get_f(*state_.objects[channel_of(e.sub)].pv1)),
+                                           float(v.get_f(*state_.objects[channel_of(e.sub)].pv2)));
       break;
   }
   load_chain(node);
@@ -290,8 +283,8 @@ void SmcApplication::after_scaling_write(Node& node, const OdEntry& e) {
   OdValues& v = node.values();
   const std::uint8_t sub = e.sub;
   const std::size_t ch = channel_of(sub);
-  float pv1 = float(v.get_f(*objects_[channel_of(sub)].pv1));
-  float pv2 = float(v.get_f(*objects_[channel_of(sub)].pv2));
+  float pv1 = float(v.get_f(*state_.objects[channel_of(sub)].pv1));
+  float pv2 = float(v.get_f(*state_.objects[channel_of(sub)].pv2));
   const double pow10 = std::pow(10.0, double(std::min<std::uint64_t>(v.u(0x6132, sub), 9)));
   switch (e.index) {
     case 0x9121: pv1 = float(double(v.get_i(e)) / pow10); break;
@@ -299,7 +292,7 @@ void SmcApplication::after_scaling_write(Node& node, const OdEntry& e) {
     case 0x6127: pv1 = float(v.get_f(e)); break;
     case 0x6126: {
       const float gain = float(v.get_f(e));
-      pv2 = float(v.get_f(*objects_[channel_of(sub)].scale_offset)) + gain * float(kFieldSpan);
+      pv2 = float(v.get_f(*state_.objects[channel_of(sub)].scale_offset)) + gain * float(kFieldSpan);
       write_scaling(node, ch, pv1, pv2);
       v.set_f(e, gain);  // reads back exactly as written
       return;
@@ -313,12 +306,12 @@ void SmcApplication::write_scaling(Node& node, std::size_t ch, float pv1, float 
   OdValues& v = node.values();
   const auto sub = std::uint8_t(ch + 1);
   const int dd = int(std::min<std::uint64_t>(v.u(0x6132, sub), 9));
-  v.set_f(*objects_[channel_of(sub)].pv1, pv1);
-  v.set_f(*objects_[channel_of(sub)].pv2, pv2);
-  v.set_i(*objects_[channel_of(sub)].pv1_i32, physics::to_decimal_i32(pv1, dd).value);
-  v.set_i(*objects_[channel_of(sub)].pv2_i32, physics::to_decimal_i32(pv2, dd).value);
-  v.set_f(*objects_[channel_of(sub)].gain, (pv2 - pv1) / float(kFieldSpan));
-  v.set_f(*objects_[channel_of(sub)].scale_offset, pv1);
+  v.set_f(*state_.objects[channel_of(sub)].pv1, pv1);
+  v.set_f(*state_.objects[channel_of(sub)].pv2, pv2);
+  v.set_i(*state_.objects[channel_of(sub)].pv1_i32, physics::to_decimal_i32(pv1, dd).value);
+  v.set_i(*state_.objects[channel_of(sub)].pv2_i32, physics::to_decimal_i32(pv2, dd).value);
+  v.set_f(*state_.objects[channel_of(sub)].gain, (pv2 - pv1) / float(kFieldSpan));
+  v.set_f(*state_.objects[channel_of(sub)].scale_offset, pv1);
 }
 
 // §6.3.7 / §8.3: the new node-ID is applied at once, no SDO answer, a boot-up
@@ -330,8 +323,8 @@ void SmcApplication::change_node_id(Node& node, std::uint8_t sub, std::uint8_t i
       std::uint8_t sub;
       std::uint32_t id;
     };
-    for (Cob c : {Cob{0x1005, 0, 0x80u}, Cob{0x1012, 0, 0x100u}, Cob{0x1014, 0, 0x80u + id},
-                  Cob{0x1800, 1, 0x180u + id}, Cob{0x1801, 1, 0x280u + id}}) {
+    for (Cob c : {Cob{0x1005, 0, cob::kSync}, Cob{0x1012, 0, cob::kTime}, Cob{0x1014, 0, cob::kEmcyBase + id},
+                  Cob{0x1800, 1, cob::tpdo_default(1, id)}, Cob{0x1801, 1, cob::tpdo_default(2, id)}}) {
       const OdEntry* e = node.od().find(c.index, c.sub);
       if (e) node.values().set_u(*e, (node.values().get_u(*e) & kKeepBits) | c.id);
     }
@@ -344,29 +337,30 @@ void SmcApplication::change_node_id(Node& node, std::uint8_t sub, std::uint8_t i
 
 TimeUs SmcApplication::process(Node& node, TimeUs now) {
   load_chain(node);
-  return Cia404Application::process(node, now);
+  const TimeUs next = chain_.process(node, now);
+  return std::min(next, device_.supervise(now, settings_.stay_set_period_us, [&] { supervise(node, now); }));
 }
 
 // Stay-set capture of the raw FV (before the input offset, §6.3.2) and the
 // A/D fault detection, in every NMT state.
 void SmcApplication::supervise(Node& node, TimeUs now) {
-  for (std::size_t ch = 0; ch < 2 && ch < profile().channels.size(); ++ch) {
-    const Measurement m = measure(node, ch, now);
+  for (std::size_t ch = 0; ch < 2 && ch < chain_.profile().channels.size(); ++ch) {
+    const Cia404Chain::Measurement m = chain_.measure(node, ch, now);
     if (m.status & kInvalidBit) {
-      if (!latched_status_[ch]) {
-        latched_status_[ch] = kInvalidBit;
+      if (!state_.latched_status[ch]) {
+        state_.latched_status[ch] = kInvalidBit;
         sensor_error(node, now);
       }
       continue;
     }
-    uptime_[ch].add(m.raw);
-    lifetime_[ch].add(m.raw);
+    state_.uptime[ch].add(m.raw);
+    state_.lifetime[ch].add(m.raw);
   }
 }
 
 // §4.8, §6.1.2, §6.1.17: EMCY 0x5030 + add-info, 0x1001 bit 0 latched, 0x1029:03.
 void SmcApplication::sensor_error(Node& node, TimeUs now) {
-  latched_error_ = true;
+  state_.latched_error = true;
   const std::uint8_t mfr[5] = {std::uint8_t(settings_.ad_fault_info), std::uint8_t(settings_.ad_fault_info >> 8)};
   node.emcy().raise(kEmcySensor, kInvalidBit, mfr, now);
   if (settings_.analog_error_reaction) node.nmt().error_reaction(3, now);
@@ -390,8 +384,7 @@ constexpr RequiredObject kRequiredObjects[] = {{0x6121, 1, 2, "the input scaling
 Requirements requirements() { return {kRequiredObjects, 2, "its pressure and temperature chains (§5)"}; }
 
 std::unique_ptr<Application> make(const model::Profile& profile, const Settings& settings, const NodeContext& ctx) {
-  return std::make_unique<SmcApplication>(profile.cia404, make_sensor_source(profile, ctx), settings, profile.identity,
-                                          ctx.index);
+  return std::make_unique<SmcApplication>(profile.cia404, make_sensor_source(profile, ctx), settings, ctx.index);
 }
 
 }  // namespace cansim::personalities::smc

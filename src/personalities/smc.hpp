@@ -15,39 +15,32 @@
 #include <memory>
 
 #include "personalities/registry.hpp"
+#include "personalities/sensor_application.hpp"
 
 namespace cansim::personalities::smc {
 
 using Settings = model::SmcSettings;  // the `vendor:` keys (config/vendor_settings.cpp)
 
-class SmcApplication : public Cia404Application {
+class SmcApplication final : public SensorApplication {
  public:
   SmcApplication(std::shared_ptr<const Cia404Profile> profile, std::unique_ptr<MeasurementSource> source,
-                 const Settings& settings, IdentitySettings identity = {}, std::uint32_t node_index = 0);
+                 const Settings& settings, std::uint32_t node_index = 0);
+
+  Cia404Chain& chain() override { return chain_; }
+  const Cia404Chain& chain() const override { return chain_; }
+  DevicePart& device() override { return device_; }
 
   void on_reset(Node& node, ResetKind kind, TimeUs now) override;
   void refresh(Node& node, const OdEntry& e, TimeUs now) override;
   SdoAbort check_write(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now) override;
   void after_write(Node& node, const OdEntry& e, TimeUs now) override;
   TimeUs process(Node& node, TimeUs now) override;
+  std::unique_ptr<Application> snapshot() const override { return snapshot_of(*this); }
+  void restore(const Application& snapshot) override { restore_from(*this, snapshot); }
 
   static constexpr double kFieldSpan = 20000.0;  // FV2 - FV1 (0x7122 - 0x7120)
 
- protected:
-  // Stay-set min/max capture and A/D fault detection.
-  void supervise(Node& node, TimeUs now) override;
-  TimeUs supervision_period() const override { return settings_.stay_set_period_us; }
-  double input_value(const ChannelConfig& c, const MeasurementSource::Sample& s, const UnitScale& unit) override;
-  double limit_hysteresis(const Node& node, std::size_t ch) const override;
-
  private:
-  struct Chain {
-    float gain = 1.0f, pv1 = 0.0f;   // 0x6126 / 0x6127 (= 0x6121)
-    float offset = 0.0f;             // input offset 0x3125 (FV counts)
-    float cmin = 0.0f, cmax = 0.0f;  // clamping 0x3201 / 0x3202
-    float scale(double fv) const;    // PV of a field value: offset, scaling, clamping
-    bool operator==(const Chain&) const = default;
-  };
   struct MinMax {
     bool any = false;
     std::int32_t min = 0, max = 0;
@@ -61,6 +54,15 @@ class SmcApplication : public Cia404Application {
     const OdEntry *input_offset_i16, *input_offset; // 0x3124 / 0x3125
     const OdEntry *clamp_min, *clamp_max;           // 0x3201 / 0x3202
   };
+  struct State {
+    ScalingObjects objects[2] = {};
+    LinearInput input[2];  // the §5 chain of each channel, as the chain measures through it
+    MinMax uptime[2];
+    MinMax lifetime[2];  // survives resets; kept by the application object
+    bool latched_error = false;
+    std::uint8_t latched_status[2] = {};  // 0x6150 bit 0 held like 0x1001
+    TimeUs boot_time = 0;
+  };
 
   void resolve_objects(const OdLayout& od);
   void load_chain(const Node& node);
@@ -69,18 +71,14 @@ class SmcApplication : public Cia404Application {
   void fill_device_name_chars(Node& node);
   void refresh_device_name(Node& node);
   void change_node_id(Node& node, std::uint8_t sub, std::uint8_t id, TimeUs now);
+  void supervise(Node& node, TimeUs now);
   void sensor_error(Node& node, TimeUs now);
   void swap_if_big_endian(Node& node, const OdEntry& e);
 
+  Cia404Chain chain_;
+  DevicePart device_;
   Settings settings_;
-  ScalingObjects objects_[2] = {};
-  Chain chain_[2];
-  MinMax uptime_[2];
-  MinMax lifetime_[2];  // survives resets; kept by the application object
-  bool latched_error_ = false;
-  std::uint8_t latched_status_[2] = {};  // 0x6150 bit 0 held like 0x1001
-  std::uint32_t factory_serial_ = 0;
-  TimeUs boot_time_ = 0;
+  State state_;
 };
 
 // The objects and channels the behaviour needs (personalities/catalog.hpp).

@@ -1,11 +1,13 @@
 #include "physics/recorder.hpp"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
 #include <charconv>
 #include <cstring>
+#include <filesystem>
 
 namespace cansim::physics {
 
@@ -20,6 +22,21 @@ template <class I>
 char* put_int(char* p, char* end, I v) noexcept {
   auto r = std::to_chars(p, end, v);
   return r.ec == std::errc{} ? r.ptr : p;
+}
+bool refuse(std::string* error, const std::string& why) {
+  if (error) *error = why;
+  return false;
+}
+
+// True when `path` (symbolic links resolved, as far as it exists) lies in `dir`.
+bool inside(const std::string& path, const std::string& dir) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path file = fs::weakly_canonical(fs::absolute(path, ec), ec);
+  const fs::path root = fs::weakly_canonical(fs::absolute(dir, ec), ec);
+  if (file.empty() || root.empty()) return false;
+  const fs::path rel = file.lexically_relative(root);
+  return !rel.empty() && *rel.begin() != "..";
 }
 }  // namespace
 
@@ -51,13 +68,23 @@ CsvRecorder& CsvRecorder::operator=(CsvRecorder&& o) noexcept {
 
 CsvRecorder::~CsvRecorder() { close(); }
 
-bool CsvRecorder::open(const std::string& path, std::string* error, std::size_t buffer_bytes) {
+bool CsvRecorder::open(const std::string& path, std::string* error, std::size_t buffer_bytes,
+                       const std::string& refused_dir) {
   close();
-  fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd_ < 0) {
-    if (error) *error = path + ": " + std::strerror(errno);
-    return false;
+  if (!refused_dir.empty() && inside(path, refused_dir))
+    return refuse(error, path + ": in the state folder " + refused_dir + ", which recordings never write to");
+  // A FIFO would block open() until a reader came, a device never end:
+  // checked before, and (the path may change meanwhile) on what was opened.
+  struct stat st{};
+  if (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) return refuse(error, path + ": not a regular file");
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_NONBLOCK | O_CLOEXEC | O_NOCTTY, 0644);
+  if (fd < 0) return refuse(error, path + ": " + std::strerror(errno));
+  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode) || ::ftruncate(fd, 0) != 0) {
+    const int err = errno;
+    ::close(fd);
+    return refuse(error, path + ": " + (S_ISREG(st.st_mode) ? std::strerror(err) : "not a regular file"));
   }
+  fd_ = fd;
   cap_ = buffer_bytes < 4096 ? 4096 : buffer_bytes;
   buf_ = std::make_unique<char[]>(cap_);
   len_ = 0;

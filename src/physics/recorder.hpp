@@ -29,6 +29,8 @@ namespace cansim::physics {
 
 class CsvRecorder {
  public:
+  static constexpr std::size_t kDefaultBuffer = 64 * 1024;
+
   CsvRecorder() = default;
   CsvRecorder(const CsvRecorder&) = delete;
   CsvRecorder& operator=(const CsvRecorder&) = delete;
@@ -37,7 +39,11 @@ class CsvRecorder {
   ~CsvRecorder();
 
   /// Creates / truncates `path` and writes the header. buffer_bytes >= 4096.
-  bool open(const std::string& path, std::string* error = nullptr, std::size_t buffer_bytes = 64 * 1024);
+  /// Only a regular file, opened without blocking (a FIFO would hold the
+  /// caller until a reader came, a device never end), and never one inside
+  /// `refused_dir` (the daemon's state folder; symbolic links resolved).
+  bool open(const std::string& path, std::string* error = nullptr, std::size_t buffer_bytes = kDefaultBuffer,
+            const std::string& refused_dir = {});
   /// Appends one row. No-op when not open.
   void record(TimeUs t, const SensorReading& r) noexcept;
   /// Writes buffered rows to the file. Returns false after a write error.

@@ -242,13 +242,37 @@ struct Sensor::ChannelState {
   double noise_normal(std::int64_t n) const noexcept { return counter_normal(noise_key, static_cast<std::uint64_t>(n)); }
 
   void step(std::int64_t n, const Quantity& q, const MeasurementFaults& mf, TimeUs t_us) noexcept {
-    const bool is_p = which == Channel::Pressure;
     const double t_sensor = q.temperature_k + mf.over_temperature_k;
-    const double x_true = is_p ? q.pressure_pa : t_sensor;
+    const double x_true = which == Channel::Pressure ? q.pressure_pa : t_sensor;
     if (x_true > spec.overload.safe_max || x_true < spec.overload.safe_min) damaged = true;
+    const double x = element_output(n, x_true, t_sensor, mf);
+    std::uint8_t flags = 0;
+    const std::int32_t counts = adc_counts(x, mf, flags);
+    started = true;
+    // While the element is open / shorted / damaged the filter is not fed (the device flags
+    // the value invalid); it restarts with the first good sample afterwards.
+    const bool invalid = damaged || mf.open || mf.short_circuit;
+    double value = device_output(n, counts, invalid);
+    value = apply_stuck(value, mf, flags);
+    if (mf.any()) flags |= kFlagFault;
+    if (damaged) flags |= kFlagDamaged;
+    const std::uint8_t status = invalid ? invalid_status(value) : valid_status(counts, value);
 
+    out.value = value;
+    out.fraction = (value - spec.range_min) / span;
+    out.truth = x_true;
+    out.adc_counts = counts;
+    out.status = status;
+    out.flags = flags;
+    out.sample_index = n;
+    out.sample_time_us = t_us;
+    next_index = n + 1;
+  }
+
+  // The sensing element: static, thermal and non-linearity errors, hysteresis,
+  // response time, drift, noise and spikes on the true value.
+  double element_output(std::int64_t n, double x_true, double t_sensor, const MeasurementFaults& mf) noexcept {
     const bool first = !started;
-    // Static, thermal, non-linearity errors.
     const auto& e = spec.errors;
     const double dT = t_sensor - e.reference_temperature_k;
     double x = x_true;
@@ -277,10 +301,12 @@ struct Sensor::ChannelState {
       const std::uint64_t bits = counter_hash(spike_key, static_cast<std::uint64_t>(n));
       if (uniform01(bits) < mf.spike_rate_hz / rate_hz) x += (bits & 1) ? mf.spike_amplitude : -mf.spike_amplitude;
     }
-    // ADC.
-    const double code_f = c0 + (x - spec.range_min) * code_per_unit;
-    double code_r = round_half_away(code_f);
-    std::uint8_t flags = 0;
+    return x;
+  }
+
+  // The ADC: saturating codes; an open / shorted element reads the rail.
+  std::int32_t adc_counts(double x, const MeasurementFaults& mf, std::uint8_t& flags) const noexcept {
+    const double code_r = round_half_away(c0 + (x - spec.range_min) * code_per_unit);
     std::int32_t counts;
     if (!(code_r > spec.adc.code_min)) {
       counts = spec.adc.code_min;
@@ -293,12 +319,11 @@ struct Sensor::ChannelState {
     }
     if (mf.open) counts = spec.adc.code_min, flags |= kFlagOpen;
     if (mf.short_circuit) counts = spec.adc.code_max, flags |= kFlagShort;
-    started = true;
+    return counts;
+  }
 
-    // Device filter on integer codes, output quantisation, back to physical units.
-    // While the element is open / shorted / damaged the filter is not fed (the device flags
-    // the value invalid); it restarts with the first good sample afterwards.
-    const bool invalid = damaged || mf.open || mf.short_circuit;
+  // Device filter on integer codes, output quantisation, back to physical units.
+  double device_output(std::int64_t n, std::int32_t counts, bool invalid) noexcept {
     double fc;
     if (invalid) {
       filter_fresh = true;
@@ -310,58 +335,50 @@ struct Sensor::ChannelState {
       const double steps = spec.output_steps;
       fc = c0 + round_half_away((fc - c0) / (c1 - c0) * steps) / steps * (c1 - c0);
     }
-    double value = spec.range_min + (fc - c0) / code_per_unit;
+    return spec.range_min + (fc - c0) / code_per_unit;
+  }
 
-    if (mf.stuck) {
-      flags |= kFlagStuck;
-      if (stuck_onset != mf.stuck_onset_us) {
-        stuck_onset = mf.stuck_onset_us;
-        stuck_latched = std::isnan(mf.stuck_value) ? (out.sample_index >= 0 ? out.value : value) : mf.stuck_value;
-      }
-      value = stuck_latched;
-    } else {
+  // A stuck output holds the value latched at the stuck fault's onset.
+  double apply_stuck(double value, const MeasurementFaults& mf, std::uint8_t& flags) noexcept {
+    if (!mf.stuck) {
       stuck_onset = std::numeric_limits<TimeUs>::min();
+      return value;
     }
-    if (mf.any()) flags |= kFlagFault;
-
-    std::uint8_t status = 0;
-    if (damaged) flags |= kFlagDamaged;
-    if (invalid) {
-      status = kStatusInvalid;
-      if (spec.invalid_output == InvalidOutput::HoldLastValid && have_valid) value = last_valid;
-    } else {
-      const double src = spec.overload.source == OverloadSource::Raw
-                             ? spec.range_min + (counts - c0) / code_per_unit
-                             : value;
-      const double hi = spec.range_max + spec.overload.margin;
-      const double lo = spec.range_min - spec.overload.margin;
-      if (!pos_ovl && src > hi) {
-        pos_ovl = true;
-        if (counters.positive != UINT32_MAX) ++counters.positive;
-      } else if (pos_ovl && src <= hi - spec.overload.hysteresis) {
-        pos_ovl = false;
-      }
-      if (!neg_ovl && src < lo) {
-        neg_ovl = true;
-        if (counters.negative != UINT32_MAX) ++counters.negative;
-      } else if (neg_ovl && src >= lo + spec.overload.hysteresis) {
-        neg_ovl = false;
-      }
-      if (pos_ovl) status |= kStatusPositiveOverload;
-      if (neg_ovl) status |= kStatusNegativeOverload;
-      last_valid = value;
-      have_valid = true;
+    flags |= kFlagStuck;
+    if (stuck_onset != mf.stuck_onset_us) {
+      stuck_onset = mf.stuck_onset_us;
+      stuck_latched = std::isnan(mf.stuck_value) ? (out.sample_index >= 0 ? out.value : value) : mf.stuck_value;
     }
+    return stuck_latched;
+  }
 
-    out.value = value;
-    out.fraction = (value - spec.range_min) / span;
-    out.truth = x_true;
-    out.adc_counts = counts;
-    out.status = status;
-    out.flags = flags;
-    out.sample_index = n;
-    out.sample_time_us = t_us;
-    next_index = n + 1;
+  // Not valid: the output holds the last valid value where the spec says so.
+  std::uint8_t invalid_status(double& value) const noexcept {
+    if (spec.invalid_output == InvalidOutput::HoldLastValid && have_valid) value = last_valid;
+    return kStatusInvalid;
+  }
+
+  // Valid: overload against the range and its margin, with hysteresis and counters.
+  std::uint8_t valid_status(std::int32_t counts, double value) noexcept {
+    const double src =
+        spec.overload.source == OverloadSource::Raw ? spec.range_min + (counts - c0) / code_per_unit : value;
+    const double hi = spec.range_max + spec.overload.margin;
+    const double lo = spec.range_min - spec.overload.margin;
+    if (!pos_ovl && src > hi) {
+      pos_ovl = true;
+      if (counters.positive != UINT32_MAX) ++counters.positive;
+    } else if (pos_ovl && src <= hi - spec.overload.hysteresis) {
+      pos_ovl = false;
+    }
+    if (!neg_ovl && src < lo) {
+      neg_ovl = true;
+      if (counters.negative != UINT32_MAX) ++counters.negative;
+    } else if (neg_ovl && src >= lo + spec.overload.hysteresis) {
+      neg_ovl = false;
+    }
+    last_valid = value;
+    have_valid = true;
+    return std::uint8_t((pos_ovl ? kStatusPositiveOverload : 0) | (neg_ovl ? kStatusNegativeOverload : 0));
   }
 
   void reboot() noexcept {

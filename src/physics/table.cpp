@@ -3,9 +3,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
-#include <fstream>
 #include <limits>
-#include <sstream>
 #include <stdexcept>
 
 namespace cansim::physics {
@@ -230,23 +228,6 @@ bool parse_table_csv(std::string_view text, std::vector<TablePoint>& out, std::s
   }
   if (out.empty()) {
     if (error) *error = "no data rows";
-    return false;
-  }
-  return true;
-}
-
-bool load_table_csv(const std::string& path, std::vector<TablePoint>& out, std::string* error,
-                    double time_scale, double value_scale, double value_offset) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    if (error) *error = "cannot open " + path;
-    return false;
-  }
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  std::string err;
-  if (!parse_table_csv(ss.str(), out, &err, time_scale, value_scale, value_offset)) {
-    if (error) *error = path + ": " + err;
     return false;
   }
   return true;

@@ -90,10 +90,6 @@ class Table {
 bool parse_table_csv(std::string_view text, std::vector<TablePoint>& out, std::string* error,
                      double time_scale = 1.0, double value_scale = 1.0, double value_offset = 0.0);
 
-/// Reads a file and parses it with parse_table_csv.
-bool load_table_csv(const std::string& path, std::vector<TablePoint>& out, std::string* error,
-                    double time_scale = 1.0, double value_scale = 1.0, double value_offset = 0.0);
-
 // ---- template implementation ----
 template <class F>
 void Table::for_each_event_back(double t, double window, std::size_t max_events, F&& f) const {

@@ -450,7 +450,7 @@ def objects(ctl: Ctl, bus, d: it.Daemon, w: Watch) -> None:
     sdo = it.SdoClient(bus, G0)
     assert ctl.ok("read", "generic/0", "0x1018:4") == "1 (0x1)\n"
     r = ctl.json("read", "generic/0", "0x1018:4")
-    assert r == {"index": 0x1018, "sub": 4, "type": "u", "value": 1}, r
+    assert r == {"index": 0x1018, "sub": 4, "type": "u", "value": 1, "unit": None, "scale": 1}, r
     assert sdo.upload_u32(0x1018, 4) == 1
     assert ctl.ok("read", "generic/0", "0x1008").strip() == "cansimd generic-404 pressure transmitter"
     period0 = ctl.json("read", "generic/0", "1017h")["value"]

@@ -103,6 +103,8 @@ interfaces:
 nodes:
   - {{profile: {eds}, interface: vcan0, node_id: 0x40, name: eds}}
   - {{profile: {yaml}, interface: vcan0, node_id: 0x41, name: yaml}}
+  - {{profile: {vendor}, interface: vcan0, node_id: 0x42, name: vendor}}
+  - {{profile: {editor}, interface: vcan0, node_id: 0x43, name: editor}}
 """
 # Measured by the CiA 404 chain: the two nodes' physics differ.
 MEASURED = {0x6100, 0x7100, 0x9100, 0x6130, 0x7130, 0x9130, 0x6150}
@@ -142,7 +144,9 @@ def test_eds(ctx: it.Context) -> None:
     ctl = os.path.join(os.path.dirname(ctx.cansimd), "cansimctl")
     cfg = os.path.join(ctx.tmp, "eds-fleet.yaml")
     with open(cfg, "w") as f:
-        f.write(EDS_FLEET.format(eds=eds, yaml=ctx.source("profiles/generic-404.yaml")))
+        f.write(EDS_FLEET.format(eds=eds, yaml=ctx.source("profiles/generic-404.yaml"),
+                                 vendor=ctx.source("tests/data/eds/vendor-transmitter.eds"),
+                                 editor=ctx.source("tests/data/eds/editor-gripper.dcf")))
     sock = os.path.join(ctx.tmp, "control")
     d = ctx.daemon("--config", cfg, "--state-dir", "{state_dir}", "--bus", "none", "--control-socket", sock,
                    name="eds-fleet")
@@ -163,6 +167,17 @@ def test_eds(ctx: it.Context) -> None:
             else:
                 assert x == y, f"{where}: EDS node {x!r}, YAML node {y!r}"
         it.log(f"EDS and YAML nodes answer the same {len(entries)} objects")
+        # Foreign files (tests/data/eds): the SDO server at 600h + node-ID
+        # whatever the file wrote (0x601), values an empty ParameterValue
+        # left to DefaultValue, and each repair logged once at start.
+        v, e = it.SdoClient(bus0, 0x42), it.SdoClient(bus0, 0x43)
+        assert v.upload(0x1200, 1) == (0x642).to_bytes(4, "little")
+        assert v.upload_u16(0x1017) == 500 and v.upload(0x1000, 0) == (0x00020194).to_bytes(4, "little")
+        assert e.upload_u16(0x1017) == 1000 and e.upload(0x1008, 0) == b"GX-2 gripper"
+        assert e.upload(0x1018, 4) == (0x0012D687).to_bytes(4, "little")
+        assert "vendor-transmitter.eds:106: [1200sub1] DefaultValue: expected $NODEID+0x600" in d.log_text(), d.log_text()
+        assert "editor-gripper.dcf:387: [DeviceComissioning] Baudrate" in d.log_text()
+        it.log("foreign EDS / DCF nodes answer the files' values; their warnings are in the log")
         it.nmt(bus0, 0x01, 0x40)
         it.expect(bus0, it.is_tpdo(0x40, 1), 5, "TPDO1 of the EDS node (event timer 100 ms from its 0x1800)")
 

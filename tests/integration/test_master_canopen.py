@@ -45,11 +45,8 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "lib
 import cansim_it as it  # noqa: E402
 
 # profile file -> (node-ID on the test bus, fleet name, fault that raises an EMCY, doc).
-# The generic personality has no sensor EMCY: its EMCY is the core's bus-off
-# recovery (0x8140, then the error reset), kept shorter than the heartbeat
-# consumer time.
 PROFILES = {
-    "generic-404": (0x10, "generic", "bus_off", "README.md (generic-404)"),
+    "generic-404": (0x10, "generic", "open", "README.md (generic-404)"),
     "dps": (0x7F, "dps", "open", "docs/devices/dps.md"),
     "p92c": (0x01, "p92c", "open", "docs/devices/p92c.md"),
     "gems9000": (0x0A, "gems", "open", "docs/devices/gems9000.md"),
@@ -181,6 +178,8 @@ def plan_node(ctx: it.Context, key: str, strict: bool = False) -> dict:
         # SMC: 0x1001 bit 0 and the sensor error are latched until power-off
         "emcy_reset": key != "smc",
         "emcy_reset_doc": "docs/devices/smc.md: EMCY 0x5030, 0x1001 bit 0 latched until power-off" if key == "smc" else "",
+        # the reference node's sensor fault as README "Profiles" documents it
+        **({"emcy_code": 0x5030, "emcy_register": 0x21} if key == "generic-404" else {}),
         "hb_ms": HB_MS, "hb_default": False,
         "hb_profile_default": default(0x1017, 0) if (0x1017, 0) in by_key else 0,
         "objects": objects,

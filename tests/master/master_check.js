@@ -523,8 +523,12 @@ async function emcyCheck(n) {
         await sleep(20);
     }
     const show = (e) => `code ${hex(e[1], 4)} register ${hex(e[2], 2)} info ${e[3]} after ${e[0] - t0} ms`;
-    check(P, `emcy ${n.fault}`, err ? 'PASS' : 'FAIL',
-        err ? `consumer on ${hex(cob, 3)} got ${show(err)}` : `no EMCY on ${hex(cob, 3)}; frames ${framesSince(t0, (id) => id === cob).join(' ')}`);
+    // the code and register the README documents, where the plan names them
+    const expected = !err || n.emcy_code === undefined || (err[1] === n.emcy_code && err[2] === n.emcy_register);
+    const want = n.emcy_code === undefined ? '' : `, expected code ${hex(n.emcy_code, 4)} register ${hex(n.emcy_register, 2)}`;
+    check(P, `emcy ${n.fault}`, err && expected ? 'PASS' : 'FAIL',
+        err ? `consumer on ${hex(cob, 3)} got ${show(err)}${expected ? '' : want}`
+            : `no EMCY on ${hex(cob, 3)}; frames ${framesSince(t0, (id) => id === cob).join(' ')}`);
     if (n.emcy_reset)
         check(P, 'emcy-reset', reset ? 'PASS' : 'FAIL', reset ? `error reset: ${show(reset)}` : 'no error-reset EMCY (code 0x0000) after the fault ended');
     else

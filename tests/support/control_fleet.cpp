@@ -1,6 +1,7 @@
 #include "support/control_fleet.hpp"
 
 #include <sys/socket.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <stdexcept>
@@ -63,6 +64,7 @@ void ControlFleet::add(const config::FleetConfig& cfg) {
     e->handle.ref = core_.add_node(bus(n.interface).id, setup, daemon::make_node_application(n, cfg.seed),
                                    std::make_unique<MemoryStorage>());
     e->handle.app = core_.app(e->handle.ref);
+    e->handle.emcy_codes = &n.profile->emcy_codes;
     fresh.push_back(e->handle.ref);
     Entry& stored = *(entries_[n.key] = std::move(e));
     service_.node_added(stored.handle);
@@ -170,9 +172,18 @@ BusPair::~BusPair() {
   sd_bus_close_unref(server_);
 }
 
+int BusPair::serve() {
+  timespec t0, t1;
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t0);
+  const int r = sd_bus_process(server_, nullptr);
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t1);
+  server_cpu_ms_ += double(t1.tv_sec - t0.tv_sec) * 1e3 + double(t1.tv_nsec - t0.tv_nsec) / 1e6;
+  return r;
+}
+
 void BusPair::pump() {
   for (int idle = 0; idle < 3;) {
-    int a = sd_bus_process(server_, nullptr);
+    int a = serve();
     int b = sd_bus_process(client_, nullptr);
     idle = (a > 0 || b > 0) ? 0 : idle + 1;
   }
@@ -191,7 +202,7 @@ sd_bus_message* BusPair::call(sd_bus_message* m, std::string* error_name, std::s
   }, &result, 0);
   sd_bus_message_unref(m);
   for (int i = 0; i < 10000 && !result.done; ++i) {
-    sd_bus_process(server_, nullptr);
+    serve();
     sd_bus_process(client_, nullptr);
   }
   pump();
@@ -215,6 +226,17 @@ sd_bus_message* BusPair::node_call(const std::string& path, const char* member) 
   sd_bus_message* m = nullptr;
   sd_bus_message_new_method_call(client_, &m, nullptr, path.c_str(), control::kNodeInterface, member);
   return m;
+}
+
+std::string BusPair::node_path(const std::string& node) {
+  sd_bus_message* m = fleet_call("GetNode");
+  sd_bus_message_append(m, "s", node.c_str());
+  sd_bus_message* r = call(m);
+  const char* p = "";
+  if (r) sd_bus_message_read(r, "o", &p);
+  std::string out = p;
+  if (r) sd_bus_message_unref(r);
+  return out;
 }
 
 std::vector<std::pair<std::string, sd_bus_message*>> BusPair::take_signals() {

@@ -89,17 +89,24 @@ class BusPair {
   // A new method call to the fleet object / a node object.
   sd_bus_message* fleet_call(const char* member);
   sd_bus_message* node_call(const std::string& path, const char* member);
+  // The object path of a node (Fleet1.GetNode), "" when there is none.
+  std::string node_path(const std::string& node);
   // Steps both ends until nothing is left to do.
   void pump();
   // Signals received since the last take: (member, message) — caller unrefs messages.
   std::vector<std::pair<std::string, sd_bus_message*>> take_signals();
   sd_bus* client() { return client_; }
+  // Thread CPU time spent in the server's sd_bus_process() so far: what a
+  // daemon's loop would have spent on these calls (ms).
+  double server_cpu_ms() const { return server_cpu_ms_; }
 
  private:
   control::ControlService& service_;
   sd_bus* server_ = nullptr;
   sd_bus* client_ = nullptr;
   sd_bus_slot* filter_ = nullptr;
+  double server_cpu_ms_ = 0;
+  int serve();  // one sd_bus_process() of the server, timed
   std::vector<std::pair<std::string, sd_bus_message*>> signals_;
 };
 

@@ -104,10 +104,10 @@ class DeviceFixture : public ::testing::Test {
     id = node_id ? node_id : profile.node_id;
     sim = &bus.add(profile, id, app.get());
   }
-  // The usual application constructor: App(chain, source, device settings, identity, node index 0).
+  // The usual application constructor: App(chain, source, device settings, node index 0).
   template <class Settings>
   static std::unique_ptr<App> device_app(const config::Profile& p, std::unique_ptr<Source> src) {
-    return std::make_unique<App>(p.cia404, std::move(src), std::get<Settings>(p.device), p.identity, 0);
+    return std::make_unique<App>(p.cia404, std::move(src), std::get<Settings>(p.device), 0);
   }
 };
 

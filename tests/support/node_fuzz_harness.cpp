@@ -34,13 +34,26 @@ std::uint32_t cob_id(std::uint8_t sel, std::uint8_t param, std::uint8_t node_id)
 
 }  // namespace
 
-config::Profile node_fuzz_profile(const std::string& path) {
+std::size_t node_fuzz_variant(const std::string& name) {
+  for (std::size_t i = 0; i < kNodeFuzzVariantCount; ++i)
+    if (name == kNodeFuzzVariants[i].name) return i;
+  return kNodeFuzzVariantCount;
+}
+
+config::Profile node_fuzz_profile(const std::string& profiles, const NodeFuzzVariant& variant) {
+  const std::string path = profiles + "/" + variant.profile + ".yaml";
   YAML::Node root = config::load_yaml_file(path);
-  root["vendor"]["cia404"]["event_check_period"] = "100 ms";
-  root["sensor"]["pressure"]["sample_rate"] = "100 Hz";
-  root["sensor"]["temperature"]["sample_rate"] = "10 Hz";
-  config::Profile profile = config::parse_profile(root, path);
-  return profile;
+  YAML::Node vendor = root["vendor"];
+  vendor["cia404"]["event_check_period"] = "100 ms";
+  // Each personality's supervision period (config/vendor_settings.cpp).
+  const std::string personality = root["personality"].as<std::string>();
+  for (const auto& [who, key] : {std::pair{"honeywell-dps", "span_check_period"}, {"danfoss-p92c", "monitor_period"},
+                                 {"gems-9000", "supervision_period"}, {"adz-smc", "stay_set_period"}})
+    if (personality == who) vendor[key] = "100 ms";
+  for (const auto& [channel, rate] : {std::pair{"pressure", "10 Hz"}, {"temperature", "1 Hz"}})
+    if (root["sensor"][channel]) root["sensor"][channel]["sample_rate"] = rate;
+  if (variant.strict) root["strict"] = true;
+  return config::parse_profile(root, path);
 }
 
 void NodeFuzzHarness::CheckingSink::send(const CanFrame& f) {
@@ -61,11 +74,16 @@ bool NodeFuzzHarness::MemoryStorage::save(std::span<const std::uint8_t> data) {
 
 NodeFuzzHarness::NodeFuzzHarness(const config::Profile& profile)
     : app_(personalities::make_application(profile, personalities::NodeContext{})),
-      cia404_(personalities::as_cia404(app_.get())) {
+      measurement_(personalities::measurement_control(app_.get())) {
   sink_.clock = &now_;
   sink_.recording = &recording_;
   node_.emplace(config::node_setup(profile), sink_, app_.get(), &storage_);
   node_->power_on(0);
+  // Inputs start from the boot-up (a profile's boot_up_delay_ms would spend
+  // the first records of every input in INITIALISING, deaf to NMT).
+  while (node_->state() == NmtState::kInitialising && node_->next_deadline() <= ms(10000))
+    run_until(node_->next_deadline());
+  booted_at_ = now_;
   node_at_power_on_.emplace(node_->snapshot());
   storage_at_power_on_ = storage_.blob;
   if (app_) {
@@ -86,7 +104,7 @@ void NodeFuzzHarness::start_from_power_on() {
   if (app_) app_->restore(*app_at_power_on_);
   storage_.blob = storage_at_power_on_;
   sink_.sent.clear();
-  now_ = 0;
+  now_ = booted_at_;
 }
 
 void NodeFuzzHarness::run(std::span<const std::uint8_t> input) {
@@ -114,7 +132,7 @@ void NodeFuzzHarness::run_record(const std::uint8_t* r) {
 }
 
 void NodeFuzzHarness::arm_fault(const std::uint8_t* r) {
-  if (!cia404_) return;
+  if (!measurement_) return;
   physics::FaultSpec f;
   f.kind = physics::FaultKind(std::uint8_t(physics::FaultKind::Silent) + r[3] % 6);
   const TimeUs duration = ms(r[5] | (r[6] << 8));
@@ -122,7 +140,7 @@ void NodeFuzzHarness::arm_fault(const std::uint8_t* r) {
   f.sdo_delay_us = ms(r[7]);
   f.drop_every_n = r[8] % 5;
   f.drop_probability = r[9] / 255.0;
-  cia404_->arm_fault(*node_, f, now_);
+  measurement_->arm_fault(*node_, f, now_);
 }
 
 void NodeFuzzHarness::deliver(const std::uint8_t* r) {
@@ -144,6 +162,19 @@ void NodeFuzzHarness::run_until(TimeUs t) {
     node_->advance(now_);
   }
   now_ = std::max(now_, t);
+}
+
+NodeFuzzHarness& NodeFuzzTarget::harness(std::size_t variant) {
+  if (!harnesses_[variant]) {
+    profile_storage_[variant] = node_fuzz_profile(profiles_, kNodeFuzzVariants[variant]);
+    harnesses_[variant] = std::make_unique<NodeFuzzHarness>(profile_storage_[variant]);
+  }
+  return *harnesses_[variant];
+}
+
+void NodeFuzzTarget::run(std::span<const std::uint8_t> input) {
+  if (input.empty()) return;
+  harness(node_fuzz_variant(input[0])).run(input.subspan(1));
 }
 
 }  // namespace cansim::test

@@ -13,7 +13,7 @@ SimNode::SimNode(SimBus& bus, const config::Profile& profile, std::uint8_t node_
 
 void SimNode::replace(std::uint8_t node_id) {
   NodeSetup setup = config::node_setup(profile_, node_id);
-  setup.serial_number = serial_number_;
+  if (serial_number_) setup.serial_number = serial_number_;
   node_ = std::make_unique<Node>(setup, *this, app_, &storage);
 }
 

@@ -32,9 +32,11 @@ class MemoryStorage : public NodeStorage {
     ++saves;
     return true;
   }
+  void rejected(const char* why) override { rejections.emplace_back(why); }
   std::vector<std::uint8_t> data;
   int saves = 0;
   bool fail_saves = false;
+  std::vector<std::string> rejections;  // what the node said when it dropped `data`
 };
 
 class SimBus;

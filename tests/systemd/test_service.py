@@ -23,7 +23,7 @@ Checked, in order:
     owned by cansim, mode 0600 (UMask=0077).
  5. The journal: `journalctl -u UNIT CANSIM_NODE=KEY` gives that node's
     lines only (its "parameters stored" among them), CANSIM_IFACE= an
-    interface's.
+    interface's; each cansimctl action one line with CANSIM_CALLER_UID=.
  6. systemctl reload (SIGHUP) with a node added to the config: its boot-up,
     no other node restarts, same main PID.
  7. The watchdog: SIGSTOP on both main PIDs; systemd kills and restarts them
@@ -140,7 +140,8 @@ def install(deb: str) -> None:
     for f in ["/usr/bin/cansimd", "/usr/bin/cansimctl", "/lib/systemd/system/cansimd.service",
               "/lib/systemd/system/cansimd@.service", "/usr/lib/sysusers.d/cansimd.conf",
               "/usr/share/dbus-1/system.d/io.cansim.Cansimd1.conf", "/etc/cansimd/cansimd.yaml",
-              "/usr/share/cansimd/profiles/generic-404.yaml", "/usr/share/man/man8/cansimd.8.gz"]:
+              "/usr/share/cansimd/profiles/generic-404.yaml", "/usr/share/man/man8/cansimd.8.gz",
+              "/usr/share/bash-completion/completions/cansimctl"]:
         assert os.path.exists(f), f"{f} not installed"
     assert "/etc/cansimd/cansimd.yaml" in run("dpkg-query", "-W", "-f=${Conffiles}", "cansimd").stdout
     for u in UNITS:
@@ -215,6 +216,27 @@ def control_api(gid: int) -> None:
     step(f"a uid outside cansim: refused by the bus policy ({refused.stderr.strip()[:60]}...) and by both sockets")
 
 
+def python_client(gid: int) -> None:
+    """The package's Python module, plugin, EDS files and tools, used as a
+    bench user would: a uid in group cansim connects to the running service."""
+    where = run("/usr/bin/python3", "-c", "import cansim; print(cansim.__file__)", user=[gid]).stdout.strip()
+    assert where == "/usr/lib/python3/dist-packages/cansim/__init__.py", where
+    code = ("import cansim\n"
+            "with cansim.connect() as sim:\n"  # the default address: /run/cansimd/control
+            "    node = sim.node('generic/0')\n"
+            "    node.pressure.set(4.5, 'bar')\n"
+            "    print(len(sim.nodes()), node.pressure.true_value, node.pressure.unit)\n")
+    assert run("/usr/bin/python3", "-c", code, user=[gid]).stdout.split() == ["9", "4.5", "bar"]
+    assert "--cansim-config=PATH" in run("/usr/bin/python3", "-m", "pytest", "--help").stdout
+    eds = sorted(os.listdir("/usr/share/cansimd/eds"))
+    assert eds == [f"{p}.eds" for p in ("cmp", "dps", "gems9000", "generic-404", "p92c", "smc")], eds
+    for tool in ("decode.py", "plot-recording"):
+        assert os.access(f"/usr/share/cansimd/scripts/{tool}", os.X_OK), tool
+    assert os.path.exists("/usr/share/doc/cansimd/examples/hil_bench_test.py")
+    step("python3 -c 'import cansim' from dist-packages; cansim.connect() as a uid in group cansim: 9 nodes, "
+         "set 4.5 bar; the pytest plugin, 6 EDS files, decode.py, plot-recording and the example installed")
+
+
 def store(bus0) -> None:
     sdo = it.SdoClient(bus0, 0x10)
     sdo.download_u16(0x1017, 0, 500)
@@ -237,6 +259,13 @@ def journal_fields() -> None:
         assert any("parameters stored" in m for m in messages(mine)), messages(mine)
         assert not journal("-u", unit, f"CANSIM_NODE={other}"), f"{other} has lines although nothing happened to it"
         step(f"journalctl -u {unit} CANSIM_NODE={key}: {messages(mine)}")
+    # Every control action: one line with its node, the caller's uid and the outcome (store() did these).
+    actions = journal("-u", BENCH, "CANSIM_NODE=vcan1/b/0", "CANSIM_CALLER_UID=0")
+    assert [m for m in messages(actions) if m.startswith("control: vcan1/b/0: ")] == [
+        "control: vcan1/b/0: Write 0x1017:00 700 by uid 0: done",
+        "control: vcan1/b/0: Store 1 by uid 0: done"], messages(actions)
+    assert all(e.get("CANSIM_IFACE") == "vcan1" for e in actions), actions
+    step(f"journalctl -u {BENCH} CANSIM_NODE=vcan1/b/0 CANSIM_CALLER_UID=0: {messages(actions)}")
     vcan1 = journal("-u", MAIN, "CANSIM_IFACE=vcan1")
     assert vcan1 and all(e.get("CANSIM_IFACE") == "vcan1" for e in vcan1)
     assert any(m.startswith("vcan1: open") for m in messages(vcan1)), messages(vcan1)
@@ -335,6 +364,7 @@ def main() -> int:
         with it.open_bus("vcan0") as bus0, it.open_bus("vcan1") as bus1:
             pids = start(bus0, bus1)
             control_api(gid)
+            python_client(gid)
             store(bus0)
             journal_fields()
             reload(bus0, bus1, pids)

@@ -8,7 +8,7 @@
 #include <functional>
 #include <memory>
 
-#include "personalities/cia404.hpp"
+#include "personalities/generic.hpp"
 #include "personalities/registry.hpp"
 #include "support/device.hpp"
 #include "support/sim.hpp"
@@ -34,7 +34,7 @@ class ChainFixture : public ::testing::Test {
     profile = std::move(p);
     auto src = std::make_unique<FakeSource>();
     source = src.get();
-    app = std::make_unique<personalities::Cia404Application>(profile.cia404, std::move(src));
+    app = std::make_unique<personalities::generic::GenericApplication>(profile.cia404, std::move(src), false);
     sim = &bus.add(profile, 0x10, app.get());
     bus.power_on_all();
     bus.run_for(ms(1));
@@ -83,7 +83,7 @@ class ChainFixture : public ::testing::Test {
   SimBus bus;
   config::Profile profile;
   FakeSource* source = nullptr;
-  std::unique_ptr<personalities::Cia404Application> app;
+  std::unique_ptr<personalities::generic::GenericApplication> app;
   SimNode* sim = nullptr;
 };
 

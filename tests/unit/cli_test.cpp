@@ -29,6 +29,17 @@ TEST(Cli, FleetWithEveryOptionInBothSpellings) {
   EXPECT_EQ(r.options.seed, 16u);
 }
 
+TEST(Cli, MaxClientsIsBounded) {
+  EXPECT_EQ(parse({"--config", "f.yaml"}).options.max_clients, 64u);
+  CliResult r = parse({"--config", "f.yaml", "--max-clients", "4096"});
+  ASSERT_EQ(r.error, "");
+  EXPECT_EQ(r.options.max_clients, 4096u);
+  EXPECT_EQ(parse({"--config", "f.yaml", "--max-clients=1"}).options.max_clients, 1u);
+  EXPECT_EQ(parse({"--config", "f.yaml", "--max-clients", "0"}).error, "--max-clients: expected 1..4096, got '0'");
+  EXPECT_EQ(parse({"--config", "f.yaml", "--max-clients", "4097"}).error, "--max-clients: expected 1..4096, got '4097'");
+  EXPECT_NE(usage_text().find("--max-clients N"), std::string::npos);
+}
+
 TEST(Cli, StrictAndQuirks) {
   CliResult r = parse({"--config", "f.yaml", "--strict"});
   EXPECT_EQ(r.error, "");
@@ -51,9 +62,23 @@ TEST(Cli, ExportEdsWithNodeIdAndOutput) {
   EXPECT_EQ(r.options.export_eds, "p92c");
   EXPECT_EQ(r.options.node_id, 5);
   EXPECT_EQ(r.options.output, "p92c.dcf");
-  EXPECT_EQ(parse({"--profile", "x", "--output", "f"}).error, "--output goes with --export-eds");
+  EXPECT_EQ(parse({"--profile", "x", "--output", "f"}).error, "--output goes with --export-eds or --export-dbc");
   EXPECT_EQ(parse({"--export-eds", "x", "--config", "f.yaml"}).error,
             "--export-eds takes a profile of its own (no --profile, --config, --interface or --check)");
+}
+
+TEST(Cli, ExportDbcOfAFleetBusOrAProfile) {
+  CliResult r = parse({"--export-dbc", "config/cansimd.yaml", "--interface", "vcan1", "--output", "bus.dbc"});
+  EXPECT_EQ(r.error, "");
+  EXPECT_EQ(r.options.export_dbc, "config/cansimd.yaml");
+  EXPECT_EQ(r.options.interface, "vcan1");
+  EXPECT_TRUE(r.options.interface_given);
+  EXPECT_EQ(r.options.output, "bus.dbc");
+  EXPECT_EQ(parse({"--export-dbc", "dps", "--node-id", "9", "--strict"}).options.node_id, 9);
+  EXPECT_FALSE(parse({"--export-dbc", "dps"}).options.interface_given);
+  EXPECT_EQ(parse({"--export-dbc", "x", "--config", "f.yaml"}).error,
+            "--export-dbc takes a fleet configuration or a profile of its own (no --profile, --config, --export-eds "
+            "or --check)");
 }
 
 TEST(Cli, StateDirectoryFromSystemd) {

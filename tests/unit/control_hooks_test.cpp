@@ -44,7 +44,7 @@ class ControlHooks : public ::testing::Test {
     ctx.fleet_seed = 7;
     ctx.key = "vcan0/generic";
     app = personalities::make_application(profile, ctx);
-    chain = personalities::as_cia404(app.get());
+    chain = personalities::measurement_control(app.get());
     ASSERT_NE(chain, nullptr);
     sim = &bus.add(profile, kId, app.get());
     bus.power_on_all();
@@ -85,7 +85,7 @@ class ControlHooks : public ::testing::Test {
   SimBus bus;
   config::Profile profile;
   std::unique_ptr<Application> app;
-  personalities::Cia404Application* chain = nullptr;
+  personalities::MeasurementControl* chain = nullptr;
   SimNode* sim = nullptr;
 };
 
@@ -481,13 +481,15 @@ TEST(ControlHelpers, ParseFaultIsPublic) {
   EXPECT_THROW(config::parse_fault({"ArmFault", "params"}, YAML::Load("{kind: melt}")), config::ConfigError);
 }
 
-TEST(ControlHelpers, AsCia404FindsTheChain) {
-  config::Profile p = load_repo_profile("generic-404");
-  auto app = personalities::make_application(p, {});
-  EXPECT_NE(personalities::as_cia404(app.get()), nullptr);
-  EXPECT_EQ(personalities::as_cia404(nullptr), nullptr);
+TEST(ControlHelpers, EveryPersonalityOffersMeasurementControl) {
+  for (const char* name : {"generic-404", "dps", "p92c", "gems9000", "smc", "cmp"}) {
+    config::Profile p = load_repo_profile(name);
+    auto app = personalities::make_application(p, {});
+    EXPECT_NE(personalities::measurement_control(app.get()), nullptr) << name;
+  }
+  EXPECT_EQ(personalities::measurement_control(nullptr), nullptr);
   Application plain;
-  EXPECT_EQ(personalities::as_cia404(&plain), nullptr);
+  EXPECT_EQ(personalities::measurement_control(&plain), nullptr);
 }
 
 // A source without a process model (a test's fake): the process methods say

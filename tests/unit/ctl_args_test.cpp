@@ -12,6 +12,7 @@
 #include "ctl/decode.hpp"
 #include "ctl/json.hpp"
 #include "ctl/output.hpp"
+#include "ctl/targets.hpp"
 
 namespace cansim::ctl {
 namespace {
@@ -135,6 +136,7 @@ TEST(CtlArgs, RecordStoreRestore) {
   EXPECT_EQ(parse({"store", "dps"}).call, node_call("Store", {Value(std::uint8_t(1))}));
   EXPECT_EQ(parse({"store", "dps", "2"}).call, node_call("Store", {Value(std::uint8_t(2))}));
   EXPECT_EQ(parse({"restore", "dps", "0x4"}).call, node_call("Restore", {Value(std::uint8_t(4))}));
+  EXPECT_EQ(parse({"store", "dps", "127"}).call, node_call("Store", {Value(std::uint8_t(127))}));
 }
 
 TEST(CtlArgs, WatchSubscribesForTheFleetOrOneNode) {
@@ -202,6 +204,8 @@ TEST(CtlArgs, BadLinesAreUsageErrors) {
   expect_usage_error({"record", "dps"});
   expect_usage_error({"record", "dps", "f.csv", "--stop"});
   expect_usage_error({"store", "dps", "256"});
+  expect_usage_error({"store", "dps", "128"});  // the daemon takes 1..127: said here, not after the call
+  expect_usage_error({"restore", "dps", "0"});
   expect_usage_error({"watch", "a", "b"});
   expect_usage_error({"add"});
   expect_usage_error({"list", "--socket"});
@@ -217,8 +221,23 @@ TEST(CtlArgs, MainExitCodes) {
   std::ostringstream out, err;
   EXPECT_EQ(cansimctl_main({"set", "dps"}, out, err), 2);
   EXPECT_EQ(out.str(), "");
-  EXPECT_TRUE(err.str().starts_with("cansimctl: usage: cansimctl set NODE CHANNEL VALUE UNIT")) << err.str();
-  EXPECT_NE(err.str().find("\nusage: cansimctl [OPTIONS] COMMAND"), std::string::npos);
+  // Only that verb's usage.
+  EXPECT_EQ(err.str(), "cansimctl: set: 1 argument given, expected 4\n\n"
+                       "usage: cansimctl set NODE CHANNEL VALUE UNIT [--ramp DURATION]\n"
+                       "Try 'cansimctl set --help' for more.\n");
+  std::ostringstream bad_channel;
+  EXPECT_EQ(cansimctl_main({"hold", "dps", "humidity"}, out, bad_channel), 2);
+  EXPECT_TRUE(bad_channel.str().starts_with("cansimctl: channel must be pressure or temperature, got 'humidity'\n\n"
+                                            "usage: cansimctl hold NODE CHANNEL\n"))
+      << bad_channel.str();
+  // No verb known: the whole usage.
+  std::ostringstream unknown;
+  EXPECT_EQ(cansimctl_main({"frobnicate"}, out, unknown), 2);
+  EXPECT_NE(unknown.str().find("\nusage: cansimctl [OPTIONS] COMMAND"), std::string::npos) << unknown.str();
+  // With --json, one JSON object on stderr.
+  std::ostringstream json_err;
+  EXPECT_EQ(cansimctl_main({"--json", "set", "dps"}, out, json_err), 2);
+  EXPECT_EQ(json_err.str(), "{\"error\":\"set: 1 argument given, expected 4\",\"name\":null,\"exit_status\":2}\n");
 
   std::ostringstream help;
   EXPECT_EQ(cansimctl_main({"--help"}, help, err), 0);
@@ -231,6 +250,112 @@ TEST(CtlArgs, MainExitCodes) {
   EXPECT_EQ(cansimctl_main({"--socket", "/nonexistent/control", "list"}, none, refused), 1);
   EXPECT_TRUE(refused.str().starts_with("cansimctl: cannot connect to the control socket /nonexistent/control"))
       << refused.str();
+  std::ostringstream refused_json;
+  EXPECT_EQ(cansimctl_main({"--socket", "/nonexistent/control", "--json", "list"}, none, refused_json), 1);
+  EXPECT_TRUE(refused_json.str().starts_with("{\"error\":\"cannot connect to the control socket /nonexistent/"))
+      << refused_json.str();
+  EXPECT_TRUE(refused_json.str().ends_with(",\"name\":null,\"exit_status\":1}\n")) << refused_json.str();
+}
+
+TEST(CtlArgs, EachVerbHasItsHelp) {
+  for (const std::string& verb : verb_names()) {
+    std::ostringstream help, err;
+    EXPECT_EQ(cansimctl_main({verb, "--help"}, help, err), 0) << verb;
+    EXPECT_TRUE(help.str().starts_with("usage: cansimctl " + verb)) << help.str();
+    EXPECT_EQ(help.str(), verb_help(verb));
+    std::ostringstream same;
+    EXPECT_EQ(cansimctl_main({"help", verb}, same, err), 0) << verb;
+    EXPECT_EQ(same.str(), help.str());
+  }
+  // What a verb's arguments are, and only those.
+  EXPECT_NE(verb_help("set").find("\nUNIT: bar, mbar, psi"), std::string::npos);
+  EXPECT_NE(verb_help("set").find("an ID range (vcan0/0x10-0x13)"), std::string::npos) << "set takes groups";
+  EXPECT_EQ(verb_help("status").find("ID range"), std::string::npos) << "status takes one node";
+  EXPECT_EQ(verb_help("list").find("NODE:"), std::string::npos);
+  EXPECT_NE(verb_help("fault").find("\nKIND: open, short, stuck, drift"), std::string::npos);
+  EXPECT_NE(verb_help("read").find("= 3.50 bar"), std::string::npos);
+  std::ostringstream out, err;
+  EXPECT_EQ(cansimctl_main({"help", "nope"}, out, err), 2);
+  EXPECT_EQ(cansimctl_main({"help", "a", "b"}, out, err), 2);
+}
+
+TEST(CtlArgs, ActingVerbsTakeGroups) {
+  for (const char* verb : {"set", "override", "fault", "cancel", "power-cycle", "nmt"}) {
+    std::vector<std::string> line = {verb, "generic/*"};
+    if (std::string(verb) == "set" || std::string(verb) == "override") line.insert(line.end(), {"pressure", "1", "bar"});
+    if (std::string(verb) == "fault") line.push_back("open");
+    if (std::string(verb) == "cancel") line.push_back("3");
+    if (std::string(verb) == "nmt") line.push_back("start");
+    EXPECT_TRUE(parse(line).group) << verb;
+  }
+  EXPECT_FALSE(parse({"status", "generic/*"}).group);
+  EXPECT_FALSE(parse({"read", "dps", "0x1017"}).group);
+}
+
+std::vector<NodeRow> rows() {
+  auto row = [](std::string key, std::string name, std::uint8_t id) {
+    NodeRow r;
+    r.key = key;
+    r.path = "/p/" + key;
+    r.name = std::move(name);
+    r.interface = key.substr(0, key.find('/'));
+    r.node_id = id;
+    return r;
+  };
+  return {row("vcan0/dps/0", "dps", 0x7F),        row("vcan0/generic/0", "generic", 0x10),
+          row("vcan0/generic/10", "generic", 0x1A), row("vcan0/generic/2", "generic", 0x12),
+          row("vcan1/generic-b/0", "generic-b", 0x10)};
+}
+
+std::vector<std::string> keys(const std::optional<std::vector<NodeRow>>& targets) {
+  std::vector<std::string> out;
+  if (targets)
+    for (const NodeRow& r : *targets) out.push_back(r.key);
+  return out;
+}
+
+TEST(CtlTargets, GlobsRangesAndCountGroups) {
+  using K = std::vector<std::string>;
+  EXPECT_EQ(keys(group_targets("generic/*", rows())), (K{"vcan0/generic/0", "vcan0/generic/2", "vcan0/generic/10"}));
+  EXPECT_EQ(keys(group_targets("generic", rows())), (K{"vcan0/generic/0", "vcan0/generic/2", "vcan0/generic/10"}));
+  EXPECT_EQ(keys(group_targets("vcan0/0x10-0x12", rows())), (K{"vcan0/generic/0", "vcan0/generic/2"}));
+  EXPECT_EQ(keys(group_targets("vcan1/16-16", rows())), (K{"vcan1/generic-b/0"}));
+  EXPECT_EQ(keys(group_targets("vcan1/*", rows())), (K{"vcan1/generic-b/0"}));
+  EXPECT_EQ(keys(group_targets("generic*", rows())),
+            (K{"vcan0/generic/0", "vcan0/generic/2", "vcan0/generic/10", "vcan1/generic-b/0"}));
+  ASSERT_TRUE(group_targets("nothing/*", rows()));
+  EXPECT_TRUE(group_targets("nothing/*", rows())->empty());
+  // One node: the daemon resolves it (GetNode).
+  EXPECT_FALSE(group_targets("dps", rows()));
+  EXPECT_FALSE(group_targets("generic/2", rows()));
+  EXPECT_FALSE(group_targets("vcan0/0x10", rows()));
+  EXPECT_FALSE(group_targets("vcan0/dps/0", rows()));
+  EXPECT_FALSE(group_targets("vcan1/generic-b", rows()));
+}
+
+TEST(CtlOutput, GroupResultsPerNode) {
+  std::vector<GroupResult> results = {{"vcan0/generic/0", true, 3, ""}, {"vcan0/generic/1", false, {}, "no way"}};
+  std::ostringstream text, json;
+  Printer(text, false).group(results);
+  EXPECT_EQ(text.str(), "NODE             RESULT\nvcan0/generic/0  3\nvcan0/generic/1  refused: no way\n");
+  Printer(json, true).group(results);
+  EXPECT_EQ(json.str(), R"j([{"node":"vcan0/generic/0","ok":true,"id":3},)j"
+                        R"j({"node":"vcan0/generic/1","ok":false,"error":"no way"}])j" "\n");
+}
+
+TEST(CtlOutput, ReadOfAProcessValuePrintsItsUnit) {
+  ObjectInfo real{0x6130, 1, "AI input PV 1", "REAL32", 1.0, "bar"};
+  ObjectInfo integer{0x7130, 1, "AI input PV 1 (INTEGER16)", "INTEGER16", 0.01, "bar"};
+  ObjectInfo plain{0x1017, 0, "Producer heartbeat time", "UNSIGNED16", 1.0, ""};
+  std::ostringstream out;
+  Printer p(out, false);
+  p.value({0x6130, 1}, Value(3.5), &real);
+  p.value({0x7130, 1}, Value(std::int16_t(350)), &integer);
+  p.value({0x1017, 0}, Value(std::uint16_t(1000)), &plain);
+  EXPECT_EQ(out.str(), "3.5 bar\n350 (0x15e) = 3.50 bar\n1000 (0x3e8)\n");
+  std::ostringstream json;
+  Printer(json, true).value({0x7130, 1}, Value(std::int16_t(350)), &integer);
+  EXPECT_EQ(json.str(), R"j({"index":28976,"sub":1,"type":"n","value":350,"unit":"bar","scale":0.01})j" "\n");
 }
 
 TEST(CtlArgs, UsageListsEveryVerb) {
@@ -389,9 +514,9 @@ TEST(CtlJson, ReadValue) {
   Printer(out, true).value({0x1008, 0}, Value(std::string("DPS \"x\"")));
   Printer(out, true).value({0x2000, 0}, Value(Bytes{1, 0xAB}));
   EXPECT_EQ(out.str(),
-            "{\"index\":24880,\"sub\":1,\"type\":\"u\",\"value\":1000}\n"
-            "{\"index\":4104,\"sub\":0,\"type\":\"s\",\"value\":\"DPS \\\"x\\\"\"}\n"
-            "{\"index\":8192,\"sub\":0,\"type\":\"ay\",\"value\":\"01ab\"}\n");
+            "{\"index\":24880,\"sub\":1,\"type\":\"u\",\"value\":1000,\"unit\":null,\"scale\":1}\n"
+            "{\"index\":4104,\"sub\":0,\"type\":\"s\",\"value\":\"DPS \\\"x\\\"\",\"unit\":null,\"scale\":1}\n"
+            "{\"index\":8192,\"sub\":0,\"type\":\"ay\",\"value\":\"01ab\",\"unit\":null,\"scale\":1}\n");
 }
 
 // ---------------------------------------------------------------- output
@@ -603,6 +728,12 @@ TEST(CtlDecode, PropertiesChanged) {
   EXPECT_EQ(format_event(e),
             "    0.000000 vcan0/dps/0 PropertiesChanged Powered=false Faults=\"1 drift (active), 2 noise\" "
             "NodeId=(changed)");
+  // JSON: the faults as a list, as status gives them.
+  std::ostringstream json;
+  Printer(json, true).event(e);
+  EXPECT_NE(json.str().find(R"j("Faults":[{"id":1,"kind":"drift","active":true},{"id":2,"kind":"noise","active":false}])j"),
+            std::string::npos)
+      << json.str();
 }
 
 TEST(CtlDecode, NodeStatusSkipsUnknownProperties) {

@@ -61,8 +61,7 @@ class DpsFixture : public DeviceFixture<personalities::dps::DpsApplication, DpsS
   static std::unique_ptr<personalities::dps::DpsApplication> make_app(const config::Profile& p,
                                                                      std::unique_ptr<DpsSource> src) {
     return std::make_unique<personalities::dps::DpsApplication>(p.cia404, std::move(src),
-                                                                std::get<personalities::dps::Settings>(p.device),
-                                                                p.identity, 0);
+                                                                std::get<personalities::dps::Settings>(p.device), 0);
   }
 };
 

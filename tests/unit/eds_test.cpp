@@ -9,10 +9,13 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <optional>
+#include <sstream>
 
 #include "config/eds_reader.hpp"
 #include "config/fleet.hpp"
 #include "config/eds_writer.hpp"
+#include "daemon/daemon.hpp"
 #include "personalities/registry.hpp"
 #include "support/sim.hpp"
 
@@ -27,13 +30,13 @@ std::string export_eds(const config::Profile& p) {
   return config::write_eds(*p.layout, *p.options, config::identity_of(p));
 }
 
-config::Profile eds_profile(const std::string& text, const std::string& file = "t.eds") {
-  return config::profile_from_eds(config::parse_eds(text, file));
+config::Profile eds_profile(const std::string& text, const std::string& file = "t.eds", bool strict_eds = false) {
+  return config::profile_from_eds(config::parse_eds(text, file), false, strict_eds);
 }
 
-std::string eds_error(const std::string& text, const std::string& file = "bad.eds") {
+std::string eds_error(const std::string& text, const std::string& file = "bad.eds", bool strict_eds = false) {
   try {
-    eds_profile(text, file);
+    eds_profile(text, file, strict_eds);
   } catch (const config::ConfigError& e) {
     return e.what();
   }
@@ -134,13 +137,13 @@ TEST(EdsExport, AnObjectTheDeviceLacksIsNotInItsEds) {
 TEST(EdsExport, BitRatesFollowLssOption) {
   config::Profile p = load_repo_profile("generic-404");
   auto options = std::make_shared<NodeOptions>(*p.options);
-  options->lss_bit_rates = "3-4";
+  ASSERT_TRUE(ByteSet::parse("3-4", options->lss_bit_rates));
   p.options = options;
   const std::string text = export_eds(p);
   EXPECT_THAT(text, HasSubstr("BaudRate_125=1\nBaudRate_250=1\nBaudRate_500=0"));
   EXPECT_THAT(text, HasSubstr("BaudRate_10=0"));
   const config::Profile back = eds_profile(text);
-  EXPECT_EQ(back.options->lss_bit_rates, "4,3");
+  EXPECT_EQ(back.options->lss_bit_rates.text(), "3-4");
   EXPECT_EQ(back.bit_rate_kbit, 250u);
 }
 
@@ -244,7 +247,7 @@ TEST(EdsReader, DeviceInfoGivesLssBitRatesAndDummies) {
       eds("[1000]\nDataType=0x7\nAccessType=ro\n[DummyUsage]\nDummy0001=0\nDummy0002=0\n",
           "LSS_Supported=1\nBaudRate_125=1\nBaudRate_500=1\nBaudRate_250=0\n"));
   EXPECT_TRUE(p.options->lss_supported);
-  EXPECT_EQ(p.options->lss_bit_rates, "4,2");
+  EXPECT_EQ(p.options->lss_bit_rates.text(), "2,4");
   EXPECT_EQ(p.bit_rate_kbit, 125u);  // no 250: the first rate the file lists
   EXPECT_FALSE(p.options->rpdo_dummy_mapping);
 }
@@ -275,23 +278,16 @@ TEST(EdsReader, RejectsTheAmbiguousWithFileAndLine) {
       {"[1000]\nDataType=0x5\nAccessType=ro\nDefaultValue=256\n",
        "bad.eds:4: [1000] DefaultValue: expected a value in the range of UNSIGNED8, got '256'"},
       {"[1000]\nDataType=0x7\nAccessType=ro\nDefaultValue=$NODEID+$NODEID\n", "bad.eds:4: [1000] DefaultValue: expected an integer"},
-      {"[1000]\nDataType=0x7\nAccessType=ro\nLowLimit=$NODEID+1\n", "bad.eds:4: [1000] LowLimit: expected an integer, got '$NODEID+1'"},
-      {"[2000]\nDataType=0x8\nAccessType=ro\nDefaultValue=0x3F800000\n",
-       "bad.eds:4: [2000] DefaultValue: expected a decimal floating-point number, got '0x3F800000'"},
       {"[1000]\nDataType=0x7\nDataType=0x5\n", "bad.eds:3: [1000] DataType: expected each key once per section (first at line 2)"},
       {"[1000]\nDataType=0x7\nAccessType=ro\n[1000]\n", "bad.eds:4: [1000]: expected each section once (first at line 1)"},
       {"DataType=0x7\n", "bad.eds:1: (before the first section): expected a [section] before any key, got 'DataType=0x7'"},
       {"[1000]\nDataType 0x7\n", "bad.eds:2: [1000]: expected [section], key=value or a ; comment, got 'DataType 0x7'"},
       {"[1000\n", "bad.eds:1: (before the first section): expected a section header [name], got '[1000'"},
       {"[1018sub1]\nDataType=0x7\nAccessType=ro\n", "bad.eds:1: [1018sub1]: expected an object section [1018] for this sub-object"},
-      {"[1018]\nObjectType=0x9\nSubNumber=3\n[1018sub0]\nDataType=0x5\nAccessType=ro\n",
-       "bad.eds:3: [1018] SubNumber: expected the number of [1018subN] sections (1), got '3'"},
       {"[1018]\nObjectType=0x4\n", "bad.eds:2: [1018] ObjectType: expected ObjectType 0x7 (VAR)"},
       {"[1017]\nDataType=0x6\nAccessType=rw\n[1017sub1]\nDataType=0x6\nAccessType=rw\n",
        "bad.eds:4: [1017sub1]: expected no sub-object sections for a VAR object"},
       {"[1000x]\n", "bad.eds:1: [1000x]: expected an object section [xxxx], [xxxxsubN], [xxxxName] or [xxxxValue]"},
-      {"[OptionalObjects]\nSupportedObjects=1\n1=0x1017\n[1000]\nDataType=0x7\nAccessType=ro\n",
-       "bad.eds:3: [OptionalObjects] 1: expected a section [1017] for this listed object, got '0x1017'"},
       {"[1000]\nDataType=0x7\nAccessType=ro\nPDOMapping=yes please\n", "bad.eds:4: [1000] PDOMapping: expected 0 or 1, got 'yes please'"},
       {"[1016]\nObjectType=0x8\nSubNumber=1\n[1016sub0]\nDataType=0x5\nAccessType=ro\n[1016Name]\n1=x\n",
        "bad.eds:7: [1016Name]: expected CompactSubObj in [1016] for this section"},
@@ -364,6 +360,373 @@ std::vector<Upload> uploads(const config::Profile& p, std::uint8_t id) {
   std::vector<Upload> out;
   for (const OdEntry& e : p.layout->entries()) out.push_back(upload(bus, id, e));
   return out;
+}
+
+// ---------------------------------------------------------------- what masters tolerate
+
+// Issue #26 (1): a flag in any CiA 306 number form, as every number.
+TEST(EdsTolerant, FlagsInAnyNumberForm) {
+  const config::Profile p = eds_profile(
+      eds("[2000]\nDataType=0x7\nAccessType=rw\nPDOMapping=0x1\n[2001]\nDataType=0x7\nAccessType=rw\nPDOMapping=0x0\n"
+          "[2002]\nDataType=0x7\nAccessType=rw\nPDOMapping=01\n[2003]\nDataType=0x7\nAccessType=rw\nPDOMapping=TRUE\n"
+          "[DummyUsage]\nDummy0005=0x1\n",
+          "LSS_Supported=0x1\nBaudRate_500=0x1\nBaudRate_250=0x0\n"));
+  EXPECT_TRUE(p.layout->find(0x2000, 0)->pdo_mappable);
+  EXPECT_FALSE(p.layout->find(0x2001, 0)->pdo_mappable);
+  EXPECT_TRUE(p.layout->find(0x2002, 0)->pdo_mappable);
+  EXPECT_TRUE(p.layout->find(0x2003, 0)->pdo_mappable);
+  EXPECT_TRUE(p.options->lss_supported);
+  EXPECT_EQ(p.options->lss_bit_rates, "2");
+  EXPECT_EQ(p.bit_rate_kbit, 500u);
+  EXPECT_TRUE(p.options->rpdo_dummy_mapping);
+  EXPECT_TRUE(p.warnings.empty());
+  EXPECT_THAT(eds_error("[1000]\nDataType=0x7\nAccessType=ro\nPDOMapping=0x2\n"),
+              HasSubstr("bad.eds:4: [1000] PDOMapping: expected 0 or 1, got '0x2'"));
+}
+
+// Issue #26 (2): "ParameterValue=" (CANopenEditor's unset value) is not
+// given: DefaultValue counts, $NODEID included; "2=" in [xxxxValue] too.
+TEST(EdsTolerant, EmptyKeysAreNotGiven) {
+  const config::Profile p = eds_profile(
+      eds("[1017]\nDataType=0x0006\nAccessType=rw\nDefaultValue=1000\nParameterValue=\n"
+          "[1008]\nDataType=0x0009\nAccessType=const\nDefaultValue=Gripper GX-2\nParameterValue=\n"
+          "[1014]\nDataType=0x0007\nAccessType=rw\nDefaultValue=$NODEID+0x80\nParameterValue=\n"
+          "[1015]\nDataType=0x0006\nAccessType=rw\nDefaultValue=\nParameterValue=\n"
+          "[1016]\nObjectType=0x8\nDataType=0x0007\nAccessType=rw\nCompactSubObj=2\nDefaultValue=0x10064\n"
+          "[1016Value]\nNrOfEntries=2\n2=\n0x1=0x50064\n"
+          "[DeviceComissioning]\nNodeID=\nBaudrate=\n"),
+      "editor.dcf");
+  EXPECT_EQ(default_u(p, 0x1017, 0), 1000u);
+  const auto& name = p.layout->find(0x1008, 0)->default_bytes;
+  EXPECT_EQ(std::string(name.begin(), name.end()), "Gripper GX-2");
+  EXPECT_EQ(default_u(p, 0x1014, 0), 0x80u);
+  EXPECT_TRUE(p.layout->find(0x1014, 0)->default_plus_node_id);
+  EXPECT_EQ(default_u(p, 0x1015, 0), 0u);
+  EXPECT_EQ(default_u(p, 0x1016, 2), 0x10064u);
+  EXPECT_EQ(default_u(p, 0x1016, 1), 0x50064u);  // "0x1=": sub 1 in hex
+  EXPECT_EQ(p.node_id, 1);
+  EXPECT_TRUE(p.warnings.empty());
+}
+
+const char* const kSdoServer =
+    "[1200]\nObjectType=0x9\nSubNumber=3\n"
+    "[1200sub0]\nDataType=0x0005\nAccessType=ro\nDefaultValue=2\n"
+    "[1200sub1]\nDataType=0x0007\nAccessType=ro\nDefaultValue=%s\nParameterValue=%s\n"
+    "[1200sub2]\nDataType=0x0007\nAccessType=ro\nDefaultValue=%s\nParameterValue=%s\n";
+
+std::string sdo_server(const char* rx, const char* rx_pv, const char* tx, const char* tx_pv) {
+  char buf[512];
+  std::snprintf(buf, sizeof buf, kSdoServer, rx, rx_pv, tx, tx_pv);
+  return buf;
+}
+
+// Issue #26 (3): CiA 301 fixes the default SDO server at 600h / 580h +
+// node-ID. Line 14 is [1200sub1] DefaultValue, 15 its ParameterValue.
+TEST(EdsTolerant, DefaultSdoServerAtItsPredefinedCobIds) {
+  struct Case {
+    std::string text;
+    std::string warning;  // empty: none
+  } cases[] = {
+      {sdo_server("$NODEID+0x600", "", "$NODEID+0x580", ""), ""},
+      {sdo_server("0x610", "", "0x590", ""),
+       "t.dcf:14: [1200sub1] DefaultValue: expected $NODEID+0x600 (the default SDO server's COB-ID), got '0x610'; "
+       "the node uses 0x600 + its node-ID (and 1 more like it in this file)"},
+      {sdo_server("$NODEID+0x600", "0x620", "$NODEID+0x580", ""),
+       "t.dcf:15: [1200sub1] ParameterValue: expected $NODEID+0x600 (the default SDO server's COB-ID), got '0x620'; "
+       "the node uses 0x600 + its node-ID"},
+      {sdo_server("0x80000000", "", "0x80000000", ""),
+       "t.dcf:14: [1200sub1] DefaultValue: expected $NODEID+0x600 (the default SDO server's COB-ID), got '0x80000000'; "
+       "the node uses 0x600 + its node-ID (and 1 more like it in this file)"},
+      // A DCF's own node: 0x605 is 600h + its NodeID.
+      {sdo_server("$NODEID+0x600", "0x605", "$NODEID+0x580", "0x585") + "[DeviceComissioning]\nNodeID=5\n", ""},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.text);
+    const config::Profile p = eds_profile("[DeviceInfo]\nProductName=x\n\n" + c.text, "t.dcf");
+    if (c.warning.empty()) EXPECT_THAT(p.warnings, ::testing::IsEmpty());
+    else EXPECT_THAT(p.warnings, ::testing::ElementsAre(c.warning));
+    for (std::uint8_t sub : {1, 2}) {
+      EXPECT_TRUE(p.layout->find(0x1200, sub)->default_plus_node_id);
+      EXPECT_EQ(default_u(p, 0x1200, sub), sub == 1 ? 0x600u : 0x580u);
+    }
+    // Reachable at any node-ID: 0x1200:01 read back through 0x605 -> 0x585.
+    SimBus bus;
+    bus.add(p, 5);
+    bus.power_on_all();
+    bus.run_for(ms(10));
+    const Upload u = upload(bus, 5, *p.layout->find(0x1200, 1));
+    EXPECT_EQ(u.data, (std::vector<std::uint8_t>{0x05, 0x06, 0, 0}));
+  }
+}
+
+// Issue #26 (4), (5): DOMAIN "0", NodeID=0 / Baudrate=0 (not set).
+TEST(EdsTolerant, DomainZeroAndUnsetCommissioning) {
+  const config::Profile p = eds_profile(
+      eds("[1F50]\nDataType=0x000F\nAccessType=rw\nDefaultValue=0\n"
+          "[2000]\nDataType=0x000F\nAccessType=rw\nDefaultValue=0x0\n"
+          "[DeviceComissioning]\nNodeID=0\nNodeName=\nBaudrate=0\nNetNumber=0\n",
+          "BaudRate_125=1\n"),
+      "editor.dcf");
+  EXPECT_TRUE(p.layout->find(0x1F50, 0)->default_bytes.empty());
+  EXPECT_TRUE(p.layout->find(0x2000, 0)->default_bytes.empty());
+  EXPECT_EQ(p.node_id, 1);
+  EXPECT_EQ(p.bit_rate_kbit, 125u);  // from [DeviceInfo]
+  EXPECT_THAT(p.warnings,
+              ::testing::ElementsAre(
+                  "editor.dcf:8: [1F50] DefaultValue: expected hex bytes, e.g. 0A1B2C, got '0'; read as an empty "
+                  "DOMAIN (and 1 more like it in this file)",
+                  "editor.dcf:14: [DeviceComissioning] NodeID: expected a node-ID 1..127 or 255 (LSS-unconfigured), "
+                  "got '0'; taken as not set (node-ID 1) (and 1 more like it in this file)"));
+}
+
+// Issue #26 (6): what every master tolerates.
+TEST(EdsTolerant, InconsistenciesLoadWithOneWarningEach) {
+  const std::string text =
+      "[MandatoryObjects]\nSupportedObjects=3\n1=0x1000\n2=0x1001\n"     // lines 2-5
+      "[OptionalObjects]\nSupportedObjects=2\n1=0x1017\n2=0x1800\n"      // 6-9
+      "[1000]\nDataType=0x7\nAccessType=ro\n"                             // 10-12
+      "[1001]\nDataType=0x5\nAccessType=ro\n"                             // 13-15
+      "[1018]\nObjectType=0x9\nSubNumber=5\n"                             // 16-18
+      "[1018sub0]\nDataType=0x5\nAccessType=ro\nDefaultValue=1\n"        // 19-22
+      "[1018sub1]\nDataType=0x7\nAccessType=ro\nDefaultValue=0x1234\n"   // 23-26
+      "[6130]\nObjectType=0x8\nSubNumber=2\n"                             // 27-29
+      "[6130sub0]\nDataType=0x5\nAccessType=ro\nDefaultValue=1\n"        // 30-33
+      "[2100]\nDataType=0x8\nAccessType=rw\nDefaultValue=0x3e6b851f\n"   // 34-37
+      "[2101]\nDataType=0x11\nAccessType=rw\nDefaultValue=0x3FF8000000000000\n"
+      "[2102]\nDataType=0x7\nAccessType=rw\nLowLimit=$NODEID+0x180\nHighLimit=0x1FF\n";  // 42-46
+  const config::Profile p = eds_profile("[DeviceInfo]\n" + text, "vendor.eds");
+  EXPECT_EQ(default_u(p, 0x1018, 1), 0x1234u);
+  EXPECT_FLOAT_EQ(float(decode_f(DataType::kReal32, p.layout->find(0x2100, 0)->default_bytes.data())), 0.23f);
+  EXPECT_EQ(decode_f(DataType::kReal64, p.layout->find(0x2101, 0)->default_bytes.data()), 1.5);
+  // Bits of a subnormal: exported in decimal, read back to the same bits.
+  const config::Profile tiny = eds_profile(eds("[2000]\nDataType=0x11\nAccessType=rw\nDefaultValue=0x85\n"));
+  const config::Profile back = eds_profile(export_eds(tiny));
+  EXPECT_EQ(back.layout->find(0x2000, 0)->default_bytes, tiny.layout->find(0x2000, 0)->default_bytes);
+  EXPECT_EQ(back.layout->find(0x2000, 0)->default_bytes, (std::vector<std::uint8_t>{0x85, 0, 0, 0, 0, 0, 0, 0}));
+  EXPECT_FALSE(p.layout->find(0x2102, 0)->has_low);
+  EXPECT_TRUE(p.layout->find(0x2102, 0)->has_high);
+  EXPECT_THAT(
+      p.warnings,
+      ::testing::ElementsAre(
+          "vendor.eds:3: [MandatoryObjects] SupportedObjects: expected the number of object keys (2), got '3'; the 2 "
+          "keys are read",
+          "vendor.eds:8: [OptionalObjects] 1: expected a section [1017] for this listed object, got '0x1017'; the "
+          "entry is ignored (and 1 more like it in this file)",
+          "vendor.eds:18: [1018] SubNumber: expected the number of [1018subN] sections (2), got '5'; the 2 sections "
+          "are read (and 1 more like it in this file)",
+          "vendor.eds:37: [2100] DefaultValue: expected a decimal floating-point number, got '0x3e6b851f'; read as the "
+          "IEEE 754 bits of 0.230000004 (and 1 more like it in this file)",
+          "vendor.eds:45: [2102] LowLimit: expected an integer, got '$NODEID+0x180'; the limit is not applied"));
+}
+
+// `cansimd --strict-eds`: each repair is the error it was before.
+TEST(EdsTolerant, StrictEdsRefusesWhatItWouldRepair) {
+  struct Case {
+    std::string text;
+    std::string message;
+  } cases[] = {
+      {"[1000]\nDataType=0x7\nAccessType=ro\nLowLimit=$NODEID+1\n", "bad.eds:4: [1000] LowLimit: expected an integer, got '$NODEID+1'"},
+      {"[2000]\nDataType=0x8\nAccessType=ro\nDefaultValue=0x3F800000\n",
+       "bad.eds:4: [2000] DefaultValue: expected a decimal floating-point number, got '0x3F800000'"},
+      {"[1018]\nObjectType=0x9\nSubNumber=3\n[1018sub0]\nDataType=0x5\nAccessType=ro\n",
+       "bad.eds:3: [1018] SubNumber: expected the number of [1018subN] sections (1), got '3'"},
+      {"[OptionalObjects]\nSupportedObjects=1\n1=0x1017\n[1000]\nDataType=0x7\nAccessType=ro\n",
+       "bad.eds:3: [OptionalObjects] 1: expected a section [1017] for this listed object, got '0x1017'"},
+      {"[OptionalObjects]\nSupportedObjects=2\n1=0x1000\n[1000]\nDataType=0x7\nAccessType=ro\n",
+       "bad.eds:2: [OptionalObjects] SupportedObjects: expected the number of object keys (1), got '2'"},
+      {"[1000]\nDataType=0xF\nAccessType=ro\nDefaultValue=0\n", "bad.eds:4: [1000] DefaultValue: expected hex bytes"},
+      {"[1000]\nDataType=0x7\nAccessType=ro\n[DeviceComissioning]\nBaudrate=0\n",
+       "bad.eds:5: [DeviceComissioning] Baudrate: expected a CiA bit rate in kbit/s"},
+      {sdo_server("0x610", "", "0x590", ""),
+       "bad.eds:11: [1200sub1] DefaultValue: expected $NODEID+0x600 (the default SDO server's COB-ID), got '0x610'"},
+  };
+  for (const Case& c : cases) {
+    EXPECT_THAT(eds_error(c.text, "bad.eds", true), HasSubstr(c.message)) << c.text;
+    EXPECT_EQ(eds_error(c.text, "bad.eds", false), "no error") << c.text;
+  }
+}
+
+// ---------------------------------------------------------------- foreign files
+
+// Device descriptions as other tools and vendors write them (tests/data/eds,
+// also seeds of eds_fuzz): a CANopenEditor DCF (every unset value an empty
+// key, Baudrate=0, a DOMAIN "0"), a commercial editor's EDS (every number in
+// hex, flags included) and a vendor's hand-written CiA 404 EDS (spaces, comments,
+// miscounts, the SDO server written for node 1, a REAL as bits, $NODEID in
+// a limit).
+const char* const kForeignFiles[] = {"editor-gripper.dcf", "vector-drive.eds", "vendor-transmitter.eds"};
+
+std::string foreign_file(const std::string& name) { return std::string(CANSIM_SOURCE_DIR) + "/tests/data/eds/" + name; }
+
+// The entries as the npm package `canopen` reads the file
+// (tests/master/eds_values.js); nullopt without node or the package.
+std::optional<std::vector<std::string>> npm_reading(const std::string& path) {
+  const std::string master = std::string(CANSIM_SOURCE_DIR) + "/tests/master";
+  if (!std::filesystem::exists(master + "/node_modules/canopen")) return std::nullopt;
+  const std::string command = "node '" + master + "/eds_values.js' '" + path + "' 2>&1";
+  FILE* pipe = popen(command.c_str(), "r");
+  if (!pipe) return std::nullopt;
+  std::vector<std::string> lines;
+  char buf[4096];
+  while (std::fgets(buf, sizeof buf, pipe)) {
+    std::string l(buf);
+    while (!l.empty() && (l.back() == '\n' || l.back() == '\r')) l.pop_back();
+    lines.push_back(l);
+  }
+  if (pclose(pipe) != 0) return std::nullopt;
+  return lines;
+}
+
+std::vector<std::uint8_t> hex_bytes(const std::string& hex) {
+  std::vector<std::uint8_t> out;
+  if (hex == "-") return out;
+  for (std::size_t i = 0; i + 1 < hex.size(); i += 2)
+    out.push_back(std::uint8_t(std::stoul(hex.substr(i, 2), nullptr, 16)));
+  return out;
+}
+
+// A DCF's configured value (the package reads DefaultValue only).
+bool configured_in_dcf(const config::EdsDocument& doc, std::uint16_t index, std::uint8_t sub) {
+  char name[16];
+  std::snprintf(name, sizeof name, "%04Xsub%X", index, sub);
+  const config::EdsSection* s = doc.find(name);
+  if (!s && sub == 0) {
+    std::snprintf(name, sizeof name, "%04X", index);
+    s = doc.find(name);
+  }
+  const config::EdsKey* k = s ? s->find("ParameterValue") : nullptr;
+  return k && !k->value.empty();
+}
+
+class EdsForeign : public ::testing::TestWithParam<const char*> {};
+
+// Every entry the package evaluates: the node built from the file (at the
+// file's node-ID) answers an SDO upload with the package's bytes.
+TEST_P(EdsForeign, NodeAnswersWhatAnIndependentReaderReads) {
+  const std::string path = foreign_file(GetParam());
+  const config::Profile p = config::load_eds_profile(path);
+  const config::EdsDocument doc = config::load_eds_file(path);
+  const auto reading = npm_reading(path);
+  if (!reading) GTEST_SKIP() << "node or tests/master/node_modules missing (scripts/install-deps)";
+  SimBus bus;
+  bus.add(p, p.node_id);
+  bus.power_on_all();
+  bus.run_for(ms(500));
+  int compared = 0, skipped = 0;
+  for (const std::string& l : *reading) {
+    ASSERT_NE(l.rfind("ERROR", 0), 0u) << l;
+    std::istringstream in(l);
+    std::string index, sub, type, bytes;
+    in >> index >> sub >> type >> bytes;
+    if (index == "SKIP") {
+      ++skipped;
+      continue;
+    }
+    const auto i = std::uint16_t(std::stoul(index, nullptr, 16));
+    const auto si = std::uint8_t(std::stoul(sub, nullptr, 16));
+    const OdEntry* e = p.layout->find(i, si);
+    ASSERT_TRUE(e) << l;
+    if (configured_in_dcf(doc, i, si)) {
+      ++skipped;
+      continue;
+    }
+    EXPECT_EQ(int(e->type), std::stoi(type, nullptr, 16)) << l;
+    const Upload u = upload(bus, p.node_id, *e);
+    if (u.abort == 0x06010001) continue;  // write-only
+    EXPECT_EQ(u, (Upload{0, hex_bytes(bytes)})) << l;
+    ++compared;
+  }
+  std::printf("%s: %d entries compared with the npm canopen reading, %d skipped\n", GetParam(), compared, skipped);
+  EXPECT_GE(compared, 15);
+}
+
+INSTANTIATE_TEST_SUITE_P(Files, EdsForeign, ::testing::ValuesIn(kForeignFiles), [](const auto& info) {
+  std::string n = info.param;
+  for (char& c : n)
+    if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+  return n;
+});
+
+std::uint32_t uploaded_u32(SimBus& bus, const config::Profile& p, std::uint8_t id, std::uint16_t index,
+                           std::uint8_t sub) {
+  const OdEntry* e = p.layout->find(index, sub);
+  EXPECT_TRUE(e) << std::hex << index << "sub" << int(sub);
+  if (!e) return 0;
+  const Upload u = upload(bus, id, *e);
+  EXPECT_EQ(u.abort, 0u);
+  std::uint32_t v = 0;
+  for (std::size_t b = 0; b < u.data.size() && b < 4; ++b) v |= std::uint32_t(u.data[b]) << (8 * b);
+  return v;
+}
+
+// The 181 wrong objects of issue #26 (2) in small: what an empty
+// ParameterValue hid, and the configured values that are there.
+TEST(EdsForeign, EditorDcfAnswersItsValues) {
+  const config::Profile p = config::load_eds_profile(foreign_file("editor-gripper.dcf"));
+  EXPECT_EQ(p.node_id, 10);
+  EXPECT_EQ(p.bit_rate_kbit, 250u);  // Baudrate=0: [DeviceInfo]'s 250
+  EXPECT_THAT(p.warnings, ::testing::ElementsAre(HasSubstr("editor-gripper.dcf:345: [1F50] DefaultValue: expected hex "
+                                                           "bytes, e.g. 0A1B2C, got '0'; read as an empty DOMAIN"),
+                                                 HasSubstr("editor-gripper.dcf:387: [DeviceComissioning] Baudrate: "
+                                                           "expected a CiA bit rate in kbit/s")));
+  SimBus bus;
+  bus.add(p, 10);
+  bus.power_on_all();
+  bus.run_for(ms(10));
+  EXPECT_EQ(uploaded_u32(bus, p, 10, 0x1017, 0), 1000u);
+  EXPECT_EQ(uploaded_u32(bus, p, 10, 0x1014, 0), 0x8Au);
+  EXPECT_EQ(uploaded_u32(bus, p, 10, 0x1800, 1), 0x18Au);
+  EXPECT_EQ(uploaded_u32(bus, p, 10, 0x1400, 1), 0x20Au);
+  EXPECT_EQ(uploaded_u32(bus, p, 10, 0x1018, 4), 0x0012D687u);  // ParameterValue
+  EXPECT_EQ(uploaded_u32(bus, p, 10, 0x1800, 2), 1u);           // ParameterValue
+  const Upload name = upload(bus, 10, *p.layout->find(0x1008, 0));
+  EXPECT_EQ(std::string(name.data.begin(), name.data.end()), "GX-2 gripper");
+}
+
+TEST(EdsForeign, HexFlagsOfAVectorStyleEds) {
+  const config::Profile p = config::load_eds_profile(foreign_file("vector-drive.eds"));
+  EXPECT_THAT(p.warnings, ::testing::IsEmpty());
+  EXPECT_TRUE(p.layout->find(0x2100, 0)->pdo_mappable);
+  EXPECT_TRUE(p.layout->find(0x1001, 0)->pdo_mappable);
+  EXPECT_FALSE(p.layout->find(0x1000, 0)->pdo_mappable);
+  EXPECT_FALSE(p.options->lss_supported);
+  EXPECT_TRUE(p.options->rpdo_dummy_mapping);
+  EXPECT_EQ(p.options->lss_bit_rates, "4,3,2,0");  // 125, 250, 500, 1000 kbit/s
+  // A compact 0x1003: sub 0 counts the errors (none at boot), rw to clear them.
+  EXPECT_EQ(default_u(p, 0x1003, 0), 0u);
+  EXPECT_EQ(p.layout->find(0x1003, 0)->access, Access::kRw);
+  EXPECT_EQ(p.layout->find(0x1003, 4)->access, Access::kRo);
+}
+
+TEST(EdsForeign, VendorEdsLoadsWithOneWarningPerKind) {
+  const config::Profile p = config::load_eds_profile(foreign_file("vendor-transmitter.eds"));
+  const char* const expected[] = {
+      ":24: [MandatoryObjects] SupportedObjects: expected the number of object keys (3), got '4'",
+      ":35: [OptionalObjects] 5: expected a section [1010] for this listed object, got '0x1010'",
+      ":65: [1018] SubNumber: expected the number of [1018subN] sections (4), got '5'; the 4 sections are read (and 1 "
+      "more like it in this file)",
+      ":106: [1200sub1] DefaultValue: expected $NODEID+0x600 (the default SDO server's COB-ID), got '0x601'; the node "
+      "uses 0x600 + its node-ID (and 1 more like it in this file)",
+      ":175: [6130sub1] DefaultValue: expected a decimal floating-point number, got '0x3e6b851f'; read as the IEEE 754 "
+      "bits of 0.230000004",
+      ":212: [2F00] DefaultValue: expected hex bytes, e.g. 0A1B2C, got '0'; read as an empty DOMAIN",
+      ":219: [2F01] LowLimit: expected an integer, got '$NODEID+0x300'; the limit is not applied"};
+  ASSERT_EQ(p.warnings.size(), std::size(expected));
+  for (std::size_t i = 0; i < p.warnings.size(); ++i) {
+    EXPECT_THAT(p.warnings[i], ::testing::StartsWith(foreign_file("vendor-transmitter.eds") + ":"));
+    EXPECT_THAT(p.warnings[i], HasSubstr(expected[i]));
+  }
+  // At node-ID 5, not at the 0x601 the file wrote for its node 1.
+  SimBus bus;
+  bus.add(p, 5);
+  bus.power_on_all();
+  bus.run_for(ms(10));
+  EXPECT_EQ(uploaded_u32(bus, p, 5, 0x1200, 1), 0x605u);
+  EXPECT_EQ(uploaded_u32(bus, p, 5, 0x1200, 2), 0x585u);
+  EXPECT_EQ(uploaded_u32(bus, p, 5, 0x1017, 0), 500u);
+  EXPECT_EQ(uploaded_u32(bus, p, 5, 0x1000, 0), 0x00020194u);
+  EXPECT_EQ(uploaded_u32(bus, p, 5, 0x2F01, 0), 0x305u);
+  EXPECT_THROW(config::load_eds_profile(foreign_file("vendor-transmitter.eds"), false, true), config::ConfigError);
 }
 
 class EdsNodes : public ::testing::TestWithParam<const char*> {};
@@ -482,6 +845,28 @@ TEST(EdsFleet, ErrorsInTheEdsNameTheEdsFile) {
     ADD_FAILURE() << "no error";
   } catch (const config::ConfigError& e) {
     EXPECT_THAT(e.what(), HasSubstr("broken.eds:3: [1000] AccessType: expected one of ro, wo, rw, rwr, rww, const, got 'rx'"));
+  }
+}
+
+// `cansimd --check` lists a file's warnings once, however many entries
+// (and variants) use it; --strict-eds refuses the file.
+TEST(EdsFleet, CheckListsTheFileWarningsOnce) {
+  const std::string dcf = foreign_file("editor-gripper.dcf");
+  const std::string fleet = "interfaces: {vcan0: {}}\nnodes:\n  - {profile: " + dcf +
+                            ", interface: vcan0, node_id: 5}\n  - {profile: " + dcf +
+                            ", interface: vcan0, node_id: 6, options: {sdo_expedited_only: true}}\n";
+  config::FleetConfig f = config::parse_fleet(fleet, "fleet.yaml", config::ProfileSearch{});
+  std::vector<std::string> warnings;
+  daemon::check_fleet(f, &warnings);
+  EXPECT_THAT(warnings, ::testing::ElementsAre(::testing::StartsWith(dcf + ":345: [1F50] DefaultValue:"),
+                                               ::testing::StartsWith(dcf + ":387: [DeviceComissioning] Baudrate:")));
+  config::ProfileSearch strict;
+  strict.strict_eds = true;
+  try {
+    config::parse_fleet(fleet, "fleet.yaml", strict);
+    ADD_FAILURE() << "no error";
+  } catch (const config::ConfigError& e) {
+    EXPECT_THAT(e.what(), ::testing::StartsWith(dcf + ":387: [DeviceComissioning] Baudrate: expected a CiA bit rate"));
   }
 }
 

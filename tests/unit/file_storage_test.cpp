@@ -5,8 +5,10 @@
 #include <filesystem>
 #include <fstream>
 
+#include "config/limits.hpp"
 #include "daemon/file_storage.hpp"
 #include "io/loop_core.hpp"
+#include "support/captured_log.hpp"
 #include "support/sim.hpp"
 
 namespace cansim::daemon {
@@ -127,6 +129,89 @@ TEST_F(FileStorageTest, StoredHeartbeatSurvivesARestart) {
   ASSERT_EQ(sent.size(), 2u);
   EXPECT_EQ(sent[1].time, ms(500));
   EXPECT_EQ(sent[1].frame, F(0x710, {0x7F}));
+}
+
+using test::CapturedLog;
+
+// Reading happens on the daemon's loop: a FIFO in place of the file would
+// hold it until a writer came (the alarm fails the test instead of hanging).
+TEST_F(FileStorageTest, AFifoIsNotWaitedFor) {
+  FileStorage s(dir, "k");
+  ASSERT_EQ(::mkfifo(s.path().c_str(), 0600), 0);
+  ::alarm(10);
+  Bytes got{1};
+  EXPECT_FALSE(s.load(got));
+  ::alarm(0);
+  EXPECT_TRUE(got.empty());
+  EXPECT_EQ(s.error(), s.path() + ": not a regular file (ignored: the node starts with its defaults)");
+}
+
+TEST_F(FileStorageTest, ASymbolicLinkOnlyIntoTheStateFolder) {
+  FileStorage s(dir, "k");
+  fs::create_symlink("/dev/zero", s.path());  // read until out of memory, before
+  Bytes got;
+  ::alarm(10);
+  EXPECT_FALSE(s.load(got));
+  ::alarm(0);
+  EXPECT_NE(s.error().find("a symbolic link out of the state folder"), std::string::npos) << s.error();
+  fs::remove(s.path());
+  FileStorage other(dir, "other");
+  ASSERT_TRUE(other.save(Bytes{7, 8}));
+  fs::create_symlink(other.path(), s.path());
+  FileStorage linked(dir, "k");
+  ASSERT_TRUE(linked.load(got));
+  EXPECT_EQ(got, (Bytes{7, 8}));
+}
+
+TEST_F(FileStorageTest, AFileLargerThanTheBoundIsNotRead) {
+  FileStorage s(dir, "k");
+  ASSERT_TRUE(s.save(Bytes{1}));
+  fs::resize_file(s.path(), limits::kParameterFileBytes + 1);
+  FileStorage fresh(dir, "k");
+  Bytes got;
+  EXPECT_FALSE(fresh.load(got));
+  EXPECT_NE(fresh.error().find("larger than any cansimd parameter file"), std::string::npos) << fresh.error();
+}
+
+// An unreadable file is reported with its path and the reason (it was a blank line).
+TEST_F(FileStorageTest, AnUnreadableFileIsNamedWithTheReason) {
+  std::ofstream(dir + "/file") << "not a folder";
+  FileStorage s(dir + "/file", "k");
+  CapturedLog log;
+  Bytes got;
+  EXPECT_FALSE(s.load(got));
+  EXPECT_NE(log.text.str().find(dir + "/file/k.params: Not a directory (ignored: the node starts with its defaults)"),
+            std::string::npos)
+      << log.text.str();
+}
+
+// A kill between the temp file and the rename leaves `.params.tmp`: the next start removes it.
+TEST_F(FileStorageTest, TheTempFileOfAnInterruptedSaveIsRemoved) {
+  FileStorage s(dir, "k");
+  ASSERT_TRUE(s.save(Bytes{3}));
+  std::ofstream(s.path() + ".tmp") << "half";
+  FileStorage fresh(dir, "k");
+  Bytes got;
+  ASSERT_TRUE(fresh.load(got));
+  EXPECT_EQ(got, (Bytes{3}));
+  EXPECT_FALSE(fs::exists(s.path() + ".tmp"));
+}
+
+// The node drops a blob (inner CRC, impossible node-ID): one warning per blob, though it loads at every reset.
+TEST_F(FileStorageTest, ARejectedBlobIsLoggedOncePerBlob) {
+  FileStorage s(dir, "k");
+  CapturedLog log;
+  s.rejected("stored parameters with a bad CRC");
+  s.rejected("stored parameters with a bad CRC");
+  ASSERT_TRUE(s.save(Bytes{1}));
+  s.rejected("stored parameters with a bad CRC");
+  const std::string text = log.text.str();
+  const std::string line = s.path() + ": stored parameters with a bad CRC (ignored: the node starts with its defaults)";
+  const auto first = text.find(line);
+  ASSERT_NE(first, std::string::npos) << text;
+  const auto second = text.find(line, first + 1);
+  ASSERT_NE(second, std::string::npos) << text;
+  EXPECT_EQ(text.find(line, second + 1), std::string::npos) << text;
 }
 
 }  // namespace

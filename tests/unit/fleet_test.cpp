@@ -10,7 +10,7 @@
 #include "config/fleet.hpp"
 #include "config/profile.hpp"
 #include "daemon/daemon.hpp"
-#include "personalities/cia404.hpp"
+#include "personalities/measurement_control.hpp"
 
 namespace cansim::config {
 namespace {
@@ -71,6 +71,21 @@ TEST_F(FleetTest, CountReplicatesOverConsecutiveNodeIdsWithDistinctSerialsAndKey
   EXPECT_EQ(f.seed, 1u);
 }
 
+// Without `interfaces:`, the fleet's buses are the ones its entries name, at
+// the default rate; with it, an undeclared name is an error (see below).
+TEST_F(FleetTest, InterfacesDefaultToTheOnesTheNodesName) {
+  FleetConfig f = parse("nodes: [{profile: generic-404, interface: vcan3, node_id: 0x10, count: 20, name: pt},\n"
+                        "        {profile: generic-404, interface: can1, name: b}]\n");
+  ASSERT_EQ(f.interfaces.size(), 2u);
+  EXPECT_EQ(f.interfaces[0].name, "vcan3");
+  EXPECT_EQ(f.interfaces[1].name, "can1");
+  EXPECT_EQ(f.interfaces[0].bit_rate_kbit, 0u);  // the kernel's, else 250
+  EXPECT_EQ(f.nodes.size(), 21u);
+  EXPECT_EQ(error_of("nodes: [{profile: generic-404, interface: vcan_too_long_name0}]\n"),
+            "D/fleet.yaml:1:43: nodes[0].interface: expected a network interface name (at most 15 characters), "
+            "got 'vcan_too_long_name0'");
+}
+
 // physics / sensor / faults of an entry lie over the profile's: a channel,
 // a sensor key, the fault list; the personality's settings follow (SMC maps
 // its field value over the sensor range).
@@ -109,6 +124,46 @@ TEST_F(FleetTest, PhysicsOverrideErrorsNameTheFleetFile) {
   }
 }
 
+// Issue #26: an entry's override is reported where the entry writes it
+// (fleet file, line, column, nodes[i].<section>...), never as the profile's.
+TEST(FleetOverrides, AMisspeltVendorKeyNamesTheFleetFile) {
+  ProfileSearch search;
+  search.dirs.push_back(std::string(CANSIM_SOURCE_DIR) + "/profiles");
+  try {
+    parse_fleet("interfaces:\n  vcan0: {bit_rate: 250}\nnodes:\n"
+                "  - {profile: p92c, interface: vcan0, node_id: 5, vendor: {serial_nmber_base: 9}}\n",
+                "that.yaml", search);
+    ADD_FAILURE() << "no error";
+  } catch (const ConfigError& e) {
+    EXPECT_THAT(e.what(), ::testing::StartsWith("that.yaml:4:60: nodes[0].vendor.serial_nmber_base: unknown key "
+                                                "(expected one of: cia404, serial_number_base, serial_part1,"));
+  }
+}
+
+TEST_F(FleetTest, EveryOverrideSectionNamesTheFleetFileLineAndColumn) {
+  struct Case {
+    std::string entry;  // after "  - {profile: generic-404, interface: vcan0, " (line 5, 45 columns)
+    std::string error;
+  } cases[] = {
+      {"options: {sdo_expedited_onl: true}}", "D/fleet.yaml:5:56: nodes[0].options.sdo_expedited_onl: unknown option"},
+      {"options: {heartbeat_jitter: x}}", "D/fleet.yaml:5:56: nodes[0].options.heartbeat_jitter: unknown option"},
+      {"vendor: {serial_nmber_base: 9}}", "D/fleet.yaml:5:55: nodes[0].vendor.serial_nmber_base: unknown key"},
+      {"vendor: {serial_number_base: -5}}",
+       "D/fleet.yaml:5:75: nodes[0].vendor.serial_number_base: expected an integer in 0..4294967295, got '-5'"},
+      {"vendor: {cia404: {chanels: []}}}", "D/fleet.yaml:5:64: nodes[0].vendor.cia404.chanels: unknown key"},
+      {"vendor: [1]}", "D/fleet.yaml:5:54: nodes[0].vendor: expected a mapping of vendor parameters"},
+      {"physics: {pressur: 1 bar}}", "D/fleet.yaml:5:56: nodes[0].physics.pressur: unknown key"},
+      {"sensor: {pressure: {nois: 1 mbar}}}", "D/fleet.yaml:5:66: nodes[0].sensor.pressure.nois: unknown key"},
+      {"faults: [{kin: drift}]}", "D/fleet.yaml:5:56: nodes[0].faults[0].kin: unknown key"},
+      {"faults: [{kind: drift, at: soon}]}", "D/fleet.yaml:5:73: nodes[0].faults[0].at: expected a time"},
+  };
+  for (const Case& c : cases)
+    EXPECT_THAT(error_of(std::string(kIfaces) + "nodes:\n  - {profile: generic-404, interface: vcan0, " + c.entry +
+                         "\n"),
+                ::testing::StartsWith(c.error))
+        << c.entry;
+}
+
 TEST_F(FleetTest, OptionAndVendorOverridesMakeAPrivateProfile) {
   FleetConfig f = parse(std::string("seed: 42\n") + kIfaces +
                         "nodes:\n"
@@ -130,7 +185,8 @@ TEST_F(FleetTest, OptionAndVendorOverridesMakeAPrivateProfile) {
   EXPECT_EQ(f.nodes[1].bit_rate_kbit, 125u);
   EXPECT_EQ(f.nodes[0].bit_rate_kbit, 250u);
   EXPECT_EQ(f.profiles.size(), 2u);
-  EXPECT_FALSE(f.nodes[0].serial);
+  EXPECT_EQ(f.nodes[0].serial, 1u);    // the profile's serial_number_base
+  EXPECT_EQ(f.nodes[1].serial, 500u);  // the entry's
 }
 
 TEST_F(FleetTest, ProfilesAreFoundByNameOrPath) {
@@ -157,7 +213,6 @@ TEST_F(FleetTest, ErrorsNameFileLineKeyAndExpectation) {
   const std::string n = "nodes:\n  - {profile: generic-404, interface: vcan0";
   std::vector<Case> cases = {
       {"bogus: 1\n", "D/fleet.yaml:1:1: bogus: unknown key (expected one of: seed, interfaces, nodes), got 'bogus'"},
-      {"nodes: []\n", "D/fleet.yaml:1:1: interfaces: missing required key 'interfaces'"},
       {std::string(kIfaces), "D/fleet.yaml:1:1: nodes: missing required key 'nodes'"},
       {"interfaces:\n  vcan0: {bitrate: 250}\nnodes: []\n",
        "D/fleet.yaml:2:11: interfaces.vcan0.bitrate: unknown key (expected one of: bit_rate, bus_model), got 'bitrate'"},
@@ -257,6 +312,7 @@ TEST_F(FleetTest, TheDaemonLogsAMismatchOncePerEntryWithTheCountAndTheFix) {
   {
     daemon::DaemonSettings settings;
     settings.state_dir = dir + "/state";
+    settings.config_file = dir + "/fleet.yaml";  // AddNodes takes profiles from its folder
     settings.bus = control::BusChoice::kNone;
     settings.control_socket = "none";
     daemon::Daemon d(settings);
@@ -311,10 +367,10 @@ TEST_F(FleetTest, ANodeRecordsItsReadingsAndCheckDoesNotTouchTheFile) {
   EXPECT_FALSE(fs::exists(file));
   {
     auto app = daemon::make_node_application(f.nodes[0], 1);
-    auto* cia = dynamic_cast<personalities::Cia404Application*>(app.get());
+    personalities::MeasurementControl* cia = personalities::measurement_control(app.get());
     ASSERT_NE(cia, nullptr);
-    for (int i = 0; i < 3; ++i) cia->source().sample(physics::Channel::Pressure, ms(10) * i);
-    cia->source().sample(physics::Channel::Temperature, ms(20));  // same instant: no new row
+    for (int i = 0; i < 3; ++i) cia->chain().source().sample(physics::Channel::Pressure, ms(10) * i);
+    cia->chain().source().sample(physics::Channel::Temperature, ms(20));  // same instant: no new row
   }
   std::ifstream in(file);
   std::string line;

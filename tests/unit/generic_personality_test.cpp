@@ -1,7 +1,9 @@
 // Registry + generic personality: profile validation errors, serial numbers
-// per node, physics defaults, hooks set on the CiA 404 objects.
+// per node, physics defaults, hooks set on the CiA 404 objects, the sensor
+// faults signalled as CiA 404 devices do (EMCY, 0x1001, 0x1003, error reset).
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
 
 #include "personalities/registry.hpp"
 #include "support/device.hpp"
@@ -60,8 +62,8 @@ TEST(Generic, SerialNumberIsBasePlusIndex) {
   SimBus bus;
   auto a0 = personalities::make_application(p, {1, 0, "a", {}});
   auto a7 = personalities::make_application(p, {1, 7, "b", {}});
-  SimNode& n0 = bus.add(p, 0x10, a0.get());
-  SimNode& n7 = bus.add(p, 0x11, a7.get());
+  SimNode& n0 = bus.add(p, 0x10, a0.get(), config::node_setup(p, 0x10, 0).serial_number);
+  SimNode& n7 = bus.add(p, 0x11, a7.get(), config::node_setup(p, 0x11, 7).serial_number);
   bus.power_on_all();
   EXPECT_EQ(n0->values().u(0x1018, 4), 1u);
   EXPECT_EQ(n7->values().u(0x1018, 4), 8u);
@@ -86,6 +88,94 @@ TEST(Generic, MeasuresAroundFiveBarAndRoomTemperature) {
     EXPECT_GT(degc, 19.5f);
     EXPECT_LT(degc, 25.5f);
   }
+}
+
+// A generic-404 node (node-ID 0x10) with the given profile faults, its
+// pressure process at `pressure_bar`.
+class GenericFaults : public ::testing::Test {
+ protected:
+  void start(const std::string& faults, double pressure_bar = 5.0) {
+    profile = prepared_repo_yaml("generic-404", [&](YAML::Node& root) {
+      root["faults"] = YAML::Load(faults);
+      root["physics"]["pressure"] = YAML::Load("[{constant: " + std::to_string(pressure_bar) + " bar}]");
+    });
+    app = personalities::make_application(profile, {7, 0, "vcan0/g", {}});
+    sim = &bus.add(profile, 0x10, app.get());
+    bus.power_on_all();
+  }
+  // The EMCYs sent in [from, to), as frames.
+  std::vector<CanFrame> emcys(TimeUs from, TimeUs to) {
+    std::vector<CanFrame> out;
+    for (const Sent& s : bus.log())
+      if (s.time >= from && s.time < to && s.frame.id == 0x90) out.push_back(s.frame);
+    return out;
+  }
+  std::uint64_t u(std::uint16_t i, std::uint8_t sub) {
+    std::span<const std::uint8_t> out;
+    EXPECT_EQ(sim->node().read(i, sub, bus.now(), out), SdoAbort::kNone);
+    return decode_u(sim->node().od().find(i, sub)->type, out.data());
+  }
+
+  SimBus bus;
+  config::Profile profile;
+  std::unique_ptr<Application> app;
+  SimNode* sim = nullptr;
+};
+
+// `open` on the pressure channel: EMCY 0x5030 (sensor fault) with 0x1001 =
+// generic + device profile bits, channel 1 and its 0x6150 in bytes 3-4, a
+// 0x1003 entry; the error reset when the fault ends.
+TEST_F(GenericFaults, AnOpenSensorRaisesTheSensorFaultEmcyAndItsErrorReset) {
+  start("[{kind: open, after: 1 s, duration: 2 s}]");
+  bus.run_until(ms(2900));
+  EXPECT_EQ(emcys(0, ms(1000)), std::vector<CanFrame>{});
+  EXPECT_EQ(emcys(ms(1000), ms(2900)), (std::vector<CanFrame>{F(0x90, {0x30, 0x50, 0x21, 0x01, 0x01, 0, 0, 0})}));
+  EXPECT_EQ(u(0x1001, 0), 0x21u);
+  EXPECT_EQ(u(0x1003, 0), 1u);
+  EXPECT_EQ(u(0x1003, 1), 0x01015030u);
+  EXPECT_EQ(u(0x6150, 1) & 0x01, 1u);
+  bus.run_until(ms(3100));
+  EXPECT_EQ(emcys(ms(2900), ms(3100)), (std::vector<CanFrame>{F(0x90, {0, 0, 0, 0, 0, 0, 0, 0})}));
+  EXPECT_EQ(u(0x1001, 0), 0u);
+  EXPECT_EQ(u(0x1003, 0), 1u);  // the history keeps it
+}
+
+// A short on the temperature channel: the same code for channel 2.
+TEST_F(GenericFaults, AShortOnTheTemperatureChannelNamesChannelTwo) {
+  start("[{kind: short, channel: temperature, after: 500 ms}]");
+  bus.run_until(ms(1000));
+  const std::vector<CanFrame> e = emcys(0, ms(1000));
+  ASSERT_EQ(e.size(), 1u);
+  EXPECT_EQ(e[0].data[0] | e[0].data[1] << 8, 0x5030);
+  EXPECT_EQ(e[0].data[3], 2);
+}
+
+// A pressure beyond the span: EMCY 0xF001 (measuring range exceeded) while
+// 0x6150 reports the overload, from power-on (after the boot-up).
+TEST_F(GenericFaults, AnOverloadRaisesTheRangeEmcy) {
+  start("[]", 14.0);
+  bus.run_until(ms(100));
+  const std::vector<CanFrame> e = emcys(0, ms(100));
+  ASSERT_EQ(e.size(), 1u);
+  EXPECT_EQ(e[0].data[0] | e[0].data[1] << 8, 0xF001);
+  EXPECT_EQ(e[0].data[2], 0x21);
+  EXPECT_EQ(e[0].data[3], 1);
+  EXPECT_EQ(e[0].data[4], 0x02);  // positive overload
+  const auto& boot = bus.log().front();
+  EXPECT_EQ(boot.frame.id, 0x710u);  // the boot-up first
+}
+
+// Reset node forgets the EMCY state with the EMCY producer: a fault that
+// lasts is signalled again after the reset.
+TEST_F(GenericFaults, AFaultThatOutlastsAResetIsSignalledAgain) {
+  start("[{kind: open, after: 200 ms}]");
+  bus.run_until(ms(500));
+  ASSERT_EQ(emcys(0, ms(500)).size(), 1u);
+  bus.inject(F(0x000, {0x81, 0x10}));
+  bus.run_until(ms(1000));
+  const std::vector<CanFrame> again = emcys(ms(500), ms(1000));
+  ASSERT_EQ(again.size(), 1u) << ::testing::PrintToString(again);
+  EXPECT_EQ(again[0].data[0] | again[0].data[1] << 8, 0x5030);
 }
 
 }  // namespace

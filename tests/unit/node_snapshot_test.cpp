@@ -56,7 +56,7 @@ class Rig : public FrameSink {
     run_to(now);
   }
   void lss(std::initializer_list<std::uint8_t> bytes) { frame(0x7E5, bytes, 8); }
-  void arm(physics::FaultSpec f) { personalities::as_cia404(app_.get())->arm_fault(node_, f, now); }
+  void arm(physics::FaultSpec f) { personalities::measurement_control(app_.get())->arm_fault(node_, f, now); }
 
   struct Saved {
     NodeSnapshot node;

@@ -1,9 +1,11 @@
 // CSV recorder: buffered, no allocation per row, readable; and the gnuplot wrapper.
 #include <gtest/gtest.h>
 
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cstdio>
+#include <filesystem>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
@@ -124,4 +126,48 @@ TEST(PhysicsRecorder, PlotScriptDrawsAPng) {
   EXPECT_EQ(std::string(magic + 1, 3), "PNG");
   std::remove(csv.c_str());
   std::remove(png.c_str());
+}
+
+// The daemon opens recordings on its loop: a FIFO would hold open() until a
+// reader came (the alarm fails the test instead of hanging), a device would
+// never fill; both are refused at once.
+TEST(PhysicsRecorder, OnlyARegularFileIsRecordedTo) {
+  const std::string fifo = temp_path("fifo");
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  CsvRecorder rec;
+  std::string error;
+  ::alarm(10);
+  EXPECT_FALSE(rec.open(fifo, &error));
+  ::alarm(0);
+  EXPECT_EQ(error, fifo + ": not a regular file");
+  EXPECT_FALSE(rec.open("/dev/null", &error));
+  EXPECT_EQ(error, "/dev/null: not a regular file");
+  EXPECT_FALSE(rec.is_open());
+  std::remove(fifo.c_str());
+}
+
+// Never into the state folder (the daemon's stored parameters), by a path or a link.
+TEST(PhysicsRecorder, NeverIntoTheRefusedFolder) {
+  namespace fs = std::filesystem;
+  const std::string state = temp_path("state");
+  const std::string link = temp_path("link.csv");
+  fs::create_directories(state);
+  std::ofstream(state + "/vcan0@dps@0.params") << "stored";
+  fs::create_symlink(state + "/vcan0@dps@0.params", link);
+  CsvRecorder rec;
+  std::string error;
+  EXPECT_FALSE(rec.open(state + "/vcan0@dps@0.params", &error, CsvRecorder::kDefaultBuffer, state));
+  EXPECT_NE(error.find("in the state folder"), std::string::npos) << error;
+  EXPECT_FALSE(rec.open(state + "/../" + fs::path(state).filename().string() + "/new.csv", &error,
+                        CsvRecorder::kDefaultBuffer, state));
+  EXPECT_FALSE(rec.open(link, &error, CsvRecorder::kDefaultBuffer, state));
+  std::ifstream in(state + "/vcan0@dps@0.params");
+  std::string kept;
+  in >> kept;
+  EXPECT_EQ(kept, "stored");
+  EXPECT_TRUE(rec.open(temp_path("ok.csv"), &error, CsvRecorder::kDefaultBuffer, state)) << error;
+  rec.close();
+  fs::remove_all(state);
+  fs::remove(link);
+  std::remove(temp_path("ok.csv").c_str());
 }

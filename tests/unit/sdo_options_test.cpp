@@ -140,25 +140,29 @@ TEST_F(NoTimeout, TransferWaitsForever) {
 }
 
 TEST(SdoOptionParsers, AbortMapAndIndexRanges) {
-  SdoServer::AbortMap map;
-  EXPECT_TRUE(SdoServer::parse_abort_map("", map));
+  AbortMap map;
+  EXPECT_TRUE(AbortMap::parse("", map));
   EXPECT_EQ(map.count, 0);
-  EXPECT_TRUE(SdoServer::parse_abort_map("0x06070010=0x08000000, 1=2", map));
+  EXPECT_TRUE(AbortMap::parse("0x06070010=0x08000000, 1=2", map));
   EXPECT_EQ(map.count, 2);
   EXPECT_EQ(map.apply(0x06070010), 0x08000000u);
   EXPECT_EQ(map.apply(1), 2u);
   EXPECT_EQ(map.apply(3), 3u);
-  EXPECT_FALSE(SdoServer::parse_abort_map("0x06070010", map));
-  EXPECT_FALSE(SdoServer::parse_abort_map("x=1", map));
-  SdoServer::IndexRanges r;
-  EXPECT_TRUE(SdoServer::parse_index_ranges("", r));
+  EXPECT_EQ(map.text(), "0x06070010=0x08000000,0x00000001=0x00000002");
+  EXPECT_FALSE(AbortMap::parse("0x06070010", map));
+  EXPECT_FALSE(AbortMap::parse("x=1", map));
+  EXPECT_FALSE(AbortMap::parse("1=0x100000000", map));
+  RangeList r;
+  EXPECT_TRUE(RangeList::parse("", 0xFFFF, r));
   EXPECT_TRUE(r.contains(0x1234));
-  EXPECT_TRUE(SdoServer::parse_index_ranges("0x2000,0x4020-0x4022", r));
+  EXPECT_TRUE(RangeList::parse("0x2000,0x4020-0x4022", 0xFFFF, r));
   EXPECT_TRUE(r.contains(0x2000));
   EXPECT_TRUE(r.contains(0x4021));
   EXPECT_FALSE(r.contains(0x2001));
-  EXPECT_FALSE(SdoServer::parse_index_ranges("0x4022-0x4020", r));
-  EXPECT_FALSE(SdoServer::parse_index_ranges("0x10000", r));
+  EXPECT_EQ(r.text(0xFFFF), "0x2000,0x4020-0x4022");
+  EXPECT_FALSE(RangeList::parse("0x4022-0x4020", 0xFFFF, r));
+  EXPECT_FALSE(RangeList::parse("0x10000", 0xFFFF, r));
+  EXPECT_FALSE(RangeList::parse("256", 0xFF, r));
 }
 
 }  // namespace

@@ -189,9 +189,31 @@ TEST_F(Store, CorruptBlobIsIgnored) {
   power_cycle(n);
   EXPECT_TRUE(n->store().corrupt());
   EXPECT_EQ(rd(n, 0x2000, 0), 7u);
+  ASSERT_EQ(n.storage.rejections.size(), 1u);  // the owner can log it
+  EXPECT_NE(n.storage.rejections[0].find("CRC"), std::string::npos);
   n.storage.data.resize(7);
   power_cycle(n);
   EXPECT_TRUE(n->store().corrupt());
+}
+
+// A CRC-valid blob with LSS node-ID 0 (CiA 305 stores 1..127 or 0xFF): the
+// node would send on 0x700 and answer SDOs on 0x600. It is dropped as a
+// whole, reported, and the configured node-ID applies.
+TEST_F(Store, ImpossibleLssNodeIdDropsTheBlob) {
+  SimNode& n = start();
+  ASSERT_EQ(wr32(n, 0x2000, 0, 99), SdoAbort::kNone);
+  ASSERT_EQ(wr32(n, 0x1010, 1, kSave), SdoAbort::kNone);
+  ASSERT_TRUE(n->store().save_lss({true, 0, 2}));
+  power_cycle(n);
+  EXPECT_EQ(n->node_id(), 5);
+  EXPECT_TRUE(n->store().corrupt());
+  EXPECT_EQ(rd(n, 0x2000, 0), 7u);
+  ASSERT_EQ(n.storage.rejections.size(), 1u);
+  EXPECT_NE(n.storage.rejections[0].find("node-ID"), std::string::npos);
+  ASSERT_TRUE(n->store().save_lss({true, 0x7F, 2}));  // the highest valid one is kept
+  power_cycle(n);
+  EXPECT_EQ(n->node_id(), 0x7F);
+  EXPECT_EQ(n.storage.rejections.size(), 1u);
 }
 
 // A profile that changed since the save: vanished entries, entries that

@@ -90,6 +90,12 @@ TEST_P(Inventory, FaithfulIsTheDefault) {
   EXPECT_EQ(p.layout.get(), p.faithful_layout.get());
 }
 
+// CiA 301 §7.5.2.17: 0x1014 is mandatory where EMCY is supported, and every
+// device sends EMCYs (Gems: its profile lacks it; strict mode adds it).
+TEST_P(Inventory, StrictModeHasTheEmcyCobIdObject) {
+  EXPECT_NE(strict_repo_profile(GetParam()).layout->find(0x1014, 0), nullptr);
+}
+
 INSTANTIATE_TEST_SUITE_P(Profiles, Inventory, ::testing::ValuesIn(kDevices));
 
 TEST(StrictMode, GenericProfileHasNoQuirks) {
@@ -99,7 +105,7 @@ TEST(StrictMode, GenericProfileHasNoQuirks) {
 
 TEST(StrictMode, QuirkCountsPerProfile) {
   // The inventory printed by `cansimd --quirks` (kept in step with docs/devices).
-  const std::pair<const char*, std::size_t> counts[] = {{"dps", 16}, {"p92c", 23}, {"gems9000", 27},
+  const std::pair<const char*, std::size_t> counts[] = {{"dps", 16}, {"p92c", 23}, {"gems9000", 28},
                                                         {"smc", 18}, {"cmp", 6}};
   for (const auto& [name, n] : counts)
     EXPECT_EQ(config::quirk_inventory(prepared_repo_profile(name)).size(), n) << name;
@@ -153,7 +159,7 @@ TEST(StrictMode, ProfileKeyTurnsItOn) {
   EXPECT_TRUE(s.strict);
   EXPECT_FALSE(s.options->sdo_upload_response_0x60);
   EXPECT_FALSE(s.options->sdo_expedited_only);
-  EXPECT_EQ(s.options->sdo_abort_map, "");
+  EXPECT_EQ(s.options->sdo_abort_map.count, 0);
   EXPECT_EQ(s.options->lss_bit_rates, p.options->lss_bit_rates);  // a setting: kept
 }
 
@@ -186,8 +192,8 @@ TEST(StrictMode, WholeFleetKeepsEntryOverrides) {
       "  - {profile: smc, interface: vcan0, node_id: 1, name: a, options: {restore_mode: ram}}\n"
       "  - {profile: smc, interface: vcan0, node_id: 2, name: b}\n",
       "f.yaml", search);
-  EXPECT_EQ(fleet.nodes[0].profile->options->restore_mode, "ram");
-  EXPECT_EQ(fleet.nodes[1].profile->options->restore_mode, "on_reset");
+  EXPECT_EQ(fleet.nodes[0].profile->options->restore_mode, RestoreMode::kRam);
+  EXPECT_EQ(fleet.nodes[1].profile->options->restore_mode, RestoreMode::kOnReset);
   EXPECT_EQ(fleet.nodes[1].profile->layout->find(0x1003, 0)->type, DataType::kUnsigned8);
 }
 

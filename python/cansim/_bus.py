@@ -1,0 +1,230 @@
+"""One D-Bus connection to cansimd (jeepney, a receiver thread).
+
+The receiver thread reads the socket all the time: method replies go to the
+waiting caller, signals to a sink. So a bench that sleeps while the fleet
+runs never lets cansimd's queue for it grow, and waiting for an event needs
+no main loop.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import os
+import socket as _socket
+import time
+from typing import Any, Callable, Dict, List, NamedTuple, Optional, Tuple
+
+from jeepney import DBusAddress, MatchRule, Message, MessageType, new_method_call
+from jeepney.bus_messages import message_bus
+from jeepney.io.threading import DBusConnection, DBusRouter, ReceiveStopped, open_dbus_connection
+from jeepney.low_level import HeaderFields
+
+from .errors import Error, NoSuchNode, Refused, Timeout
+
+BUS_NAME = "io.cansim.Cansimd1"
+ROOT_PATH = "/io/cansim/Cansimd1"
+NODE_PATH = ROOT_PATH + "/node"
+FLEET_IFACE = "io.cansim.Fleet1"
+NODE_IFACE = "io.cansim.Node1"
+PROPS_IFACE = "org.freedesktop.DBus.Properties"
+OBJECT_MANAGER_IFACE = "org.freedesktop.DBus.ObjectManager"
+
+#: D-Bus errors that mean "this node does not exist (any more)"
+_GONE = {"io.cansim.Error.UnknownNode", "org.freedesktop.DBus.Error.UnknownObject"}
+
+#: default seconds to wait for a reply (the daemon answers between two loop
+#: passes: milliseconds; AddNodes of a big fragment or Reload take longer)
+CALL_TIMEOUT = 30.0
+
+
+def default_socket_paths() -> List[str]:
+    """Where cansimd puts its private control socket by default, in the
+    order cansimctl tries them."""
+    paths = []
+    runtime = os.environ.get("XDG_RUNTIME_DIR")
+    if runtime:
+        paths.append(os.path.join(runtime, "cansimd", "control"))
+    paths.append("/run/cansimd/control")
+    paths.append(f"/tmp/cansimd-{os.geteuid()}/control")
+    return paths
+
+
+def _is_socket(path: str) -> bool:
+    try:
+        import stat
+        return stat.S_ISSOCK(os.stat(path).st_mode)
+    except OSError:
+        return False
+
+
+class Address(NamedTuple):
+    """Where a cansimd's control API is: jeepney's address, words for
+    messages, the private socket's path (None on a bus)."""
+
+    jeepney: str
+    description: str
+    socket: Optional[str]
+
+    @property
+    def is_bus(self) -> bool:
+        return self.socket is None
+
+
+def choose_address(socket: Optional[str], bus: Optional[str]) -> Address:
+    """In cansimctl's order: an explicit socket or bus,
+    $CANSIM_CONTROL_SOCKET, the default socket paths, then the system bus
+    as root, else the user bus."""
+    if socket is not None and bus is not None:
+        raise ValueError("give socket or bus, not both")
+    if bus is not None:
+        if bus not in ("system", "user"):
+            raise ValueError(f"bus must be 'system' or 'user', got {bus!r}")
+        return Address("SYSTEM" if bus == "system" else "SESSION", f"the {bus} bus", None)
+    if socket is None:
+        socket = os.environ.get("CANSIM_CONTROL_SOCKET") or None
+    if socket is None:
+        socket = next((p for p in default_socket_paths() if _is_socket(p)), None)
+    if socket is not None:
+        return Address(f"unix:path={_escape_address(socket)}", f"the control socket {socket}", socket)
+    if os.geteuid() == 0:
+        return Address("SYSTEM", "the system bus", None)
+    return Address("SESSION", "the user bus", None)
+
+
+def _escape_address(path: str) -> str:
+    plain = set("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789-_/.\\*")
+    return "".join(c if c in plain else "".join(f"%{b:02x}" for b in c.encode()) for c in path)
+
+
+def unwrap(variant: Tuple[str, Any]) -> Any:
+    """A D-Bus variant, as jeepney gives it (signature, value), as its value
+    (``ay`` as bytes)."""
+    signature, value = variant
+    return bytes(value) if signature == "ay" else value
+
+
+class _Router(DBusRouter):  # type: ignore[misc]
+    """jeepney's router, with signals handed to a callback and a quiet end
+    when cansimd closes the connection."""
+
+    def __init__(self, conn: DBusConnection, on_signal: Callable[[Message], None],
+                 on_close: Callable[[], None]) -> None:
+        self._on_signal = on_signal
+        self._on_close = on_close
+        super().__init__(conn)
+
+    # Both run in the receiver thread.
+    def _dispatch(self, msg: Message) -> None:
+        if self._replies.dispatch(msg):
+            return
+        if msg.header.message_type is MessageType.signal:
+            try:
+                self._on_signal(msg)
+            except Exception:  # a malformed signal must not stop the receiver
+                pass
+
+    def _receiver(self) -> None:
+        try:
+            while True:
+                self._dispatch(self.conn.receive())
+        except ReceiveStopped:
+            pass
+        except Exception:  # cansimd closed the connection or exited
+            self._on_close()
+        finally:
+            self._replies.drop_all()
+
+
+class Connection:
+    """A connection to one cansimd, with a receiver thread."""
+
+    def __init__(self, address: Address, *, on_signal: Callable[[Message], None],
+                 on_close: Callable[[], None]) -> None:
+        self.description = address.description
+        try:
+            self._conn: DBusConnection = open_dbus_connection(address.jeepney, auth_timeout=5.0)
+        except (OSError, ValueError, RuntimeError, TimeoutError, KeyError) as e:
+            raise Error(f"cannot connect to cansimd on {address.description}: {e}") from e
+        self._closed = False
+        self._router = _Router(self._conn, on_signal, on_close)
+        self._destination = BUS_NAME
+        if address.is_bus:
+            # On a bus, cansimd's signals reach this connection through a
+            # match rule (on the private socket, Subscribe alone does it).
+            rule = MatchRule(type="signal", sender=BUS_NAME, path_namespace=ROOT_PATH)
+            self.call(message_bus.AddMatch(rule))
+
+    def call(self, msg: Message, timeout: Optional[float] = CALL_TIMEOUT) -> Tuple[Any, ...]:
+        try:
+            reply = self._router.send_and_get_reply(msg, timeout=timeout)
+        except (TimeoutError, concurrent.futures.TimeoutError) as e:
+            raise Timeout(f"cansimd did not answer {msg.header.fields.get(HeaderFields.member)} "
+                          f"within {timeout} s") from e
+        except Exception as e:  # RouterClosed, OSError: the connection is gone
+            raise Error(f"lost the connection to cansimd on {self.description}: {e}") from e
+        if reply.header.message_type is MessageType.error:
+            name = reply.header.fields.get(HeaderFields.error_name, "")
+            text = reply.body[0] if reply.body and isinstance(reply.body[0], str) else ""
+            if name in _GONE:
+                raise NoSuchNode(name, text)
+            if name == "org.freedesktop.DBus.Error.NoReply" and self._closed:
+                raise Error(f"lost the connection to cansimd on {self.description}")
+            raise Refused(name, text)
+        return tuple(reply.body)
+
+    def method(self, path: str, interface: str, member: str, signature: Optional[str] = None,
+               body: Tuple[Any, ...] = (), timeout: Optional[float] = CALL_TIMEOUT) -> Tuple[Any, ...]:
+        addr = DBusAddress(path, bus_name=self._destination, interface=interface)
+        return self.call(new_method_call(addr, member, signature, body), timeout)
+
+    def get(self, path: str, interface: str, name: str) -> Any:
+        return unwrap(self.method(path, PROPS_IFACE, "Get", "ss", (interface, name))[0])
+
+    def get_all(self, path: str, interface: str) -> Dict[str, Any]:
+        props = self.method(path, PROPS_IFACE, "GetAll", "s", (interface,))[0]
+        return {k: unwrap(v) for k, v in props.items()}
+
+    def managed_objects(self) -> Dict[str, Dict[str, Any]]:
+        """Every node object's io.cansim.Node1 properties, in one call."""
+        objects = self.method(ROOT_PATH, OBJECT_MANAGER_IFACE, "GetManagedObjects")[0]
+        out = {}
+        for path, interfaces in objects.items():
+            props = interfaces.get(NODE_IFACE)
+            if props is not None:
+                out[path] = {k: unwrap(v) for k, v in props.items()}
+        return out
+
+    def alive(self) -> bool:
+        return not self._closed and self._router._rcv_thread.is_alive()
+
+    def close(self) -> None:
+        if self._closed:
+            return
+        self._closed = True
+        try:
+            self._router.close()
+        finally:
+            try:
+                self._conn.sock.shutdown(_socket.SHUT_RDWR)
+            except OSError:
+                pass
+            self._conn.close()
+
+
+def round_trip_offset(conn: Connection, samples: int = 3) -> Optional[float]:
+    """cansimd's simulated time minus this host's CLOCK_MONOTONIC, in µs,
+    from the tightest of a few SimulatedTime reads (None when it cannot be
+    read). Simulated time is CLOCK_MONOTONIC counted from cansimd's start,
+    so the offset is constant for a local daemon."""
+    best = None
+    for _ in range(samples):
+        t0 = time.monotonic()
+        sim = conn.get(ROOT_PATH, FLEET_IFACE, "SimulatedTime")
+        t1 = time.monotonic()
+        if not isinstance(sim, int):
+            return None
+        rtt = t1 - t0
+        offset = sim - (t0 + t1) / 2 * 1e6
+        if best is None or rtt < best[0]:
+            best = (rtt, offset)
+    return best[1] if best else None

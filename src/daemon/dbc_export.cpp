@@ -1,0 +1,58 @@
+#include "daemon/dbc_export.hpp"
+
+#include <map>
+
+#include "config/dbc_writer.hpp"
+#include "daemon/daemon.hpp"
+#include "personalities/pdo_view.hpp"
+
+namespace cansim::daemon {
+
+namespace {
+
+struct NoBus : FrameSink {
+  void send(const CanFrame&) override {}
+};
+
+std::string chosen_interface(const config::FleetConfig& fleet, const std::string& wanted) {
+  std::string names;
+  for (const config::InterfaceConfig& ic : fleet.interfaces) {
+    if (ic.name == wanted) return wanted;
+    names += (names.empty() ? "" : ", ") + ic.name;
+  }
+  if (!wanted.empty()) throw config::ConfigError(fleet.file + ": no interface " + wanted + " (it has " + names + ")");
+  if (fleet.interfaces.size() == 1) return fleet.interfaces.front().name;
+  throw config::ConfigError(fleet.file + ": the fleet is on " + names +
+                            "; a DBC describes one bus: name it with --interface");
+}
+
+}  // namespace
+
+std::string export_dbc(const config::FleetConfig& fleet, const std::string& interface) {
+  config::DbcBus bus;
+  bus.name = chosen_interface(fleet, interface);
+  if (const config::InterfaceConfig* ic = fleet.interface(bus.name); ic && ic->bit_rate_kbit)
+    bus.bit_rate_kbit = ic->bit_rate_kbit;
+  std::map<std::string, int> name_count;
+  for (const config::NodeConfig& n : fleet.nodes)
+    if (n.interface == bus.name) ++name_count[n.name];
+  NoBus no_bus;
+  for (config::NodeConfig n : fleet.nodes) {
+    if (n.interface != bus.name) continue;
+    n.record_file.clear();  // an export must not truncate recordings
+    std::unique_ptr<Application> app = make_node_application(n, fleet.seed);
+    Node node(node_setup(n), no_bus, app.get());
+    node.power_on(0);
+    config::DbcNode d;
+    d.label = name_count[n.name] > 1 ? n.name + "/" + std::to_string(n.index) : n.name;
+    d.key = n.key;
+    d.profile = n.profile->name;
+    d.node_id = node.node_id();
+    d.pdos = personalities::pdo_views(node);
+    d.emcy_codes = n.profile->emcy_codes;
+    bus.nodes.push_back(std::move(d));
+  }
+  return config::write_dbc(bus);
+}
+
+}  // namespace cansim::daemon

@@ -1,0 +1,105 @@
+// What a sensor device adds to its measurement chain, as parts any
+// personality's application holds or calls (sensor_application.hpp):
+//   DevicePart        the node's fault schedule at run time (communication
+//                     faults, arming, the boot EEPROM check) and the vendor
+//                     supervision timer;
+//   saturating_count  a counter object that stops at its maximum;
+//   follow_emcy       an EMCY whose error follows a condition (raised when it
+//                     starts, the error reset when it ends);
+//   SpanMonitor       inside / over / under the span, with hysteresis.
+// All are plain values: a copy of an application that holds them is a
+// snapshot of it.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/node.hpp"
+#include "personalities/cia404.hpp"
+#include "personalities/comm_faults.hpp"
+#include "physics/fault.hpp"
+
+namespace cansim::personalities {
+
+class DevicePart {
+ public:
+  // seed: varies the node's dropped SDO segments (fault sdo_block_drop).
+  explicit DevicePart(std::uint64_t seed) : comm_faults_(seed) {}
+  // The seed of the node at `index` of its group.
+  static std::uint64_t seed_of(std::uint32_t index) { return 0x9E3779B97F4A7C15ull * (index + 1); }
+
+  // From every reset on: supervision runs at once, then every period.
+  void on_reset(TimeUs now) { next_supervision_ = now; }
+  // Application::environment: the communication faults of the schedule.
+  TimeUs environment(Node& node, Cia404Chain& chain, TimeUs now) {
+    return comm_faults_.apply(node, chain.fault_set(), now);
+  }
+
+  // ---- fault injection at run time (the profile's faults are armed at boot).
+  // physics::kInvalidFaultHandle when the source has no fault schedule.
+  physics::FaultHandle arm_fault(Node& node, Cia404Chain& chain, const physics::FaultSpec& spec, TimeUs now);
+  bool cancel_fault(Node& node, Cia404Chain& chain, physics::FaultHandle h, TimeUs now);
+  // The faults still armed at `now` (ids = handles), profile faults included.
+  static std::vector<physics::FaultInfo> faults(const Cia404Chain& chain, TimeUs now);
+  // Is a fault of this kind in force (false when the source has no schedule)?
+  static bool fault_active(const Cia404Chain& chain, physics::FaultKind kind, TimeUs now);
+  // Told of every start / end edge of every armed fault (measurement and
+  // communication, profile and run time) when the node reaches it: at the
+  // edge time, or at power-on for edges in a power-off time. The listener
+  // must not arm or cancel faults.
+  void set_fault_listener(FaultListener listener) { comm_faults_.set_listener(std::move(listener)); }
+
+  // The boot EEPROM / data-set check: the stored parameters are corrupt or
+  // an eeprom_error fault is in force.
+  static bool boot_data_error(Node& node, const Cia404Chain& chain, TimeUs now) {
+    return node.store().corrupt() || fault_active(chain, physics::FaultKind::EepromError, now);
+  }
+
+  // Vendor supervision (status monitoring, counters, min / max capture), in
+  // every NMT state from the reset on: runs `check` when due, every
+  // `period` (0: the device has none); returns when it is next due.
+  template <class Check>
+  TimeUs supervise(TimeUs now, TimeUs period, Check&& check) {
+    if (period <= 0) return kNever;
+    if (now >= next_supervision_) {
+      check();
+      next_supervision_ = now + period;
+    }
+    return next_supervision_;
+  }
+
+ private:
+  void schedule_changed(Node& node, Cia404Chain& chain, TimeUs now);
+
+  CommFaultDriver comm_faults_;
+  TimeUs next_supervision_ = 0;
+};
+
+// Adds one to a counter object, stopping at `max` (no object: nothing).
+void saturating_count(Node& node, const OdEntry* counter, std::uint64_t max);
+
+// An EMCY that follows a condition: raised (code, register bits, optional
+// manufacturer bytes) when `active` starts, cleared when it ends. `reported`
+// is the caller's record of what the node said (reset it with the EMCY
+// producer, at every reset).
+void follow_emcy(Node& node, bool& reported, bool active, std::uint16_t code, std::uint8_t reg, TimeUs now,
+                 const std::uint8_t* mfr = nullptr);
+
+// Where a value is against a span, with an excursion left only `hysteresis`
+// back inside (0: at the limit itself).
+enum class Span : std::uint8_t { kInside, kOver, kUnder };
+struct SpanMonitor {
+  Span span = Span::kInside;
+  // The span from 0x6150's overload bits (the chain's verdict).
+  static Span of_status(std::uint8_t status);
+  // Moves to `now`; true when it changed.
+  bool move_to(Span now) {
+    if (now == span) return false;
+    span = now;
+    return true;
+  }
+  // Gems-style: one excursion until the value is `hysteresis` back inside.
+  bool track(double v, double start, double end, double hysteresis);
+};
+
+}  // namespace cansim::personalities
