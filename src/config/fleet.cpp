@@ -455,18 +455,21 @@ FleetConfig parse_fleet_fragment(const std::string& text, const std::string& fil
   } else {
     fail(Where{file, ""}, given, "expected a node entry, a list of node entries or a fleet document");
   }
+  // The bounds name the fragment's node list (a list built here has no mark).
+  const Where nodes{file, "nodes"};
+  const YAML::Node list = given.IsMap() && given["nodes"] ? given["nodes"] : given;
   if (root["nodes"].IsSequence() && root["nodes"].size() > limits::kAddNodesEntries)
-    throw TooLarge(file + ": " + std::to_string(root["nodes"].size()) + " node entries; expected at most " +
-                   std::to_string(limits::kAddNodesEntries) + " in one call");
+    fail_too_large(nodes, list, std::to_string(root["nodes"].size()) + " node entries; expected at most " +
+                                    std::to_string(limits::kAddNodesEntries) + " in one call");
   declare_entry_interfaces(root, file, running);
   FleetConfig out = parse_root(root, file, search);
   if (out.nodes.size() > limits::kAddNodesNodes)
-    throw TooLarge(file + ": " + std::to_string(out.nodes.size()) + " nodes; expected at most " +
-                   std::to_string(limits::kAddNodesNodes) + " in one call");
+    fail_too_large(nodes, list, std::to_string(out.nodes.size()) + " nodes; expected at most " +
+                                    std::to_string(limits::kAddNodesNodes) + " in one call");
   if (running.nodes.size() + out.nodes.size() > limits::kFleetNodes)
-    throw TooLarge(file + ": " + std::to_string(out.nodes.size()) + " more nodes would make the fleet " +
-                   std::to_string(running.nodes.size() + out.nodes.size()) + "; expected at most " +
-                   std::to_string(limits::kFleetNodes));
+    fail_too_large(nodes, list, std::to_string(out.nodes.size()) + " more nodes would make the fleet " +
+                                    std::to_string(running.nodes.size() + out.nodes.size()) + "; expected at most " +
+                                    std::to_string(limits::kFleetNodes));
   return out;
 }
 

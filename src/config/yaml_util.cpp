@@ -16,20 +16,42 @@
 
 namespace cansim::config {
 
-void fail(const Where& w, const YAML::Node& n, const std::string& expected) {
+namespace {
+std::string located(const Where& w, const YAML::Node& n, const std::string& expected) {
   std::ostringstream os;
   os << w.file;
   if (n.IsDefined() && n.Mark().line >= 0) os << ":" << n.Mark().line + 1 << ":" << n.Mark().column + 1;
   else if (w.path.empty()) os << ":1:1";  // an empty document has no mark: the error is at its start
   os << ": " << (w.path.empty() ? "(top level)" : w.path) << ": " << expected;
   if (n.IsDefined() && n.IsScalar()) os << ", got '" << n.Scalar() << "'";
-  throw ConfigError(os.str());
+  return os.str();
+}
+}  // namespace
+
+void fail(const Where& w, const YAML::Node& n, const std::string& expected) {
+  throw ConfigError(located(w, n, expected));
+}
+
+void fail_too_large(const Where& w, const YAML::Node& n, const std::string& bound) {
+  throw TooLarge(located(w, n, bound));
 }
 
 namespace {
-void check_yaml_depth(std::string_view text, const std::string& source, std::size_t* aliases) {
-  if (yaml_depth(text, limits::kYamlDepth, aliases) > limits::kYamlDepth)
-    throw TooLarge(source + ": YAML nested more than " + std::to_string(limits::kYamlDepth) + " levels deep");
+// "source:line:column" of offset `at` in `text`.
+std::string place(std::string_view text, const std::string& source, std::size_t at) {
+  const std::string_view before = text.substr(0, at);
+  const std::size_t line_start = before.rfind('\n');
+  const std::size_t column = line_start == std::string_view::npos ? at : at - line_start - 1;
+  return source + ":" + std::to_string(std::count(before.begin(), before.end(), '\n') + 1) + ":" +
+         std::to_string(column + 1);
+}
+
+YamlScan check_yaml_depth(std::string_view text, const std::string& source) {
+  const YamlScan scan = scan_yaml(text, limits::kYamlDepth);
+  if (scan.depth > limits::kYamlDepth)
+    throw TooLarge(place(text, source, scan.end) + ": (top level): YAML nested more than " +
+                   std::to_string(limits::kYamlDepth) + " levels deep");
+  return scan;
 }
 
 template <typename Source>
@@ -49,7 +71,7 @@ YAML::Node load_yaml_file(const std::string& path) {
 }
 
 YAML::Node load_yaml_text(const std::string& text, const std::string& file) {
-  check_yaml_depth(text, file, nullptr);
+  check_yaml_depth(text, file);
   return load_yaml(text, file);
 }
 
@@ -80,15 +102,22 @@ std::size_t skip_quoted(std::string_view t, std::size_t i) {
 // node starts to the right of the enclosing one; compact entries ("- - x")
 // and a mapping after "- " open theirs on the same line.
 int yaml_depth(std::string_view t, int stop_above, std::size_t* alias_count) {
-  std::size_t no_count = 0;
-  std::size_t* aliases = alias_count ? alias_count : &no_count;
-  *aliases = 0;
+  const YamlScan scan = scan_yaml(t, stop_above);
+  if (alias_count) *alias_count = scan.aliases;
+  return scan.depth;
+}
+
+YamlScan scan_yaml(std::string_view t, int stop_above) {
+  YamlScan out;
   std::vector<std::size_t> levels;  // block context: the columns of the open levels
   int flow = 0, deepest = 0;
   int block_parent = -1;  // inside a block scalar: lines indented deeper than this are text
   std::size_t i = 0, line = 0;
   bool line_start = true, token_start = true;
-  const auto deeper = [&](int d) { deepest = std::max(deepest, d); };
+  const auto deeper = [&](int d) {
+    if (d > stop_above && deepest <= stop_above) out.end = i;  // the node that goes too deep
+    deepest = std::max(deepest, d);
+  };
   while (i < t.size() && deepest <= stop_above) {
     if (line_start) {
       line_start = false;
@@ -149,7 +178,8 @@ int yaml_depth(std::string_view t, int stop_above, std::size_t* alias_count) {
         while (i < t.size() && t[i] != '\n') ++i;
       } else if (token_start && (c == '&' || c == '!' || c == '*')) {  // anchor, tag (the node follows), alias
         if (c == '*') {
-          ++*aliases;
+          ++out.aliases;
+          out.last_alias = i;
           token_start = false;
         }
         while (i < t.size() && !blank(t[i]) && !(flow > 0 && std::strchr(",[]{}", t[i]))) ++i;
@@ -159,19 +189,20 @@ int yaml_depth(std::string_view t, int stop_above, std::size_t* alias_count) {
       }
     }
   }
-  return deepest;
+  out.depth = deepest;
+  if (deepest <= stop_above) out.end = t.size();
+  return out;
 }
 
 void check_yaml_size(std::string_view text, const std::string& source, std::size_t max_bytes) {
   if (text.size() > max_bytes)
     throw TooLarge(source + ": " + std::to_string(text.size()) + " bytes of YAML; expected at most " +
                    std::to_string(max_bytes));
-  std::size_t aliases = 0;
-  check_yaml_depth(text, source, &aliases);
+  const YamlScan scan = check_yaml_depth(text, source);
   // An alias stands for its whole anchored node: each one more is parsed again.
-  if (aliases > limits::kYamlAliases)
-    throw TooLarge(source + ": " + std::to_string(aliases) + " YAML aliases (*name); expected at most " +
-                   std::to_string(limits::kYamlAliases));
+  if (scan.aliases > limits::kYamlAliases)
+    throw TooLarge(place(text, source, scan.last_alias) + ": (top level): " + std::to_string(scan.aliases) +
+                   " YAML aliases (*name); expected at most " + std::to_string(limits::kYamlAliases));
 }
 
 std::string read_regular_file(const std::string& path, std::size_t max_bytes) {

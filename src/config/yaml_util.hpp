@@ -30,6 +30,8 @@ struct Where {
 };
 
 [[noreturn]] void fail(const Where& w, const YAML::Node& n, const std::string& expected);
+// The same as TooLarge: `n` is over a bound of config/limits.hpp.
+[[noreturn]] void fail_too_large(const Where& w, const YAML::Node& n, const std::string& bound);
 
 // Both check the text's nesting (limits::kYamlDepth) before parsing; a file
 // is read as read_regular_file(path, limits::kProfileFileBytes) reads it.
@@ -43,6 +45,14 @@ YAML::Node load_yaml_text(const std::string& text, const std::string& file);
 // stops above `stop_above`. `aliases` (when given) receives the number of
 // aliases (*name) seen.
 int yaml_depth(std::string_view text, int stop_above, std::size_t* aliases = nullptr);
+// The same with the places a bound's error names (offsets into the text).
+struct YamlScan {
+  int depth = 0;
+  std::size_t aliases = 0;
+  std::size_t last_alias = 0;  // where the last alias seen starts
+  std::size_t end = 0;         // the node that went deeper than stop_above (else the text's size)
+};
+YamlScan scan_yaml(std::string_view text, int stop_above);
 // Throws TooLarge naming `source` when `text` is longer than `max_bytes`,
 // nests deeper than limits::kYamlDepth or has more than limits::kYamlAliases
 // aliases: what a client sends is checked so, before yaml-cpp (whose memory

@@ -376,7 +376,7 @@ TEST(EdsTolerant, FlagsInAnyNumberForm) {
   EXPECT_TRUE(p.layout->find(0x2002, 0)->pdo_mappable);
   EXPECT_TRUE(p.layout->find(0x2003, 0)->pdo_mappable);
   EXPECT_TRUE(p.options->lss_supported);
-  EXPECT_EQ(p.options->lss_bit_rates, "2");
+  EXPECT_EQ(p.options->lss_bit_rates.text(), "2");
   EXPECT_EQ(p.bit_rate_kbit, 500u);
   EXPECT_TRUE(p.options->rpdo_dummy_mapping);
   EXPECT_TRUE(p.warnings.empty());
@@ -691,7 +691,7 @@ TEST(EdsForeign, HexFlagsOfAVectorStyleEds) {
   EXPECT_FALSE(p.layout->find(0x1000, 0)->pdo_mappable);
   EXPECT_FALSE(p.options->lss_supported);
   EXPECT_TRUE(p.options->rpdo_dummy_mapping);
-  EXPECT_EQ(p.options->lss_bit_rates, "4,3,2,0");  // 125, 250, 500, 1000 kbit/s
+  EXPECT_EQ(p.options->lss_bit_rates.text(), "0,2-4");  // 1000, 500, 250, 125 kbit/s
   // A compact 0x1003: sub 0 counts the errors (none at boot), rw to clear them.
   EXPECT_EQ(default_u(p, 0x1003, 0), 0u);
   EXPECT_EQ(p.layout->find(0x1003, 0)->access, Access::kRw);

@@ -91,7 +91,7 @@ TEST(YamlSize, AliasesAreBounded) {
     config::check_yaml_size(text, "<t>", limits::kYamlTextBytes);
     FAIL() << "no error";
   } catch (const config::TooLarge& e) {
-    EXPECT_EQ(std::string(e.what()), "<t>: 17 YAML aliases (*name); expected at most 16");
+    EXPECT_EQ(std::string(e.what()), "<t>:18:3: (top level): 17 YAML aliases (*name); expected at most 16");
   }
 }
 
@@ -114,7 +114,7 @@ TEST(YamlSize, BytesAndDepthAreCheckedBeforeParsing) {
     config::load_yaml_text(std::string(4 << 20, '['), "<t>");  // 3.7 GB of yaml-cpp tokens, before
     FAIL() << "no error";
   } catch (const config::TooLarge& e) {
-    EXPECT_EQ(std::string(e.what()), "<t>: YAML nested more than 32 levels deep");
+    EXPECT_EQ(std::string(e.what()), "<t>:1:32: (top level): YAML nested more than 32 levels deep");
   }
 }
 
@@ -226,7 +226,12 @@ TEST(AddNodesBounds, EntriesNodesAndFleetSize) {
   std::string entries;
   for (std::size_t i = 0; i <= limits::kAddNodesEntries; ++i)
     entries += "- {profile: generic-404, interface: vb" + std::to_string(i) + ", node_id: 1}\n";
-  EXPECT_THROW(config::parse_fleet_fragment(entries, "<A>", search, {}), config::TooLarge);
+  try {
+    config::parse_fleet_fragment(entries, "<A>", search, {});
+    FAIL() << "no error";
+  } catch (const config::TooLarge& e) {  // the place of the list, as every other error of a fragment
+    EXPECT_EQ(std::string(e.what()), "<A>:1:1: nodes: 5 node entries; expected at most 4 in one call");
+  }
   const std::string two_groups = "- {profile: generic-404, interface: va, node_id: 1, count: 100, name: a}\n"
                                  "- {profile: generic-404, interface: vb, node_id: 1, count: 100, name: b}\n";
   EXPECT_THROW(config::parse_fleet_fragment(two_groups, "<A>", search, {}), config::TooLarge);
