@@ -185,16 +185,7 @@ class Watch:
             return f.read()
 
     def stop(self) -> int:
-        if self.proc.poll() is None:
-            self.proc.terminate()
-        try:
-            rc = self.proc.wait(it.scaled(5))
-        except subprocess.TimeoutExpired:
-            self.proc.kill()
-            rc = self.proc.wait()
-        self._thread.join(2)
-        self._err.close()
-        return rc
+        return it.stop_process(self.proc, self._thread, self._err)
 
 
 # --------------------------------------------------------------------------

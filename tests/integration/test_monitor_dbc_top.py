@@ -96,15 +96,7 @@ class Background:
             return f.read()
 
     def stop(self) -> int:
-        self.proc.terminate()
-        try:
-            rc = self.proc.wait(it.scaled(5))
-        except subprocess.TimeoutExpired:
-            self.proc.kill()
-            rc = self.proc.wait()
-        self._thread.join(2)
-        self._err.close()
-        return rc
+        return it.stop_process(self.proc, self._thread, self._err)
 
 
 def load_canmatrix():

@@ -43,8 +43,9 @@ import subprocess
 import sys
 import tempfile
 import time
+import threading
 import traceback
-from typing import Callable, Iterable, List, Optional, Sequence
+from typing import IO, Callable, Iterable, List, Optional, Sequence
 
 import can
 
@@ -63,6 +64,22 @@ def scaled(seconds: float) -> float:
 
 class Skip(Exception):
     """Raise (or call skip()) to end the test as skipped (exit 77)."""
+
+
+def stop_process(proc: subprocess.Popen, reader: threading.Thread, err: IO[str]) -> int:
+    """SIGTERM a background tool (SIGKILL when it has not exited 5 s later,
+    scaled), join the thread reading its stdout and close its stderr file;
+    returns its exit status."""
+    if proc.poll() is None:
+        proc.terminate()
+    try:
+        rc = proc.wait(scaled(5))
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        rc = proc.wait()
+    reader.join(2)
+    err.close()
+    return rc
 
 
 def skip(reason: str) -> None:
