@@ -81,6 +81,7 @@ void Emcy::raise(std::uint16_t code, std::uint8_t reg_bits, const std::uint8_t m
   update_register();
   record(code, register_, mfr);
   emit(code, register_, mfr, now);
+  node_.wake_app(now);  // an application may react to the error state (CMP: PRE-OPERATIONAL)
 }
 
 void Emcy::report(std::uint16_t code, std::uint8_t reg_bits, const std::uint8_t mfr[5], TimeUs now) {
@@ -109,6 +110,7 @@ void Emcy::clear(std::uint16_t code, TimeUs now) {
     emit(kErrorReset, register_, kNoMfr, now);
   else if (node_.options().emcy_on_partial_clear == PartialClearEmcy::kLatest)
     emit(active_[active_n_ - 1].code, register_, kNoMfr, now);
+  node_.wake_app(now);
 }
 
 void Emcy::clear_all(TimeUs now) {
@@ -116,6 +118,7 @@ void Emcy::clear_all(TimeUs now) {
   active_n_ = 0;
   update_register();
   emit(kErrorReset, register_, kNoMfr, now);
+  node_.wake_app(now);
 }
 
 // ---------------------------------------------------------------- 0x1003

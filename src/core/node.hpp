@@ -150,9 +150,9 @@ class Node {
   const NodeOptions& options() const { return *setup_.options; }
   Application* app() { return app_; }
   // Makes Application::process run at `at` at the latest (NMT change, write).
-  void wake_app(TimeUs at) { if (at < app_next_) app_next_ = at; }
+  void wake_app(TimeUs at) { if (app_ && at < app_next_) app_next_ = at; }
   // Makes Application::environment run at `at` at the latest (fault armed).
-  void wake_environment(TimeUs at) { if (at < env_next_) env_next_ = at; }
+  void wake_environment(TimeUs at) { if (app_ && at < env_next_) env_next_ = at; }
   NodeStorage* storage() { return storage_; }
 
   // ---- OD access as a remote client (SDO, RPDO) sees it: access rights,

@@ -40,7 +40,6 @@ constexpr std::uint16_t kSubUserPageChecksums = 0x0030;  // EEPromUser{Comm,Appl
 constexpr std::size_t kSubCodeOffset = 3;                // NodeSubErrorCode in EMCY bytes 6-7
 
 constexpr std::uint16_t kBitRatesKbit[10] = {1000, 800, 500, 250, 125, 100, 50, 20, 10, 0};  // 9 = automatic
-constexpr TimeUs kFaultPoll = 10000;
 
 using Settings = model::CmpSettings;
 using MappingMode = Settings::MappingMode;
@@ -129,7 +128,11 @@ class CmpApplication final : public SensorApplication {
       state_.indication_due = kNever;
       node.send(CanFrame::make(cob::kNmt, {kNmtStart, settings_.start_indication_node_id}));
     }
-    next = std::min({next, repeat_beyond_limits(node, now), state_.indication_due, now + kFaultPoll});
+    // The EMCY engine wakes the application when the error state changes;
+    // an over-temperature fault starts or ends at an edge of the schedule.
+    const physics::FaultSet* faults = chain_.fault_set();
+    const TimeUs fault_edge = faults ? std::max(faults->next_edge_time(), now + 1) : kNever;
+    next = std::min({next, repeat_beyond_limits(node, now), state_.indication_due, fault_edge});
     return next;
   }
 

@@ -29,6 +29,7 @@ void DevicePart::schedule_changed(Node& node, Cia404Chain& chain, TimeUs now) {
   comm_faults_.changed();
   chain.invalidate();
   node.wake_environment(now);
+  node.wake_app(now);  // the device sees a fault that starts now at once
 }
 
 std::vector<physics::FaultInfo> DevicePart::faults(const Cia404Chain& chain, TimeUs now) {
