@@ -157,8 +157,10 @@ int append_args(sd_bus_message* m, const char* sig, Input& in) {
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  static std::unique_ptr<test::ControlFleet> fleet;
-  static std::unique_ptr<test::BusPair> bus;
+  // Never destroyed: at exit spdlog's registry may go first, and a fleet's
+  // control service still logs (its rate-limited journal line) when it goes.
+  static auto& fleet = *new std::unique_ptr<test::ControlFleet>;
+  static auto& bus = *new std::unique_ptr<test::BusPair>;
   static int inputs = 0;
   // A fresh fleet now and then: calls accumulate state (removed nodes, faults).
   if (!fleet || ++inputs % 200 == 0 || fleet->nodes().empty()) {

@@ -374,15 +374,16 @@ FleetConfig parse_root(const YAML::Node& root, const std::string& file, const Pr
   Where w{file, ""};
   if (!root.IsMap()) fail(w, root, "expected a mapping with 'nodes:' (and 'interfaces:')");
   check_keys(w, root, {"seed", "interfaces", "nodes"});
+  // The node list first: without `interfaces:` the interfaces come from it.
+  if (!root["nodes"]) fail(w.child("nodes"), root, "missing required key 'nodes'");
+  const YAML::Node& list = root["nodes"];
+  Where wn = w.child("nodes");
+  if (!list.IsSequence()) fail(wn, list, "expected a list of node entries");
   if (!root["interfaces"]) declare_entry_interfaces(root, file, FleetConfig{});
   FleetConfig out;
   out.file = file;
   if (root["seed"]) out.seed = get_uint(w.child("seed"), root["seed"]);
   parse_interfaces(w.child("interfaces"), root["interfaces"], out);
-  if (!root["nodes"]) fail(w.child("nodes"), root, "missing required key 'nodes'");
-  const YAML::Node& list = root["nodes"];
-  Where wn = w.child("nodes");
-  if (!list.IsSequence()) fail(wn, list, "expected a list of node entries");
   std::string dir = fs::path(file).parent_path().string();
   ProfileCache cache(search, dir.empty() ? "." : dir, out);
   std::vector<std::size_t> entry_of;

@@ -87,7 +87,7 @@ void SmcApplication::resolve_objects(const OdLayout& od) {
 }
 
 void SmcApplication::on_reset(Node& node, ResetKind kind, TimeUs now) {
-  resolve_objects(node.od());
+  if (!state_.objects[0].pv1) resolve_objects(node.od());  // the layout is the node's for life
   SensorApplication::on_reset(node, kind, now);
   OdValues& v = node.values();
   const auto factory_serial = std::uint32_t(v.u(0x1018, 4));

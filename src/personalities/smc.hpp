@@ -49,10 +49,10 @@ class SmcApplication final : public SensorApplication {
 
   // The §5 scaling objects of one channel (sub 1 pressure, 2 temperature).
   struct ScalingObjects {
-    const OdEntry *pv1, *pv2, *pv1_i32, *pv2_i32;  // 0x6121 / 0x6123 / 0x9121 / 0x9123
-    const OdEntry *gain, *scale_offset;             // 0x6126 / 0x6127
-    const OdEntry *input_offset_i16, *input_offset; // 0x3124 / 0x3125
-    const OdEntry *clamp_min, *clamp_max;           // 0x3201 / 0x3202
+    const OdEntry *pv1 = nullptr, *pv2 = nullptr, *pv1_i32 = nullptr, *pv2_i32 = nullptr;  // 0x6121 / 0x6123 / 0x9121 / 0x9123
+    const OdEntry *gain = nullptr, *scale_offset = nullptr;                                // 0x6126 / 0x6127
+    const OdEntry *input_offset_i16 = nullptr, *input_offset = nullptr;                    // 0x3124 / 0x3125
+    const OdEntry *clamp_min = nullptr, *clamp_max = nullptr;                              // 0x3201 / 0x3202
   };
   struct State {
     ScalingObjects objects[2] = {};

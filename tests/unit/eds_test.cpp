@@ -2,6 +2,8 @@
 // object dictionary; the reader takes the messy forms real files use and
 // rejects the ambiguous with file:line; a DCF's ParameterValue wins; nodes
 // built from an exported EDS answer SDO uploads as the YAML-built ones do.
+#include <unistd.h>
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -811,11 +813,18 @@ TEST(EdsNodes, Cia404ObjectsOfAnEdsGetTheMeasurementChain) {
   EXPECT_TRUE(std::isfinite(decode_f(DataType::kReal32, out.data())));
 }
 
-// A fleet entry names an EDS like a profile and overrides it as usual. The
-// files go under the test's working directory (the build tree).
-TEST(EdsFleet, EntryTakesAnEdsWithOverrides) {
-  const std::filesystem::path dir = std::filesystem::current_path() / "eds-test-fleet";
+// A folder of this test process's own under the system's temporary folder
+// (never the source tree, whatever the working directory).
+std::filesystem::path eds_fleet_dir() {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("cansim-eds-test-fleet-" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
+  return dir;
+}
+
+// A fleet entry names an EDS like a profile and overrides it as usual.
+TEST(EdsFleet, EntryTakesAnEdsWithOverrides) {
+  const std::filesystem::path dir = eds_fleet_dir();
   std::ofstream(dir / "g404.eds") << export_eds(load_repo_profile("generic-404"));
   const std::string fleet =
       "interfaces: {vcan0: {bit_rate: 125}}\n"
@@ -833,11 +842,11 @@ TEST(EdsFleet, EntryTakesAnEdsWithOverrides) {
   EXPECT_EQ(f.nodes[1].profile->identity.serial_base, 100u);
   EXPECT_TRUE(f.nodes[1].profile->identity.serial_per_node);
   EXPECT_NE(f.nodes[0].profile->layout->find(0x6130, 1), nullptr);
+  std::filesystem::remove_all(dir);
 }
 
 TEST(EdsFleet, ErrorsInTheEdsNameTheEdsFile) {
-  const std::filesystem::path dir = std::filesystem::current_path() / "eds-test-fleet";
-  std::filesystem::create_directories(dir);
+  const std::filesystem::path dir = eds_fleet_dir();
   std::ofstream(dir / "broken.eds") << "[1000]\nDataType=0x7\nAccessType=rx\n";
   const std::string fleet = "interfaces: {vcan0: {}}\nnodes:\n  - {profile: broken.eds, interface: vcan0}\n";
   try {
@@ -846,6 +855,7 @@ TEST(EdsFleet, ErrorsInTheEdsNameTheEdsFile) {
   } catch (const config::ConfigError& e) {
     EXPECT_THAT(e.what(), HasSubstr("broken.eds:3: [1000] AccessType: expected one of ro, wo, rw, rwr, rww, const, got 'rx'"));
   }
+  std::filesystem::remove_all(dir);
 }
 
 // `cansimd --check` lists a file's warnings once, however many entries

@@ -53,6 +53,14 @@ TEST(LoaderRegressions, AnEmptyDocumentIsRejectedAtLineOne) {
   EXPECT_EQ(fleet_error(""), "f.yaml:1:1: (top level): expected a mapping with 'nodes:' (and 'interfaces:')");
 }
 
+// fleet_fuzz: yaml-cpp reads "  seed: 7\ninterfaces: ..." as {seed: 7}; with
+// neither `interfaces:` nor `nodes:` the interfaces' error had no line.
+TEST(LoaderRegressions, AFleetWithoutNodesNamesTheDocument) {
+  EXPECT_EQ(fleet_error("  seed: 7\ninterfaces:\n  vcan0: {}\n"),
+            "f.yaml:1:3: nodes: missing required key 'nodes'");
+  EXPECT_EQ(fleet_error("nodes: 5\n"), "f.yaml:1:8: nodes: expected a list of node entries, got '5'");
+}
+
 std::string fragment_error(const std::string& text) {
   const std::string file = std::string(CANSIM_SOURCE_DIR) + "/config/f.yaml";
   try {
