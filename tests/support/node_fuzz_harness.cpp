@@ -49,7 +49,7 @@ config::Profile node_fuzz_profile(const std::string& profiles, const NodeFuzzVar
   const std::string personality = root["personality"].as<std::string>();
   for (const auto& [who, key] : {std::pair{"honeywell-dps", "span_check_period"}, {"danfoss-p92c", "monitor_period"},
                                  {"gems-9000", "supervision_period"}, {"adz-smc", "stay_set_period"}})
-    if (personality == who) vendor[key] = "100 ms";
+    if (personality == who) vendor[key] = "500 ms";
   for (const auto& [channel, rate] : {std::pair{"pressure", "10 Hz"}, {"temperature", "1 Hz"}})
     if (root["sensor"][channel]) root["sensor"][channel]["sample_rate"] = rate;
   if (variant.strict) root["strict"] = true;
