@@ -231,12 +231,18 @@ def add_remove(c: it.ControlClient, d: it.Daemon, profile: str) -> str:
         for _ in range(n):
             c.fleet("AddNodes", "s", f"{{profile: {profile}, interface: vcan0, node_id: 0x70, name: cycle}}")
             c.fleet("RemoveNode", "s", "vcan0/cycle/0")
+    # Two windows of 40: a leak grows the daemon in each. A loaded host can
+    # grow it once (signals queued for a slow client, within their bound,
+    # kept by malloc), as in one CI run: +1,512 KiB, then nothing.
     cycles(10)
-    before = rss_kib(d.proc.pid)
-    cycles(40)
-    grown = rss_kib(d.proc.pid) - before
-    assert grown < 1024, f"40 AddNodes / RemoveNode cycles grew the daemon by {grown} KiB (66 KB each before)"
-    return f"40 AddNodes / RemoveNode cycles: RSS +{grown} KiB"
+    grown = []
+    for _ in range(2):
+        before = rss_kib(d.proc.pid)
+        cycles(40)
+        grown.append(rss_kib(d.proc.pid) - before)
+    assert min(grown) < 1024, \
+        f"each 40 AddNodes / RemoveNode cycles grew the daemon: by {grown} KiB (66 KB a cycle before)"
+    return f"2 x 40 AddNodes / RemoveNode cycles: RSS +{grown[0]} KiB, +{grown[1]} KiB"
 
 
 # --------------------------------------------------------------------------
@@ -258,28 +264,30 @@ def test(ctx: it.Context) -> None:
     sock = os.path.join(ctx.tmp, "control")
     beats = Heartbeats(os.path.join(ctx.tmp, "heartbeats.log"))
     windows = []
-    with it.open_bus("vcan0") as bus:
-        d = ctx.start_daemon("--config", fleet_file, "--control-socket", sock, "--bus", "none",
-                             "--state-dir", "{state_dir}")
-        it.wait_for_path(sock, 10)
-        time.sleep(it.scaled(0.5))
-        with it.ControlClient.private(sock, timeout=30) as c:
-            assert c.fleet_property("NodeCount") == NODES
-            node = c.node("g/0")
-            attacks = [("too large", lambda: too_large(c, node)),
-                       ("file disclosure", lambda: disclosure(c, ctx, fleet_dir)),
-                       ("recording", lambda: recording(node, ctx, d.state_dir)),
-                       ("idle clients", lambda: idle_clients(ctx, sock)),
-                       ("slow subscriber", lambda: slow_subscriber(sock, d, bus)),
-                       ("connect flood", lambda: flood(ctx, sock, d)),
-                       ("add / remove", lambda: add_remove(c, d, profile))]
-            for name, attack in attacks:
-                t0 = time.time()
-                it.log(attack())
-                windows.append((name, t0, time.time()))
-                d.assert_alive()
-        assert d.stop() == 0, "exit status after SIGTERM"
-    heard = beats.stop()
+    try:  # candump and cangen must not outlive a failed attack (the test would hang to its timeout)
+        with it.open_bus("vcan0") as bus:
+            d = ctx.start_daemon("--config", fleet_file, "--control-socket", sock, "--bus", "none",
+                                 "--state-dir", "{state_dir}")
+            it.wait_for_path(sock, 10)
+            time.sleep(it.scaled(0.5))
+            with it.ControlClient.private(sock, timeout=30) as c:
+                assert c.fleet_property("NodeCount") == NODES
+                node = c.node("g/0")
+                attacks = [("too large", lambda: too_large(c, node)),
+                           ("file disclosure", lambda: disclosure(c, ctx, fleet_dir)),
+                           ("recording", lambda: recording(node, ctx, d.state_dir)),
+                           ("idle clients", lambda: idle_clients(ctx, sock)),
+                           ("slow subscriber", lambda: slow_subscriber(sock, d, bus)),
+                           ("connect flood", lambda: flood(ctx, sock, d)),
+                           ("add / remove", lambda: add_remove(c, d, profile))]
+                for name, attack in attacks:
+                    t0 = time.time()
+                    it.log(attack())
+                    windows.append((name, t0, time.time()))
+                    d.assert_alive()
+            assert d.stop() == 0, "exit status after SIGTERM"
+    finally:
+        heard = beats.stop()
     reference = heard.pop(REFERENCE, [])
     assert len(heard) == NODES and reference, f"heartbeats of {len(heard)} nodes recorded, expected {NODES}"
     for name, t0, t1 in windows:
