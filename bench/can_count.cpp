@@ -57,16 +57,16 @@ struct IdStats {
   std::uint64_t count = 0;
   std::int64_t first = 0, last = 0;  // kernel receive time, ns
   std::int64_t max_gap = 0;
-  double sum_abs_dev = 0;            // sum of |gap - period| (heartbeats only)
+  double sum_abs_dev = 0;  // sum of |gap - period| (heartbeats only)
 };
 
 struct Socket {
   std::string name;
   int fd = -1;
-  std::uint32_t ovfl = 0;          // latest SO_RXQ_OVFL value
-  std::uint32_t ovfl_at_start = 0; // value when the window opened
-  std::uint64_t frames = 0;        // in the window
-  std::uint64_t before = 0;        // before the window
+  std::uint32_t ovfl = 0;           // latest SO_RXQ_OVFL value
+  std::uint32_t ovfl_at_start = 0;  // value when the window opened
+  std::uint64_t frames = 0;         // in the window
+  std::uint64_t before = 0;         // before the window
   std::vector<IdStats> ids;
 };
 
@@ -284,8 +284,8 @@ int main(int argc, char** argv) {
           }
           std::uint32_t id = f.can_id & CAN_SFF_MASK;
           IdStats& st = s.ids[id];
-          bool beat = period_ns && id > 0x700 && id < 0x780 && !(f.can_id & CAN_RTR_FLAG) && f.len == 1 &&
-                      f.data[0] != 0;
+          bool beat =
+              period_ns && id > 0x700 && id < 0x780 && !(f.can_id & CAN_RTR_FLAG) && f.len == 1 && f.data[0] != 0;
           if (st.count) {
             std::int64_t gap = ts - st.last;
             if (gap > st.max_gap) st.max_gap = gap;
@@ -316,14 +316,16 @@ int main(int argc, char** argv) {
     drops += s.ovfl - s.ovfl_at_start;
     for (const auto& st : s.ids) ids_seen += st.count > 0;
   }
-  std::printf("interfaces=%zu\nseconds=%.3f\nframes=%llu\nfps=%.0f\ndrops=%llu\ndrops_total=%llu\n"
-              "frames_before_window=%llu\ncob_ids=%llu\neff_frames=%llu\n",
-              socks.size(), window_s, (unsigned long long)total, double(total) / window_s,
-              (unsigned long long)drops, [&] {
-                unsigned long long d = 0;
-                for (const auto& s : socks) d += s.ovfl;
-                return d;
-              }(), (unsigned long long)before, (unsigned long long)ids_seen, (unsigned long long)eff_frames);
+  std::printf(
+      "interfaces=%zu\nseconds=%.3f\nframes=%llu\nfps=%.0f\ndrops=%llu\ndrops_total=%llu\n"
+      "frames_before_window=%llu\ncob_ids=%llu\neff_frames=%llu\n",
+      socks.size(), window_s, (unsigned long long)total, double(total) / window_s, (unsigned long long)drops,
+      [&] {
+        unsigned long long d = 0;
+        for (const auto& s : socks) d += s.ovfl;
+        return d;
+      }(),
+      (unsigned long long)before, (unsigned long long)ids_seen, (unsigned long long)eff_frames);
   for (const auto& s : socks)
     std::printf("iface_%s_frames=%llu\niface_%s_drops=%u\n", s.name.c_str(), (unsigned long long)s.frames,
                 s.name.c_str(), s.ovfl - s.ovfl_at_start);
@@ -354,16 +356,18 @@ int main(int argc, char** argv) {
       }
     long k = expect_nodes >= 0 ? expect_nodes : long(nodes);
     double expected = double(k) * window_s * 1000.0 / period_ms;
-    std::printf("hb_period_ms=%.3f\nhb_nodes_seen=%llu\nhb_nodes_expected=%ld\nhb_expected=%.0f\nhb_received=%llu\n"
-                "hb_received_pct=%.2f\nhb_missed=%llu\nhb_expected_between_first_last=%llu\n",
-                period_ms, (unsigned long long)nodes, k, expected, (unsigned long long)beats,
-                expected > 0 ? double(beats) / expected * 100 : 0.0, (unsigned long long)missed,
-                (unsigned long long)expected_span);
+    std::printf(
+        "hb_period_ms=%.3f\nhb_nodes_seen=%llu\nhb_nodes_expected=%ld\nhb_expected=%.0f\nhb_received=%llu\n"
+        "hb_received_pct=%.2f\nhb_missed=%llu\nhb_expected_between_first_last=%llu\n",
+        period_ms, (unsigned long long)nodes, k, expected, (unsigned long long)beats,
+        expected > 0 ? double(beats) / expected * 100 : 0.0, (unsigned long long)missed,
+        (unsigned long long)expected_span);
     if (timed) {
-      std::printf("hb_mean_period_ms=%.4f\nhb_mean_period_error_pct=%.3f\nhb_max_period_error_pct=%.3f\n"
-                  "hb_mean_abs_jitter_ms=%.3f\nhb_max_gap_ms=%.3f\n",
-                  sum_period / double(timed) / 1e6, sum_err / double(timed), max_err,
-                  sum_jitter / double(timed) / 1e6, double(max_gap) / 1e6);
+      std::printf(
+          "hb_mean_period_ms=%.4f\nhb_mean_period_error_pct=%.3f\nhb_max_period_error_pct=%.3f\n"
+          "hb_mean_abs_jitter_ms=%.3f\nhb_max_gap_ms=%.3f\n",
+          sum_period / double(timed) / 1e6, sum_err / double(timed), max_err, sum_jitter / double(timed) / 1e6,
+          double(max_gap) / 1e6);
     }
   }
   if (pid) {

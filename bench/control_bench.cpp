@@ -69,8 +69,8 @@ constexpr std::uint16_t kHeartbeatMs = 100;
 constexpr std::uint16_t kTpdoMs = 10;
 constexpr TimeUs kWarmUpUs = 2'000'000;
 constexpr TimeUs kBoundaryOffsetUs = 55'000;  // blocks start between heartbeat and TPDO deadlines
-constexpr TimeUs kBlockUs = 2'000'000;     // A / B alternate in blocks of this length
-constexpr TimeUs kDisconnectUs = 30'000;   // clients leave this long before a B block ends
+constexpr TimeUs kBlockUs = 2'000'000;        // A / B alternate in blocks of this length
+constexpr TimeUs kDisconnectUs = 30'000;      // clients leave this long before a B block ends
 constexpr TimeUs kProbePeriodUs = 200'000;
 constexpr int kNodesPerBus = 127;
 constexpr int kHistogramUs = 50'000;  // period error histogram, 1 µs buckets
@@ -130,7 +130,7 @@ struct LoopPhase {
   std::uint64_t frames = 0, passes = 0, timer_wakeups = 0, rearms = 0, control_due = 0;
   double lateness_sum = 0;  // timer wake-up − armed deadline
   TimeUs lateness_max = 0;
-  TimeUs pass_max = 0;  // longest pass: run_due + process()
+  TimeUs pass_max = 0;                    // longest pass: run_due + process()
   TimeUs in_run_due = 0, in_process = 0;  // thread CPU in the core's pass / in the control endpoints
   PeriodError hb;
 };
@@ -140,8 +140,8 @@ struct Probe {
   std::mutex mutex;
   bool armed = false;
   float target = 0;
-  TimeUs pdo_time = 0;  // flush time of the first TPDO1 within 0.1 bar of target
-  TimeUs pdo_pass = 0;  // the start of the pass that sent it
+  TimeUs pdo_time = 0;   // flush time of the first TPDO1 within 0.1 bar of target
+  TimeUs pdo_pass = 0;   // the start of the pass that sent it
   float last_value = 0;  // the last TPDO1 of node 0 and its flush time (diagnostics)
   TimeUs last_time = 0;
 };
@@ -150,12 +150,12 @@ struct Shared {
   int block = -1;  // -1: warm-up; even blocks A, odd blocks B; == blocks: done
   int phase() const { return block >= 0 && block < int(blocks.size()) ? block % 2 : -1; }
   std::uint64_t frames = 0;
-  std::vector<TimeUs> last_beat;     // per bus * 128 + node-ID: flush time of the last heartbeat
+  std::vector<TimeUs> last_beat;                  // per bus * 128 + node-ID: flush time of the last heartbeat
   std::vector<std::vector<std::uint32_t>> beats;  // per bus: heartbeats waiting for the flush
-  std::vector<std::uint32_t> queued;             // per bus: frames waiting for the flush
+  std::vector<std::uint32_t> queued;              // per bus: frames waiting for the flush
   TimeUs pass_start = 0;
-  bool probe_seen = false;           // a matching TPDO1 in this pass
-  bool node0_sent = false;           // a TPDO1 of node 0 in this pass
+  bool probe_seen = false;  // a matching TPDO1 in this pass
+  bool node0_sent = false;  // a TPDO1 of node 0 in this pass
   float node0_value = 0;
   std::uint32_t probe_cob = 0;
   Probe probe;
@@ -174,7 +174,7 @@ class CountingTransport : public io::Transport {
   void transmit(const CanFrame& f) override {
     ++s_.frames;
     if ((f.id & ~0x7Fu) == 0x700 && f.dlc == 1 && f.data[0] != 0x00) {  // heartbeat, not boot-up
-      s_.beats[bus_].push_back(bus_ * 128 + (f.id & 0x7F));  // capacity reserved: no allocation
+      s_.beats[bus_].push_back(bus_ * 128 + (f.id & 0x7F));             // capacity reserved: no allocation
     } else if (bus_ == 0 && f.id == s_.probe_cob && f.dlc >= 4) {
       float v;
       std::memcpy(&v, f.data, 4);  // REAL32 little-endian (x86)
@@ -225,8 +225,8 @@ std::string fleet_yaml(int nodes) {
   y += "nodes:\n";
   for (int b = 0; b < buses; ++b) {
     const int count = std::min(kNodesPerBus, nodes - b * kNodesPerBus);
-    y += "  - {profile: generic-404, interface: bench" + std::to_string(b) + ", node_id: 1, count: " +
-         std::to_string(count) + ", name: g" + std::to_string(b) + "}\n";
+    y += "  - {profile: generic-404, interface: bench" + std::to_string(b) +
+         ", node_id: 1, count: " + std::to_string(count) + ", name: g" + std::to_string(b) + "}\n";
   }
   return y;
 }
@@ -313,8 +313,8 @@ void client(int index, const Config& cfg, const Schedule& sch, const std::string
                                  control::kNodeInterface, "Pressure");
           break;
         case 2:
-          r = sd_bus_call_method(bus, nullptr, path, control::kNodeInterface, "Step", &error, &reply, "sds",
-                                 "pressure", pressure(rng), "bar");
+          r = sd_bus_call_method(bus, nullptr, path, control::kNodeInterface, "Step", &error, &reply, "sds", "pressure",
+                                 pressure(rng), "bar");
           break;
         default:
           r = sd_bus_call_method(bus, nullptr, path, control::kNodeInterface, "ListFaults", &error, &reply, "");
@@ -343,8 +343,7 @@ struct ProbeStats {
   std::uint64_t errors = 0;
 };
 
-void probe_client(const Schedule& sch, const std::string& socket, const std::string& path, Shared& s,
-                  ProbeStats& out) {
+void probe_client(const Schedule& sch, const std::string& socket, const std::string& path, Shared& s, ProbeStats& out) {
   bool high = false;
   // Each step at a random phase of the 10 ms TPDO period: a fixed 200 ms
   // cadence would land at the same point of the PDO schedule every time.
@@ -480,6 +479,7 @@ double idle_wakeup_cpu_us() {
   double result = 0;
   std::thread t([&result] {
     io::EventLoop loop;
+    if (!loop.open()) return;
     const int n = 200;
     TimeUs at = io::monotonic_now();
     const TimeUs cpu0 = thread_cpu_us();
@@ -554,6 +554,10 @@ int main(int argc, char** argv) {
     if (h != &node0) paths.push_back(control::node_path(*h));
 
   io::EventLoop loop;
+  if (!loop.open()) {
+    std::fprintf(stderr, "event loop: %s\n", loop.error().c_str());
+    std::exit(1);
+  }
   control::ControlEndpoints endpoints(loop, fleet.service());
   endpoints.listen(socket);
 
@@ -565,9 +569,10 @@ int main(int argc, char** argv) {
   for (int j = 0; j <= 2 * per_phase; ++j)
     sch.bounds.push_back(epoch + fleet.now() + kWarmUpUs + kBoundaryOffsetUs + j * block_us);
   s.blocks.resize(std::size_t(sch.blocks()));
-  std::printf("warm-up 2 s, then %d s without clients (A) and %d s with %d clients at %d calls/s + the set->PDO "
-              "probe (B), alternating in %d blocks of %.1f s each\n",
-              cfg.seconds, cfg.seconds, cfg.clients, cfg.rate, per_phase, double(block_us) / 1e6);
+  std::printf(
+      "warm-up 2 s, then %d s without clients (A) and %d s with %d clients at %d calls/s + the set->PDO "
+      "probe (B), alternating in %d blocks of %.1f s each\n",
+      cfg.seconds, cfg.seconds, cfg.clients, cfg.rate, per_phase, double(block_us) / 1e6);
   std::fflush(stdout);
 
   std::atomic<bool> stop{false};
@@ -618,45 +623,48 @@ int main(int argc, char** argv) {
                 double(ph.cpu) / 1000.0, double(ph.cpu) / double(ph.frames));
     for (std::size_t j = std::size_t(p); j < s.blocks.size(); j += 2)
       std::printf(" %.1f", 100.0 * double(s.blocks[j].cpu) / double(s.blocks[j].wall));
-    std::printf("\n  loop CPU in user space %.2f %% of wall time (the kernel's: %.2f %%)", 100.0 * double(ph.user) / (wall * 1e6),
-                100.0 * double(ph.cpu - ph.user) / (wall * 1e6));
-    std::printf("\n  loop CPU split        run_due %.1f ms/s, control process() %.1f ms/s, the rest (wake-ups, "
-                "epoll, timer) %.1f ms/s\n",
-                double(ph.in_run_due) / wall / 1000.0, double(ph.in_process) / wall / 1000.0,
-                double(ph.cpu - ph.in_run_due - ph.in_process) / wall / 1000.0);
+    std::printf("\n  loop CPU in user space %.2f %% of wall time (the kernel's: %.2f %%)",
+                100.0 * double(ph.user) / (wall * 1e6), 100.0 * double(ph.cpu - ph.user) / (wall * 1e6));
+    std::printf(
+        "\n  loop CPU split        run_due %.1f ms/s, control process() %.1f ms/s, the rest (wake-ups, "
+        "epoll, timer) %.1f ms/s\n",
+        double(ph.in_run_due) / wall / 1000.0, double(ph.in_process) / wall / 1000.0,
+        double(ph.cpu - ph.in_run_due - ph.in_process) / wall / 1000.0);
     std::printf("  frames/s              %.0f\n", double(ph.frames) / wall);
-    std::printf("  loop passes           %.0f/s (%.0f/s woken by the timer, timer re-armed %.0f/s, control asked for an "
-                "immediate pass %.0f/s), longest %.2f ms; timer wake-up lateness mean %.0f us, max %.2f ms\n",
-                double(ph.passes) / wall, double(ph.timer_wakeups) / wall, double(ph.rearms) / wall,
-                double(ph.control_due) / wall,
-                double(ph.pass_max) / 1000.0,
-                ph.timer_wakeups ? ph.lateness_sum / double(ph.timer_wakeups) : 0.0, double(ph.lateness_max) / 1000.0);
-    std::printf("  heartbeats            %llu (%.0f/s), |period - 100 ms| mean %.0f us, p50 %s us, p99 %s us, "
-                "max %.2f ms; mean per block:",
-                (unsigned long long)ph.hb.beats, double(ph.hb.beats) / wall, ph.hb.mean(),
-                error_text(ph.hb.percentile(0.50)).c_str(), error_text(ph.hb.percentile(0.99)).c_str(),
-                double(ph.hb.max) / 1000.0);
+    std::printf(
+        "  loop passes           %.0f/s (%.0f/s woken by the timer, timer re-armed %.0f/s, control asked for an "
+        "immediate pass %.0f/s), longest %.2f ms; timer wake-up lateness mean %.0f us, max %.2f ms\n",
+        double(ph.passes) / wall, double(ph.timer_wakeups) / wall, double(ph.rearms) / wall,
+        double(ph.control_due) / wall, double(ph.pass_max) / 1000.0,
+        ph.timer_wakeups ? ph.lateness_sum / double(ph.timer_wakeups) : 0.0, double(ph.lateness_max) / 1000.0);
+    std::printf(
+        "  heartbeats            %llu (%.0f/s), |period - 100 ms| mean %.0f us, p50 %s us, p99 %s us, "
+        "max %.2f ms; mean per block:",
+        (unsigned long long)ph.hb.beats, double(ph.hb.beats) / wall, ph.hb.mean(),
+        error_text(ph.hb.percentile(0.50)).c_str(), error_text(ph.hb.percentile(0.99)).c_str(),
+        double(ph.hb.max) / 1000.0);
     for (std::size_t j = std::size_t(p); j < s.blocks.size(); j += 2)
       std::printf(" %.0f", s.blocks[j].beats ? s.blocks[j].error_sum / double(s.blocks[j].beats) : 0.0);
     std::printf("\n");
     if (p == 1) {
-      std::printf("  control calls         %zu done (%.0f/s), %llu errors%s%s, %llu started > 1 ms late\n",
-                  rtt.size(), double(rtt.size()) / wall, (unsigned long long)errors,
+      std::printf("  control calls         %zu done (%.0f/s), %llu errors%s%s, %llu started > 1 ms late\n", rtt.size(),
+                  double(rtt.size()) / wall, (unsigned long long)errors,
                   first_error.empty() ? "" : ", first: ", first_error.c_str(), (unsigned long long)late);
       const double p50 = percentile(rtt, 0.50), p99 = percentile(rtt, 0.99);
       std::printf("  call round trip       p50 %.0f us, p99 %.0f us, max %.2f ms (%s, %.3f s into its block)\n", p50,
                   p99, double(slowest->slowest) / 1000.0, kCallKinds[slowest->slowest_kind],
                   double(slowest->slowest_at) / 1e6);
-      const double per_call = rtt.empty() ? 0
-                                          : (double(ph.cpu) - double(s.phases[0].cpu) * double(ph.wall) /
-                                                                  double(s.phases[0].wall)) /
-                                                double(rtt.size() + probe.latency_ms.size());
+      const double per_call =
+          rtt.empty() ? 0
+                      : (double(ph.cpu) - double(s.phases[0].cpu) * double(ph.wall) / double(s.phases[0].wall)) /
+                            double(rtt.size() + probe.latency_ms.size());
       const double calls_done = double(rtt.size() + probe.latency_ms.size());
-      const double extra_passes = double(ph.passes) - double(s.phases[0].passes) * double(ph.wall) /
-                                                          double(s.phases[0].wall);
-      std::printf("  loop CPU per call     %.1f us (B's CPU minus A's for the same wall time, over the calls): "
-                  "%.1f us in process(), %.2f extra loop passes per call\n",
-                  per_call, double(ph.in_process) / calls_done, extra_passes / calls_done);
+      const double extra_passes =
+          double(ph.passes) - double(s.phases[0].passes) * double(ph.wall) / double(s.phases[0].wall);
+      std::printf(
+          "  loop CPU per call     %.1f us (B's CPU minus A's for the same wall time, over the calls): "
+          "%.1f us in process(), %.2f extra loop passes per call\n",
+          per_call, double(ph.in_process) / calls_done, extra_passes / calls_done);
     } else {
       std::printf("  control calls         none (no connection)\n");
     }
@@ -671,35 +679,39 @@ int main(int argc, char** argv) {
   const double bound_ms = kTpdoMs + 1.0;
   std::size_t over = 0;
   for (double v : probe.latency_ms) over += v > bound_ms;
-  std::printf("\nset->PDO (Step node 0 to 2 / 8 bar every 200 ms in B; first TPDO1 within 0.1 bar, minus the "
-              "call's return)\n");
+  std::printf(
+      "\nset->PDO (Step node 0 to 2 / 8 bar every 200 ms in B; first TPDO1 within 0.1 bar, minus the "
+      "call's return)\n");
   std::printf("  %zu steps, %llu errors: min %.2f ms, mean %.2f ms, max %.2f ms; %zu over the %.0f ms bound\n",
               probe.latency_ms.size(), (unsigned long long)probe.errors, lmin, lmean, lmax, over, bound_ms);
   if (!probe.in_pass_ms.empty()) {
     double sum = 0;
     for (double v : probe.in_pass_ms) sum += v;
-    std::printf("  of which the PDO waited in its loop pass (pass start to flush, the pass's other frames and the "
-                "calls processed after it): mean %.2f ms, max %.2f ms\n",
-                sum / double(probe.in_pass_ms.size()),
-                *std::max_element(probe.in_pass_ms.begin(), probe.in_pass_ms.end()));
+    std::printf(
+        "  of which the PDO waited in its loop pass (pass start to flush, the pass's other frames and the "
+        "calls processed after it): mean %.2f ms, max %.2f ms\n",
+        sum / double(probe.in_pass_ms.size()), *std::max_element(probe.in_pass_ms.begin(), probe.in_pass_ms.end()));
   }
   if (probe.missing)
     std::printf("  %d steps without such a PDO before the next step, first: %s\n", probe.missing,
                 probe.missing_detail.c_str());
-  const TimeUs held = std::max({s.phases[0].lateness_max, s.phases[0].pass_max, s.phases[1].lateness_max,
-                                s.phases[1].pass_max});
+  const TimeUs held =
+      std::max({s.phases[0].lateness_max, s.phases[0].pass_max, s.phases[1].lateness_max, s.phases[1].pass_max});
   if (held > 50'000)
-    std::printf("\nWARNING: the host held the loop thread up to %.0f ms (timer lateness or one pass): this run's "
-                "figures measure the host more than cansimd\n",
-                double(held) / 1000.0);
-  std::printf("\nthis host: one idle timer wake-up of an EventLoop costs %.1f us (before) / %.1f us (after) of "
-              "thread CPU\n",
-              wakeup_before, wakeup_after);
+    std::printf(
+        "\nWARNING: the host held the loop thread up to %.0f ms (timer lateness or one pass): this run's "
+        "figures measure the host more than cansimd\n",
+        double(held) / 1000.0);
+  std::printf(
+      "\nthis host: one idle timer wake-up of an EventLoop costs %.1f us (before) / %.1f us (after) of "
+      "thread CPU\n",
+      wakeup_before, wakeup_after);
   const double cpu_delta = cpu_pct[0] > 0 ? 100.0 * (cpu_pct[1] - cpu_pct[0]) / cpu_pct[0] : 0;
-  std::printf("\ncontrol calls: %+.1f %% loop CPU (%.2f -> %.2f %% of a core, %+.2f points), heartbeat error %.0f us "
-              "-> %.0f us, set->PDO max %.2f ms%s\n",
-              cpu_delta, cpu_pct[0], cpu_pct[1], cpu_pct[1] - cpu_pct[0], hb_mean[0], hb_mean[1], lmax,
-              probe.missing ? " (some steps had no PDO: see above)" : "");
+  std::printf(
+      "\ncontrol calls: %+.1f %% loop CPU (%.2f -> %.2f %% of a core, %+.2f points), heartbeat error %.0f us "
+      "-> %.0f us, set->PDO max %.2f ms%s\n",
+      cpu_delta, cpu_pct[0], cpu_pct[1], cpu_pct[1] - cpu_pct[0], hb_mean[0], hb_mean[1], lmax,
+      probe.missing ? " (some steps had no PDO: see above)" : "");
   std::printf("               in user space: %+.1f %% (%.2f -> %.2f %% of a core, %+.2f points)\n",
               user_pct[0] > 0 ? 100.0 * (user_pct[1] - user_pct[0]) / user_pct[0] : 0.0, user_pct[0], user_pct[1],
               user_pct[1] - user_pct[0]);

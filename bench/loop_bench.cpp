@@ -6,7 +6,9 @@
 //
 // With `timed`: what the timed bus model costs against ideal buses (the full
 // chain, fake clock: 1 Mbit/s buses of 127 nodes with TPDO1 every 20 ms and a
-// 100 ms heartbeat, ~65 % load; 5 runs each, interleaved), then the
+// 100 ms heartbeat, ~65 % load; 5 runs each, interleaved), paced by the loop
+// (a wake-up per frame end) and handed to a transport that paces itself (as
+// SO_TXTIME with the ETF qdisc: the burst handed over in batches), then the
 // loop's wake-up lateness with a real timer (timerfd, absolute deadlines) on
 // that fleet for the same number of real seconds.
 //
@@ -47,9 +49,11 @@ struct Fleet {
   std::vector<io::BusId> buses;
   std::vector<io::NodeRef> nodes;
 
-  // rate: CiA 305 bit-rate index of the buses and nodes (3: 250 kbit/s).
+  // rate: CiA 305 bit-rate index of the buses and nodes (3: 250 kbit/s);
+  // paced: the transport paces a timed bus itself (kernel pacing).
   Fleet(config::Profile& profile, int count, bool with_app = true, std::uint8_t rate = 3,
-        io::BusModel model = io::BusModel::kIdeal) {
+        io::BusModel model = io::BusModel::kIdeal, bool paced = false) {
+    tx.paced = paced;
     for (int i = 0; i < count; ++i) {
       if (i % 127 == 0) {
         buses.push_back(core.add_bus("null" + std::to_string(i / 127), tx, rate));
@@ -60,7 +64,8 @@ struct Fleet {
       personalities::NodeContext ctx;
       ctx.index = std::uint32_t(i);
       ctx.key = "null/bench/" + std::to_string(i);
-      nodes.push_back(core.add_node(buses.back(), s, with_app ? personalities::make_application(profile, ctx) : nullptr));
+      nodes.push_back(
+          core.add_node(buses.back(), s, with_app ? personalities::make_application(profile, ctx) : nullptr));
     }
     bus = buses.front();
     for (io::NodeRef r : nodes) core.power_on(r, 0);
@@ -111,10 +116,11 @@ void bench_fleet(config::Profile& profile, int count, int seconds, bool with_app
   double cpu = cpu_seconds() - t0;
   double frames = double(f.tx.frames - out0);
   double cpu_per_sim_s = cpu / seconds;
-  std::printf("%d nodes on %zu buses, %s, TPDO 10 ms + heartbeat 100 ms: %.0f frames/s simulated, %.3f s CPU per "
-              "simulated s\n",
-              count, f.buses.size(), with_app ? "with the personality application" : "core only (no application)",
-              frames / seconds, cpu_per_sim_s);
+  std::printf(
+      "%d nodes on %zu buses, %s, TPDO 10 ms + heartbeat 100 ms: %.0f frames/s simulated, %.3f s CPU per "
+      "simulated s\n",
+      count, f.buses.size(), with_app ? "with the personality application" : "core only (no application)",
+      frames / seconds, cpu_per_sim_s);
   std::printf("  %.0f ns CPU per frame sent, %llu node wake-ups, %llu local deliveries\n", cpu * 1e9 / frames,
               (unsigned long long)(f.core.stats().wakeups - wake0),
               (unsigned long long)(f.core.stats().local_deliveries - local0));
@@ -139,59 +145,80 @@ void start_fleet(Fleet& f, std::uint8_t tpdo_ms) {
 struct CostRun {
   double ns_per_frame;
   double frames_per_s;
-  std::uint64_t wakeups;
+  std::uint64_t passes;  // loop passes (run_due)
   io::BusLoad load;
 };
 
-CostRun run_cost(config::Profile& profile, int count, int seconds, io::BusModel model) {
-  Fleet f(profile, count, true, 0, model);
+// The three ways a bus can run.
+enum class Setup { kIdeal, kLoopPaced, kKernelPaced };
+const char* name(Setup s) { return s == Setup::kIdeal ? "ideal" : s == Setup::kLoopPaced ? "timed" : "paced"; }
+
+Fleet make_fleet(config::Profile& profile, int count, Setup setup) {
+  return Fleet(profile, count, true, 0, setup == Setup::kIdeal ? io::BusModel::kIdeal : io::BusModel::kTimed,
+               setup == Setup::kKernelPaced);
+}
+
+CostRun run_cost(config::Profile& profile, int count, int seconds, Setup setup) {
+  Fleet f = make_fleet(profile, count, setup);
   start_fleet(f, 20);
   f.core.run_until(ms(1000));
-  std::uint64_t out0 = f.tx.frames, wake0 = f.core.stats().wakeups;
+  std::uint64_t out0 = f.tx.frames, pass0 = f.core.stats().passes;
   double t0 = cpu_seconds();
   f.core.run_until(ms(1000) + ms(1000) * seconds);
   double cpu = cpu_seconds() - t0;
   double frames = double(f.tx.frames - out0);
-  return {cpu * 1e9 / frames, frames / seconds, f.core.stats().wakeups - wake0, f.core.bus_load(f.bus)};
+  return {cpu * 1e9 / frames, frames / seconds, f.core.stats().passes - pass0, f.core.bus_load(f.bus)};
 }
 
-// Timed against ideal, full chain, 5 runs each, interleaved (the order
-// alternating): the host's other work hits both alike. Best and median.
+// Timed (loop- and kernel-paced) against ideal, full chain, 5 runs each,
+// interleaved (the order rotating): the host's other work hits all alike.
+// Best and median.
 void bench_timed_cost(config::Profile& profile, int count, int seconds) {
   constexpr int kRuns = 5;
-  std::vector<CostRun> runs[2];
+  constexpr Setup kSetups[] = {Setup::kIdeal, Setup::kLoopPaced, Setup::kKernelPaced};
+  std::vector<CostRun> runs[3];
   for (int round = 0; round < kRuns; ++round)
-    for (int k = 0; k < 2; ++k) {
-      const int m = (round + k) % 2;
-      CostRun r = run_cost(profile, count, seconds, m ? io::BusModel::kTimed : io::BusModel::kIdeal);
-      std::printf("  run %d %-5s: %.0f ns CPU per frame sent (%.0f frames/s simulated)\n", round + 1,
-                  m ? "timed" : "ideal", r.ns_per_frame, r.frames_per_s);
+    for (int k = 0; k < 3; ++k) {
+      const int m = (round + k) % 3;
+      CostRun r = run_cost(profile, count, seconds, kSetups[m]);
+      std::printf("  run %d %-5s: %.0f ns CPU per frame sent (%.0f frames/s simulated, %.0f loop passes/s)\n",
+                  round + 1, name(kSetups[m]), r.ns_per_frame, r.frames_per_s, double(r.passes) / seconds);
       runs[m].push_back(r);
     }
   for (auto& v : runs)
     std::sort(v.begin(), v.end(), [](const CostRun& a, const CostRun& b) { return a.ns_per_frame < b.ns_per_frame; });
-  const CostRun &ideal = runs[0][0], &timed = runs[1][0];
-  const double ideal_median = runs[0][kRuns / 2].ns_per_frame, timed_median = runs[1][kRuns / 2].ns_per_frame;
-  const io::BusLoad& l = timed.load;
   std::printf("%d nodes on %d bus(es) at 1 Mbit/s, TPDO1 20 ms + heartbeat 100 ms, full chain, %d runs each:\n", count,
               (count + 126) / 127, kRuns);
-  std::printf("  best: ideal %.0f ns, timed %.0f ns CPU per frame sent: timed costs %+.1f %%\n", ideal.ns_per_frame,
-              timed.ns_per_frame, (timed.ns_per_frame / ideal.ns_per_frame - 1) * 100);
-  std::printf("  median: ideal %.0f ns, timed %.0f ns: %+.1f %%\n", ideal_median, timed_median,
-              (timed_median / ideal_median - 1) * 100);
-  std::printf("  first bus, timed: carried %.1f %% of 1 Mbit/s over 1 s, queueing delay p50 %lld us, p99 %lld us, max "
-              "%lld us, %llu dropped\n",
-              l.carried_1s * 100, (long long)l.delay_p50, (long long)l.delay_p99, (long long)l.delay_max,
-              (unsigned long long)l.dropped);
+  const CostRun& ideal = runs[0][0];
+  const double ideal_median = runs[0][kRuns / 2].ns_per_frame;
+  for (int m = 1; m < 3; ++m) {
+    const CostRun& best = runs[m][0];
+    const double median = runs[m][kRuns / 2].ns_per_frame;
+    std::printf(
+        "  %s: best %.0f ns against ideal's %.0f ns CPU per frame sent: %+.1f %%; median %.0f against %.0f: "
+        "%+.1f %%\n",
+        m == 1 ? "timed, loop-paced  " : "timed, kernel-paced", best.ns_per_frame, ideal.ns_per_frame,
+        (best.ns_per_frame / ideal.ns_per_frame - 1) * 100, median, ideal_median, (median / ideal_median - 1) * 100);
+    const io::BusLoad& l = best.load;
+    std::printf(
+        "    first bus: carried %.1f %% of 1 Mbit/s over 1 s, queueing delay p50 %lld us, p99 %lld us, max "
+        "%lld us, slip max %lld us, %llu dropped\n",
+        l.carried_1s * 100, (long long)l.delay_p50, (long long)l.delay_p99, (long long)l.delay_max,
+        (long long)l.slip_max, (unsigned long long)l.dropped);
+  }
 }
 
 // The daemon's loop shape on a real clock: one absolute timerfd armed at the
 // core's next deadline, run_due at each wake-up. Lateness: how long after
 // its deadline the loop was running again.
-void bench_wakeup_lateness(config::Profile& profile, int count, int seconds, io::BusModel model) {
-  Fleet f(profile, count, true, 0, model);
+void bench_wakeup_lateness(config::Profile& profile, int count, int seconds, Setup setup) {
+  Fleet f = make_fleet(profile, count, setup);
   start_fleet(f, 20);
   io::EventLoop loop;
+  if (!loop.open()) {
+    std::fprintf(stderr, "event loop: %s\n", loop.error().c_str());
+    std::exit(1);
+  }
   const TimeUs epoch = io::monotonic_now();
   std::vector<TimeUs> late;
   late.reserve(std::size_t(seconds) * 200000);
@@ -218,11 +245,12 @@ void bench_wakeup_lateness(config::Profile& profile, int count, int seconds, io:
     dropped += f.core.bus_load(b).dropped;
     queued += f.core.bus_load(b).queued;
   }
-  std::printf("  %-5s %d nodes: %zu wake-ups/s, lateness p50 %lld us, p99 %lld us, max %lld us; %.0f frames/s "
-              "(%llu queued at the end, %llu dropped), %.1f %% of a core\n",
-              model == io::BusModel::kTimed ? "timed" : "ideal", count, late.size() / std::size_t(seconds), pct(0.5),
-              pct(0.99), late.empty() ? 0LL : (long long)late.back(), double(f.tx.frames - out0) / seconds,
-              (unsigned long long)queued, (unsigned long long)dropped, cpu / seconds * 100);
+  std::printf(
+      "  %-5s %d nodes: %zu wake-ups/s, lateness p50 %lld us, p99 %lld us, max %lld us; %.0f frames/s "
+      "(%llu queued at the end, %llu dropped), %.1f %% of a core\n",
+      name(setup), count, late.size() / std::size_t(seconds), pct(0.5), pct(0.99),
+      late.empty() ? 0LL : (long long)late.back(), double(f.tx.frames - out0) / seconds, (unsigned long long)queued,
+      (unsigned long long)dropped, cpu / seconds * 100);
 }
 
 }  // namespace
@@ -234,8 +262,8 @@ int main(int argc, char** argv) {
   if (argc > 3 && std::string(argv[3]) == "timed") {
     bench_timed_cost(profile, count, seconds);
     std::printf("wake-up lateness, real timer, %d s each:\n", seconds);
-    bench_wakeup_lateness(profile, count, seconds, io::BusModel::kIdeal);
-    bench_wakeup_lateness(profile, count, seconds, io::BusModel::kTimed);
+    for (Setup setup : {Setup::kIdeal, Setup::kLoopPaced, Setup::kKernelPaced})
+      bench_wakeup_lateness(profile, count, seconds, setup);
     return 0;
   }
   bench_sdo(profile);

@@ -6,13 +6,19 @@
 // report, no hang; the fleet keeps running. Texts and maps reach far past the
 // bounds of config/limits.hpp (Input::big, long a{ss}): the seeds
 // big-*.bin in corpus-control start from those (see the end of this file).
+// The server reads through the private socket's message gate (BusPair::kGated),
+// so a call over limits::kMessageBytes meets it; raw byte streams go through
+// its framing too.
 #include <systemd/sd-bus.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <cstring>
+#include <vector>
 #include <memory>
 #include <string>
 
+#include "control/message_gate.hpp"
 #include "support/control_fleet.hpp"
 
 namespace {
@@ -50,8 +56,13 @@ struct Input {
     static const char* const kWords[] = {
         "pressure", "temperature", "bar", "psi", "degC", "K", "nonsense", "", "generic/0", "dps", "vcan0/0x10",
         "vcan0/16", "open", "silent", "power_cycle", "drift", "1 s", "-1 s", "0.5 bar", "start", "reset", "reset-comm",
-        "{profile: generic-404, interface: vcan0, node_id: 0x30, name: x}", "[", "- constant: 3 bar", "{ramp: {from: 1 bar, to: 2 bar, duration: 1 s}}",
-        "/tmp/cansim-fuzz.csv", "duration", "at", "channel", "value", "\xff\xfe"};
+        "{profile: generic-404, interface: vcan0, node_id: 0x30, name: x}", "[", "- constant: 3 bar",
+        "{ramp: {from: 1 bar, to: 2 bar, duration: 1 s}}", "/tmp/cansim-fuzz.csv", "duration", "at", "channel", "value",
+        "\xff\xfe",
+        // `csv:` tables outside the profile folders: refused unopened
+        "table: {csv: /etc/hostname}", "table: {csv: ../../../../etc/hostname}",
+        ("{profile: generic-404, interface: vcan0, node_id: 0x32, name: z, physics: {pressure: {table: {csv: "
+         "/etc/hostname}}}}")};
     std::uint8_t k = byte();
     if (k < 200) return kWords[k % (sizeof kWords / sizeof *kWords)];
     if (k < 204) return big();
@@ -80,6 +91,9 @@ std::string Input::big() {
       {"", "- {profile: generic-404, interface: vb, node_id: 1, count: 3, name: n}\n", ""},
       {"", " ", ""},
       {"- &t {table: {points: [[0 s, 1 bar], [1 s, 2 bar]]}}\n", "- *t\n", ""},
+      // 32 bytes a piece: past 32,768 pieces the message is over the private
+      // socket's bound (limits::kMessageBytes), answered by its gate unread
+      {"", "0123456789abcdef0123456789abcdef", ""},
   };
   const auto& b = kBig[byte() % (sizeof kBig / sizeof *kBig)];
   const std::size_t pieces = ((std::size_t(byte()) << 8) | byte()) + 1;
@@ -95,19 +109,32 @@ struct Method {
   bool node;
 };
 constexpr Method kMethods[] = {
-    {"io.cansim.Fleet1", "ListNodes", "", false},       {"io.cansim.Fleet1", "GetNode", "s", false},
-    {"io.cansim.Fleet1", "AddNodes", "s", false},       {"io.cansim.Fleet1", "RemoveNode", "s", false},
-    {"io.cansim.Fleet1", "Reload", "", false},          {"io.cansim.Fleet1", "GetBusStatistics", "", false},
-    {"io.cansim.Fleet1", "Subscribe", "", false},       {"io.cansim.Fleet1", "Unsubscribe", "", false},
-    {"io.cansim.Node1", "Hold", "s", true},             {"io.cansim.Node1", "Step", "sds", true},
-    {"io.cansim.Node1", "Ramp", "sdsd", true},          {"io.cansim.Node1", "SetModel", "ss", true},
-    {"io.cansim.Node1", "RestoreModel", "s", true},     {"io.cansim.Node1", "Override", "sds", true},
-    {"io.cansim.Node1", "ClearOverride", "s", true},    {"io.cansim.Node1", "ArmFault", "sa{ss}", true},
-    {"io.cansim.Node1", "CancelFault", "u", true},      {"io.cansim.Node1", "ListFaults", "", true},
-    {"io.cansim.Node1", "PowerCycle", "d", true},       {"io.cansim.Node1", "Nmt", "s", true},
-    {"io.cansim.Node1", "Store", "y", true},            {"io.cansim.Node1", "Restore", "y", true},
-    {"io.cansim.Node1", "Read", "qy", true},            {"io.cansim.Node1", "Write", "qyv", true},
-    {"io.cansim.Node1", "StopRecording", "", true},     {"org.freedesktop.DBus.Properties", "GetAll", "s", true},
+    {"io.cansim.Fleet1", "ListNodes", "", false},
+    {"io.cansim.Fleet1", "GetNode", "s", false},
+    {"io.cansim.Fleet1", "AddNodes", "s", false},
+    {"io.cansim.Fleet1", "RemoveNode", "s", false},
+    {"io.cansim.Fleet1", "Reload", "", false},
+    {"io.cansim.Fleet1", "GetBusStatistics", "", false},
+    {"io.cansim.Fleet1", "Subscribe", "", false},
+    {"io.cansim.Fleet1", "Unsubscribe", "", false},
+    {"io.cansim.Node1", "Hold", "s", true},
+    {"io.cansim.Node1", "Step", "sds", true},
+    {"io.cansim.Node1", "Ramp", "sdsd", true},
+    {"io.cansim.Node1", "SetModel", "ss", true},
+    {"io.cansim.Node1", "RestoreModel", "s", true},
+    {"io.cansim.Node1", "Override", "sds", true},
+    {"io.cansim.Node1", "ClearOverride", "s", true},
+    {"io.cansim.Node1", "ArmFault", "sa{ss}", true},
+    {"io.cansim.Node1", "CancelFault", "u", true},
+    {"io.cansim.Node1", "ListFaults", "", true},
+    {"io.cansim.Node1", "PowerCycle", "d", true},
+    {"io.cansim.Node1", "Nmt", "s", true},
+    {"io.cansim.Node1", "Store", "y", true},
+    {"io.cansim.Node1", "Restore", "y", true},
+    {"io.cansim.Node1", "Read", "qy", true},
+    {"io.cansim.Node1", "Write", "qyv", true},
+    {"io.cansim.Node1", "StopRecording", "", true},
+    {"org.freedesktop.DBus.Properties", "GetAll", "s", true},
     {"org.freedesktop.DBus.ObjectManager", "GetManagedObjects", "", false},
     {"org.freedesktop.DBus.Introspectable", "Introspect", "", true},
 };
@@ -115,13 +142,37 @@ constexpr Method kMethods[] = {
 // Appends one argument of basic type `t` from the input.
 int append_basic(sd_bus_message* m, char t, Input& in) {
   switch (t) {
-    case 'y': { std::uint8_t v = in.byte(); return sd_bus_message_append_basic(m, t, &v); }
-    case 'b': { int v = in.byte() & 1; return sd_bus_message_append_basic(m, t, &v); }
-    case 'n': case 'q': { std::uint16_t v = std::uint16_t(in.u64()); return sd_bus_message_append_basic(m, t, &v); }
-    case 'i': case 'u': { std::uint32_t v = std::uint32_t(in.u64()); return sd_bus_message_append_basic(m, t, &v); }
-    case 'x': case 't': { std::uint64_t v = in.u64(); return sd_bus_message_append_basic(m, t, &v); }
-    case 'd': { double v = in.real(); return sd_bus_message_append_basic(m, t, &v); }
-    default: { std::string s = in.text(); return sd_bus_message_append_basic(m, 's', s.c_str()); }
+    case 'y': {
+      std::uint8_t v = in.byte();
+      return sd_bus_message_append_basic(m, t, &v);
+    }
+    case 'b': {
+      int v = in.byte() & 1;
+      return sd_bus_message_append_basic(m, t, &v);
+    }
+    case 'n':
+    case 'q': {
+      std::uint16_t v = std::uint16_t(in.u64());
+      return sd_bus_message_append_basic(m, t, &v);
+    }
+    case 'i':
+    case 'u': {
+      std::uint32_t v = std::uint32_t(in.u64());
+      return sd_bus_message_append_basic(m, t, &v);
+    }
+    case 'x':
+    case 't': {
+      std::uint64_t v = in.u64();
+      return sd_bus_message_append_basic(m, t, &v);
+    }
+    case 'd': {
+      double v = in.real();
+      return sd_bus_message_append_basic(m, t, &v);
+    }
+    default: {
+      std::string s = in.text();
+      return sd_bus_message_append_basic(m, 's', s.c_str());
+    }
   }
 }
 
@@ -167,13 +218,26 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     bus.reset();
     fleet.reset();
     fleet = std::make_unique<test::ControlFleet>(kFleet);
-    bus = std::make_unique<test::BusPair>(fleet->service());
+    bus = std::make_unique<test::BusPair>(fleet->service(), test::BusPair::kGated);
   }
   Input in{data, size};
   for (int calls = 0; in.n > 0 && calls < 16; ++calls) {
     const std::uint8_t what = in.byte();
     if (what % 8 == 7) {  // time passes
       fleet->run_until(fleet->now() + TimeUs(in.byte()) * 10000);
+      continue;
+    }
+    if (what % 16 == 6) {  // a raw byte stream through the gate's framing (a bound of 64 bytes)
+      control::MessageFraming framing(64);
+      std::vector<std::uint8_t> pass;
+      for (std::uint8_t pieces = in.byte() % 8; pieces > 0 && in.n > 0; --pieces) {
+        const std::size_t len = std::min<std::size_t>(in.byte() % 64, in.n);
+        control::MessageFraming::Out out{&pass};
+        framing.feed({in.p, len}, out);
+        in.p += len;
+        in.n -= len;
+        if (out.broken) break;
+      }
       continue;
     }
     const Method& method = kMethods[in.byte() % (sizeof kMethods / sizeof *kMethods)];

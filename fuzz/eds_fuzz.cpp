@@ -89,9 +89,10 @@ const char* interesting_eds_value(std::mt19937& rng) {
   static const char* const kValues[] = {
       "", "0", "-1", "1", "010", "08", "0x", "0x7F", "0x80", "0xFF", "0xFFFF", "0xFFFFFFFF", "0x100000000",
       "0xFFFFFFFFFFFFFFFF", "-0x8000000000000000", "18446744073709551616", "1.5", "-0", "1e400", "nan", "inf",
-      "$NODEID", "$NODEID+0x180", "0x180+$NODEID", "$NodeID + 0x200", "$NODEID+$NODEID", "+", "0x80000000+0x180+$nodeid",
-      "0x7", "0x8", "0x9", "0x5", "0x2", "0x0009", "0x000F", "0x000A", "0x0008", "0x0011", "0x001B", "0x0C", "ro", "rw",
-      "wo", "const", "rwr", "rww", "RW", "254", "255", "256", "0 ; comment", "00 11 22", "0A0B0C", "abc",
+      "$NODEID", "$NODEID+0x180", "0x180+$NODEID", "$NodeID + 0x200", "$NODEID+$NODEID", "+",
+      "0x80000000+0x180+$nodeid", "0x7", "0x8", "0x9", "0x5", "0x2", "0x0009", "0x000F", "0x000A", "0x0008", "0x0011",
+      "0x001B", "0x0C", "ro", "rw", "wo", "const", "rwr", "rww", "RW", "254", "255", "256", "0 ; comment", "00 11 22",
+      "0A0B0C", "abc",
       // what the reader repairs: hex flags, REAL bits, the SDO server's COB-IDs, 0 = not set
       "0x0", "0x1", "0x3E6B851F", "0x7FF0000000000000", "0x610", "0x80000000", "$NODEID+0x600", "$NODEID+0x580"};
   return kValues[rng() % (sizeof kValues / sizeof *kValues)];

@@ -12,7 +12,7 @@
 // config::ConfigError whose message starts with "<file>:<line>[:<column>]:
 // <key>: " (else abort()), and names the input's file unless it is what the
 // file it names says when loaded alone: an entry's override blamed on its
-// profile aborts (issue #26: "profiles/p92c.yaml:1:1: vendor.cia404..." for
+// profile aborts (it did: "profiles/p92c.yaml:1:1: vendor.cia404..." for
 // the fleet entry's own `vendor: {cia404: {chanels: 1}}`). Seeds:
 // fuzz/corpus-fleet/.
 #include <cstdint>

@@ -18,10 +18,13 @@
 #include "config/fleet.hpp"
 #include "core/node.hpp"
 #include "daemon/daemon.hpp"
+#include "support/memory_storage.hpp"
 
 extern "C" std::size_t LLVMFuzzerMutate(std::uint8_t* data, std::size_t size, std::size_t max_size);
 
 namespace cansim::fuzz {
+
+using test::MemoryStorage;
 
 // A config::ConfigError message must start with "<file>:<line>[:<column>]: "
 // (yaml_util.cpp's fail(), the YAML syntax errors) followed by the key path
@@ -35,15 +38,15 @@ inline bool has_error_format(const std::string& m) {
     return at > start;
   };
   ++i;
-  if (!digits(i)) return false;                                  // line
+  if (!digits(i)) return false;  // line
   if (i < m.size() && m[i] == ':' && i + 1 < m.size() && m[i + 1] != ' ') {
     ++i;
-    if (!digits(i)) return false;                                // column
+    if (!digits(i)) return false;  // column
   }
   if (m.compare(i, 2, ": ") != 0) return false;
   const std::string rest = m.substr(i + 2);
   if (rest.rfind("YAML syntax error: ", 0) == 0) return true;
-  const std::size_t key_end = rest.find(": ");                   // the key path
+  const std::size_t key_end = rest.find(": ");  // the key path
   return key_end != std::string::npos && key_end > 0;
 }
 
@@ -65,19 +68,6 @@ class CheckingSink : public FrameSink {
     if (f.dlc > 8) std::abort();
     if (!f.extended() && f.id > 0x7FF) std::abort();
   }
-};
-
-class MemoryStorage : public NodeStorage {
- public:
-  bool load(std::vector<std::uint8_t>& blob) override {
-    blob = data;
-    return !data.empty();
-  }
-  bool save(std::span<const std::uint8_t> blob) override {
-    data.assign(blob.begin(), blob.end());
-    return true;
-  }
-  std::vector<std::uint8_t> data;
 };
 
 // Powers the node on and runs it for `span` of simulated time; a deadline
@@ -132,15 +122,86 @@ inline std::vector<std::string_view> split_lines(std::string_view s) {
 
 // Values that hit the loaders' edges: types, ranges, YAML forms.
 inline const char* interesting_value(std::mt19937& rng) {
-  static const char* const kValues[] = {
-      "0", "-1", "1", "255", "256", "65535", "0x7F", "0x80", "0xFFFFFFFF", "0x100000000", "-0x8000000000000000",
-      "9223372036854775807", "18446744073709551615", "1e308", "-1e308", ".nan", ".inf", "1.5", "''", "~", "null",
-      "[]", "{}", "[1, 2]", "{a: 1}", "yes", "no", "$NODEID", "$NODEID+0x180", "0x80000000+0x180+$NODEID", "1..8",
-      "0..255", "3..1", "rw", "ro", "const", "UNSIGNED8", "REAL32", "VISIBLE_STRING", "DOMAIN", "OCTET_STRING",
-      "INTEGER64", "BOOLEAN", "0 s", "-1 s", "1 ms", "10 bar", "1e9 bar", "-5 degC", "0 K", "nonsense", "&a x", "*a",
-      "!!binary AA==", "\"\\x00\"", "0b101", "1_000", "1000", "250", "0x6130", "0x1A00", "0x1800", "0x1017",
-      "generic", "honeywell-dps", "trafag-cmp", "gems-9000", "danfoss-p92c", "adz-smc", "generic-404", "dps",
-      "vcan0", "vcan1", "127", "128", "pressure", "temperature", "bar", "psi", "Pa"};
+  static const char* const kValues[] = {"0",
+                                        "-1",
+                                        "1",
+                                        "255",
+                                        "256",
+                                        "65535",
+                                        "0x7F",
+                                        "0x80",
+                                        "0xFFFFFFFF",
+                                        "0x100000000",
+                                        "-0x8000000000000000",
+                                        "9223372036854775807",
+                                        "18446744073709551615",
+                                        "1e308",
+                                        "-1e308",
+                                        ".nan",
+                                        ".inf",
+                                        "1.5",
+                                        "''",
+                                        "~",
+                                        "null",
+                                        "[]",
+                                        "{}",
+                                        "[1, 2]",
+                                        "{a: 1}",
+                                        "yes",
+                                        "no",
+                                        "$NODEID",
+                                        "$NODEID+0x180",
+                                        "0x80000000+0x180+$NODEID",
+                                        "1..8",
+                                        "0..255",
+                                        "3..1",
+                                        "rw",
+                                        "ro",
+                                        "const",
+                                        "UNSIGNED8",
+                                        "REAL32",
+                                        "VISIBLE_STRING",
+                                        "DOMAIN",
+                                        "OCTET_STRING",
+                                        "INTEGER64",
+                                        "BOOLEAN",
+                                        "0 s",
+                                        "-1 s",
+                                        "1 ms",
+                                        "10 bar",
+                                        "1e9 bar",
+                                        "-5 degC",
+                                        "0 K",
+                                        "nonsense",
+                                        "&a x",
+                                        "*a",
+                                        "!!binary AA==",
+                                        "\"\\x00\"",
+                                        "0b101",
+                                        "1_000",
+                                        "1000",
+                                        "250",
+                                        "0x6130",
+                                        "0x1A00",
+                                        "0x1800",
+                                        "0x1017",
+                                        "generic",
+                                        "honeywell-dps",
+                                        "trafag-cmp",
+                                        "gems-9000",
+                                        "danfoss-p92c",
+                                        "adz-smc",
+                                        "generic-404",
+                                        "dps",
+                                        "vcan0",
+                                        "vcan1",
+                                        "127",
+                                        "128",
+                                        "pressure",
+                                        "temperature",
+                                        "bar",
+                                        "psi",
+                                        "Pa"};
   return kValues[rng() % (sizeof kValues / sizeof *kValues)];
 }
 
@@ -154,10 +215,10 @@ inline std::size_t mutate_yaml(std::uint8_t* data, std::size_t size, std::size_t
   if (out.empty()) return LLVMFuzzerMutate(data, size, max_size);
   const std::size_t a = rng() % out.size(), b = rng() % out.size();
   switch (rng() % 6) {
-    case 0: out.insert(out.begin() + long(b), out[a]); break;   // duplicate a line
-    case 1: out.erase(out.begin() + long(a)); break;            // drop a line
-    case 2: std::swap(out[a], out[b]); break;                   // swap two lines
-    case 3: {                                                   // replace a value after ': '
+    case 0: out.insert(out.begin() + long(b), out[a]); break;  // duplicate a line
+    case 1: out.erase(out.begin() + long(a)); break;           // drop a line
+    case 2: std::swap(out[a], out[b]); break;                  // swap two lines
+    case 3: {                                                  // replace a value after ': '
       std::string& l = out[a];
       std::vector<std::size_t> colons;
       for (std::size_t i = 0; i + 1 < l.size(); ++i)

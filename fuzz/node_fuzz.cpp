@@ -41,7 +41,7 @@
 // the two A runs). The code that builds the node runs once, before the first
 // input, so libFuzzer's `cov` no longer counts it.
 //
-// What an input costs (perf, README "Fuzzing"): its records, about 5 us each
+// What an input costs (perf, docs/fuzzing.md): its records, about 5 us each
 // with ASan and UBSan, and libFuzzer's bookkeeping per edge it touched.
 // libstdc++'s templates are left out of the coverage (fuzz/coverage-ignore.txt)
 // and the node's layers are built without compare tracing
@@ -49,7 +49,7 @@
 // its time with edge coverage only (-use_counters=0: short inputs, about
 // 35,000/s) and a third with hit counts (the deeper loop iterations, about
 // 12,000/s): 1.6 M inputs in 60 s on the 2-core host for generic-404
-// (README "Fuzzing" has every variant's figures).
+// (docs/fuzzing.md has every variant's figures).
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>

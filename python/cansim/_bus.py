@@ -9,16 +9,20 @@ no main loop.
 from __future__ import annotations
 
 import concurrent.futures
+from concurrent.futures import Future
 import os
 import socket as _socket
+import struct
 import time
 from typing import Any, Callable, Dict, List, NamedTuple, Optional, Tuple
 
 from jeepney import DBusAddress, MatchRule, Message, MessageType, new_method_call
 from jeepney.bus_messages import message_bus
+from jeepney.io.common import RouterClosed
 from jeepney.io.threading import DBusConnection, DBusRouter, ReceiveStopped, open_dbus_connection
 from jeepney.low_level import HeaderFields
 
+from ._checks import optional_seconds
 from .errors import Error, NoSuchNode, Refused, Timeout
 
 BUS_NAME = "io.cansim.Cansimd1"
@@ -103,6 +107,10 @@ def unwrap(variant: Tuple[str, Any]) -> Any:
     return bytes(value) if signature == "ay" else value
 
 
+class _SendTimeout(TimeoutError):
+    """The call did not fit into the socket in time (cansimd reads nothing)."""
+
+
 class _Router(DBusRouter):  # type: ignore[misc]
     """jeepney's router, with signals handed to a callback and a quiet end
     when cansimd closes the connection."""
@@ -122,6 +130,56 @@ class _Router(DBusRouter):  # type: ignore[misc]
                 self._on_signal(msg)
             except Exception:  # a malformed signal must not stop the receiver
                 pass
+
+    def call(self, msg: Message, timeout: Optional[float]) -> Message:
+        """send_and_get_reply, with ``timeout`` over every step: the
+        message packed before anything is sent (a value that does not fit
+        its type raises ValueError), the send lock, sending (a daemon that
+        stopped reading fills the socket: sendall blocked past any bound),
+        then the reply. A send cut short leaves half a message on the
+        stream: the connection is closed, Timeout raised."""
+        deadline = None if timeout is None else time.monotonic() + timeout
+        if not self._rcv_thread.is_alive():
+            raise RouterClosed("the receiver stopped")
+        serial = next(self.conn.outgoing_serial)
+        try:
+            data = msg.serialise(serial=serial)
+        except (struct.error, OverflowError, TypeError, ValueError) as e:
+            member = msg.header.fields.get(HeaderFields.member)
+            raise ValueError(f"{member}: an argument does not fit its D-Bus type: {e}") from None
+        # As ReplyMatcher.catch(), which fails with KeyError when the
+        # receiver dropped every future (the connection ended) meanwhile.
+        futures = self._replies._futures
+        reply: Future[Message] = Future()
+        futures[serial] = reply
+        try:
+            if self._send(data, deadline):
+                return reply.result(timeout=_remaining(deadline))
+        finally:
+            futures.pop(serial, None)
+        try:
+            self.conn.sock.shutdown(_socket.SHUT_RDWR)  # the receiver sees the end and reports it
+        except OSError:
+            pass
+        raise _SendTimeout()
+
+    def _send(self, data: bytes, deadline: Optional[float]) -> bool:
+        """False when the time ran out while sending (part of it may be out)."""
+        sock = self.conn.sock
+        if not self.conn.send_lock.acquire(timeout=-1 if deadline is None else _remaining(deadline)):
+            raise TimeoutError("another call is still sending")
+        try:
+            # (a timeout of 0 would make the socket non-blocking: BlockingIOError)
+            sock.settimeout(None if deadline is None else max(_remaining(deadline) or 0.0, 0.001))
+            try:
+                sock.sendall(data)
+                return True
+            except (_socket.timeout, BlockingIOError):
+                return False
+            finally:
+                sock.settimeout(None)
+        finally:
+            self.conn.send_lock.release()
 
     def _receiver(self) -> None:
         try:
@@ -155,8 +213,14 @@ class Connection:
             self.call(message_bus.AddMatch(rule))
 
     def call(self, msg: Message, timeout: Optional[float] = CALL_TIMEOUT) -> Tuple[Any, ...]:
+        timeout = optional_seconds("timeout", timeout)
         try:
-            reply = self._router.send_and_get_reply(msg, timeout=timeout)
+            reply = self._router.call(msg, timeout)
+        except ValueError:
+            raise
+        except _SendTimeout as e:
+            raise Timeout(f"cansimd took no {msg.header.fields.get(HeaderFields.member)} call within {timeout} s "
+                          f"(it reads nothing: stopped?); the connection to it is closed") from e
         except (TimeoutError, concurrent.futures.TimeoutError) as e:
             raise Timeout(f"cansimd did not answer {msg.header.fields.get(HeaderFields.member)} "
                           f"within {timeout} s") from e
@@ -209,6 +273,11 @@ class Connection:
             except OSError:
                 pass
             self._conn.close()
+
+
+def _remaining(deadline: Optional[float]) -> Optional[float]:
+    """Seconds left until ``deadline`` (None: no bound), never below 0."""
+    return None if deadline is None else max(0.0, deadline - time.monotonic())
 
 
 def round_trip_offset(conn: Connection, samples: int = 3) -> Optional[float]:

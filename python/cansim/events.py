@@ -12,9 +12,12 @@ import re
 import threading
 from collections import deque
 from dataclasses import dataclass, field
-from typing import Any, Callable, Deque, Dict, Iterator, List, Optional, Sequence, Tuple
+from typing import TYPE_CHECKING, Any, Callable, Deque, Dict, Iterator, List, Optional, Sequence, Tuple, Union
 
 from .errors import Error
+
+if TYPE_CHECKING:
+    from ._wire import Capture
 
 #: signal member -> names of its arguments after the leading time
 _NODE_SIGNAL_FIELDS: Dict[str, Tuple[str, ...]] = {
@@ -24,11 +27,16 @@ _NODE_SIGNAL_FIELDS: Dict[str, Tuple[str, ...]] = {
     "ObjectWritten": ("index", "sub", "value", "via"),
     "FaultStarted": ("id", "kind"),
     "FaultEnded": ("id", "kind"),
+    "PdoMappingChanged": (),
 }
 _FLEET_SIGNALS = ("NodeAdded", "NodeRemoved")
+#: fleet signals that start with the simulated time, like a node's
+_TIMED_FLEET_SIGNAL_FIELDS: Dict[str, Tuple[str, ...]] = {
+    "BusStateChanged": ("interface", "old", "state"),
+}
 
 #: every event name a wait can name
-EVENT_NAMES: Tuple[str, ...] = tuple(_NODE_SIGNAL_FIELDS) + _FLEET_SIGNALS
+EVENT_NAMES: Tuple[str, ...] = tuple(_NODE_SIGNAL_FIELDS) + _FLEET_SIGNALS + tuple(_TIMED_FLEET_SIGNAL_FIELDS)
 
 
 @dataclass(frozen=True)
@@ -36,17 +44,23 @@ class Event:
     """One thing that happened in cansimd.
 
     ``name``: ``"BootUp"``, ``"EmcySent"``, ``"NmtStateChanged"``,
-    ``"ObjectWritten"``, ``"FaultStarted"``, ``"FaultEnded"`` (node events),
-    ``"NodeAdded"``, ``"NodeRemoved"`` (fleet events); ``node``: the node's
-    fleet key; ``time``: simulated seconds (None for fleet events);
-    ``fields``: the signal's arguments by name, e.g. ``code`` and
-    ``register`` of an EMCY, ``old`` and ``new`` of an NMT state change.
+    ``"ObjectWritten"``, ``"FaultStarted"``, ``"FaultEnded"``,
+    ``"PdoMappingChanged"`` (node events), ``"NodeAdded"``, ``"NodeRemoved"``,
+    ``"BusStateChanged"`` (fleet events); ``node``: the node's fleet key
+    (None for fleet events); ``time``: simulated seconds (None for
+    NodeAdded / NodeRemoved); ``wall_time``: the same instant in seconds
+    since the Unix epoch (``Simulator.epoch + time``; for an event without
+    a simulated time, when it was received), the clock of python-can's
+    frame timestamps; ``fields``: the signal's arguments by name, e.g.
+    ``code`` and ``register`` of an EMCY, ``old`` and ``new`` of an NMT
+    state change.
     """
 
     name: str
     node: Optional[str]
     time: Optional[float]
     fields: Dict[str, Any]
+    wall_time: Optional[float] = field(default=None, compare=False)
     position: int = field(default=-1, repr=False, compare=False)
 
     def __getitem__(self, key: str) -> Any:
@@ -55,7 +69,7 @@ class Event:
     def __str__(self) -> str:
         t = f"{self.time:.6f} s" if self.time is not None else "-"
         args = ", ".join(f"{k}={_show(v)}" for k, v in self.fields.items())
-        return f"[{t}] {self.node} {self.name}({args})"
+        return f"[{t}] {self.node or 'fleet'} {self.name}({args})"
 
 
 def _show(v: Any) -> str:
@@ -80,6 +94,11 @@ class Mark:
         if event.position < self.position:
             return False
         return self.time is None or event.time is None or event.time >= self.time
+
+
+#: what ``since=`` takes: a Mark, an Event (the events after it), a Capture
+#: (the events after its start), or None (the default of the call)
+Since = Union[Mark, "Event", "Capture", None]
 
 
 _ESCAPE = re.compile(r"_([0-9a-fA-F]{2})")
@@ -110,6 +129,11 @@ def event_of_signal(member: str, path: str, body: Sequence[Any]) -> Optional[Eve
     if member in _FLEET_SIGNALS:
         key = body[1] if len(body) > 1 else key_of_path(str(body[0]) if body else "")
         return Event(member, key, None, {"path": body[0] if body else "", "key": key})
+    if member in _TIMED_FLEET_SIGNAL_FIELDS:
+        if not body or not isinstance(body[0], int):
+            return None
+        names = _TIMED_FLEET_SIGNAL_FIELDS[member]
+        return Event(member, None, body[0] / 1e6, dict(zip(names, body[1:])))
     key = key_of_path(path)
     if key is None or not body or not isinstance(body[0], int):
         return None

@@ -5,44 +5,57 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Dict, List, NamedTuple, Optional, Tuple, Union
+from typing import TYPE_CHECKING, Any, Dict, List, NamedTuple, Optional, Tuple, TypeVar, Union
 
+from . import _checks
 from ._bus import NODE_IFACE
 from .errors import Refused, Timeout
-from .events import EVENT_NAMES, Event, Mark
+from .events import EVENT_NAMES, Event, Since
 
 if TYPE_CHECKING:
+    from ._decode import PdoMapping
+    from .pdo import Tpdo
     from .simulator import Simulator
 
 Value = Union[int, float, str, bytes]
 
-#: the issue's NMT command names -> cansimd's Nmt() commands
+#: NMT commands as CiA 301 names them (§7.2.8.3.1), and cansimctl's short
+#: aliases, -> the name Nmt() gets (cansimctl nmt takes the same words)
 _NMT_COMMANDS = {
     "start": "start",
     "stop": "stop",
-    "pre-operational": "preop",
-    "preop": "preop",
-    "reset-node": "reset",
-    "reset": "reset",
-    "reset-communication": "reset-comm",
-    "reset-comm": "reset-comm",
+    "pre-operational": "pre-operational",
+    "preop": "pre-operational",
+    "reset-node": "reset-node",
+    "reset": "reset-node",
+    "reset-communication": "reset-communication",
+    "reset-comm": "reset-communication",
 }
 
+#: the off time of power_cycle() (cansimctl power-cycle has the same default)
+POWER_CYCLE_OFF_S = 0.5
+
 #: fault parameters that are durations or instants: a number means seconds
-_TIME_PARAMS = ("at", "after", "duration", "period", "sdo_delay")
+_TIME_PARAMS = ("at", "after", "duration", "period", "sdo_delay", "delay", "jitter")
 
 
 class Reading(NamedTuple):
-    """One channel's value as the node reports it and as the process is."""
+    """One channel's value as the node reports it and as the process is, both
+    in ``unit``: they compare as they are."""
 
     value: float
-    """reported value (what the node answers: sensor model, faults, override), in ``unit``"""
+    """reported value (what the node answers: sensor model, faults, override)
+    as the device means it, in ``unit``; a PV in counts converted with the
+    device's own scaling"""
     true_value: float
     """the process model's value, in ``unit``"""
     unit: str
     """the channel's current unit (0x6131), e.g. ``"bar"``, ``"degC"``"""
     status: int
     """the channel's status byte (0x6150)"""
+    counts: Optional[float] = None
+    """the PV as the node answers it when it is counts, not in ``unit`` (a
+    device whose scaling says so: the ADZ SMC by default); None otherwise"""
 
 
 class Emcy(NamedTuple):
@@ -90,7 +103,8 @@ class NodeState:
             profile=p.get("Profile", ""), personality=p.get("Personality", ""),
             nmt_state=p.get("NmtState", ""), powered=bool(p.get("Powered", False)),
             on_bus=bool(p.get("OnBus", False)),
-            pressure=_reading(p.get("Pressure")), temperature=_reading(p.get("Temperature")),
+            pressure=_reading(p.get("Pressure"), p.get("PressureCounts")),
+            temperature=_reading(p.get("Temperature"), p.get("TemperatureCounts")),
             overrides=[tuple(o) for o in p.get("Overrides", [])],  # type: ignore[misc]
             faults=[FaultState(int(i), k, bool(a)) for i, k, a in p.get("Faults", [])],
             emcy_count=int(p.get("EmcyCount", 0)), last_emcy=_emcy(p.get("LastEmcy")),
@@ -98,13 +112,24 @@ class NodeState:
         )
 
 
-def _reading(raw: Any) -> Optional[Reading]:
+def _reading(raw: Any, counts: Optional[float] = None) -> Optional[Reading]:
     if not raw:
         return None
     true_value, value, unit, status = raw
     if not unit and math.isnan(value):
         return None  # the node has no such channel
-    return Reading(value, true_value, unit, status)
+    return Reading(value, true_value, unit, status, None if counts is None or math.isnan(counts) else counts)
+
+
+def _measure(x: float) -> str:
+    """A measured value for people at every magnitude: no exponent, digits
+    grouped in threes (9 990 440, not 9.99044e+06)."""
+    if math.isnan(x) or math.isinf(x):
+        return str(x)
+    text = f"{x:,.6f}" if abs(x) < 1e15 else f"{x:g}"
+    if "." in text:
+        text = text.rstrip("0").rstrip(".")
+    return text.replace(",", " ")
 
 
 def _emcy(raw: Any) -> Optional[Emcy]:
@@ -127,7 +152,8 @@ def _variant(value: Value) -> Tuple[str, Any]:
     if isinstance(value, bool):
         return ("b", value)
     if isinstance(value, int):
-        return ("t", value) if value >= 1 << 63 else ("x", value)
+        return ("t", _checks.integer("value", value, "t")) if value >= 1 << 63 else \
+            ("x", _checks.integer("value", value, "x"))
     if isinstance(value, float):
         return ("d", value)
     if isinstance(value, str):
@@ -138,17 +164,22 @@ def _variant(value: Value) -> Tuple[str, Any]:
 
 
 def parse_object(index: Union[int, str], sub: Optional[int]) -> Tuple[int, int]:
-    """(index, sub) from 0x1018, 4 or "0x1018:4" / "1018sub4"."""
+    """(index, sub) from 0x1018, 4 or "0x1018:4" / "1018sub4"; ValueError
+    naming ``index`` or ``sub`` when one is not an object's (16 / 8 bits)."""
     if isinstance(index, str):
         text = index.strip().lower().replace("sub", ":")
         head, _, tail = text.partition(":")
-        i = int(head, 16) if not head.startswith("0x") else int(head, 0)
-        if tail:
+        try:
+            i = int(head, 16) if not head.startswith("0x") else int(head, 0)
+            s = int(tail, 0) if tail else None
+        except ValueError:
+            raise ValueError(f"index must be an object index such as 0x1018 or '0x1018:4', got {index!r}") from None
+        if s is not None:
             if sub not in (None, 0):
                 raise ValueError(f"sub-index given twice: {index!r} and {sub}")
-            return i, int(tail, 0)
-        return i, sub or 0
-    return int(index), sub or 0
+            sub = s
+        index = i
+    return _checks.integer("index", index, "q"), _checks.integer("sub", sub or 0, "y")
 
 
 class Channel:
@@ -164,8 +195,9 @@ class Channel:
         return f"<Channel {self.node.key} {self.name}>"
 
     def reading(self) -> Reading:
-        """Reported value, true value, unit and status, in one call."""
-        r = _reading(self.node._get(self._property))
+        """Reported value, true value, unit, status and counts, in one call."""
+        props = self.node._get_all()
+        r = _reading(props.get(self._property), props.get(self._property + "Counts"))
         if r is None:
             raise Refused("io.cansim.Error.UnknownChannel", f"{self.node.key} has no {self.name} channel")
         return r
@@ -201,10 +233,13 @@ class Channel:
     def wait_for(self, value: float, *, tolerance: float = 0.01, timeout: float = 2.0,
                  true_value: bool = False) -> Reading:
         """Poll until the reported value (or the true value) is within
-        ``tolerance`` of ``value`` (in the channel's unit); the reading, or
+        ``tolerance`` of ``value`` (both in the channel's unit, the reported
+        one as the device means it: counts converted); the reading, or
         cansim.Timeout with the last one. The reported value follows the
         process at the sensor's own pace (sampling, filter, PDO timing)."""
-        deadline = time.monotonic() + timeout
+        value = _checks.finite("value", value)
+        tolerance = _checks.finite("tolerance", tolerance)
+        deadline = time.monotonic() + _checks.seconds("timeout", timeout)
         while True:
             r = self.reading()
             got = r.true_value if true_value else r.value
@@ -212,8 +247,9 @@ class Channel:
                 return r
             if time.monotonic() >= deadline:
                 which = "true value" if true_value else "reported value"
-                raise Timeout(f"{self.node.key} {self.name}: {which} {got:g} {r.unit}, "
-                              f"not {value:g} ± {tolerance:g} within {timeout} s")
+                counts = f" ({_measure(r.counts)} counts)" if r.counts is not None and not true_value else ""
+                raise Timeout(f"{self.node.key} {self.name}: {which} {_measure(got)} {r.unit}{counts}, "
+                              f"not {_measure(value)} ± {_measure(tolerance)} within {timeout} s")
             time.sleep(0.01)
 
     def hold(self) -> None:
@@ -237,20 +273,30 @@ class Channel:
         self.node._act("RestoreModel", "s", self.name)
 
 
-class Fault:
-    """An armed fault; a context manager that cancels it on exit."""
+def _fault_texts(params: Dict[str, Any], duration: Any, at: Any) -> Dict[str, str]:
+    """ArmFault's parameters (a node's or a plant's) as the texts cansimd parses."""
+    given = {("class" if k == "class_" else k): v for k, v in params.items()}  # a Python keyword
+    if duration is not None:
+        given["duration"] = duration
+    if at is not None:
+        given["at"] = at
+    return {k: _param_text(k, v) for k, v in given.items() if v is not None}
 
-    def __init__(self, node: "Node", id: int, kind: str, info: Optional[Tuple[Any, ...]] = None) -> None:
-        self.node = node
+
+_F = TypeVar("_F", bound="_ArmedFault")
+
+
+class _ArmedFault:
+    """A fault armed on a node or a plant (``owner``: what answers
+    ListFaults and CancelFault); a context manager that cancels it on exit."""
+
+    def __init__(self, owner: Any, id: int, kind: str) -> None:
+        self._owner = owner
         self.id = id
         self.kind = kind
-        self._info = info
-
-    def __repr__(self) -> str:
-        return f"<Fault {self.id} {self.kind} on {self.node.key}>"
 
     def _listed(self) -> Optional[Tuple[Any, ...]]:
-        for f in self.node._call("ListFaults")[0]:
+        for f in self._owner._call("ListFaults")[0]:
             if f[0] == self.id:
                 return tuple(f)
         return None
@@ -266,24 +312,36 @@ class Fault:
         """True until the fault has ended for good or was cancelled."""
         return self._listed() is not None
 
-    @property
-    def channel(self) -> str:
-        f = self._info or self._listed()
-        return str(f[2]) if f else ""
-
     def cancel(self) -> None:
         """End the fault now; a fault that has already ended is left alone."""
         try:
-            self.node._act("CancelFault", "u", self.id)
+            self._owner._act("CancelFault", "u", self.id)
         except Refused as e:
             if e.name != "io.cansim.Error.UnknownFault":
                 raise
 
-    def __enter__(self) -> "Fault":
+    def __enter__(self: _F) -> _F:
         return self
 
     def __exit__(self, *exc: Any) -> None:
         self.cancel()
+
+
+class Fault(_ArmedFault):
+    """An armed fault of a node; a context manager that cancels it on exit."""
+
+    def __init__(self, node: "Node", id: int, kind: str, info: Optional[Tuple[Any, ...]] = None) -> None:
+        super().__init__(node, id, kind)
+        self.node = node
+        self._info = info
+
+    def __repr__(self) -> str:
+        return f"<Fault {self.id} {self.kind} on {self.node.key}>"
+
+    @property
+    def channel(self) -> str:
+        f = self._info or self._listed()
+        return str(f[2]) if f else ""
 
 
 class Node:
@@ -312,6 +370,9 @@ class Node:
     # ------------------------------------------------------------ plumbing
     def _get(self, name: str) -> Any:
         return self._sim._conn.get(self.path, NODE_IFACE, name)
+
+    def _get_all(self) -> Dict[str, Any]:
+        return self._sim._conn.get_all(self.path, NODE_IFACE)
 
     def _call(self, member: str, signature: Optional[str] = None, *args: Any) -> Tuple[Any, ...]:
         return self._sim._conn.method(self.path, NODE_IFACE, member, signature, tuple(args))
@@ -389,41 +450,39 @@ class Node:
         ``power_loss`` ...: the kinds of a profile's ``faults:``). Numbers
         for ``duration``, ``at`` (simulated time), ``after``, ``period``,
         ``sdo_delay`` are seconds; other values are YAML text with their unit
-        (``value="0.5 bar"``). Returns the fault; ``with`` cancels it."""
-        given = dict(params)
-        if duration is not None:
-            given["duration"] = duration
-        if at is not None:
-            given["at"] = at
-        texts = {k: _param_text(k, v) for k, v in given.items() if v is not None}
-        (fault_id,) = self._act("ArmFault", "sa{ss}", kind, texts)
+        (``value="0.5 bar"``); ``delay``, ``jitter`` of ``frame_delay`` are
+        seconds too, ``class_`` is ``class`` (of ``error_frames``: a Python
+        keyword). Returns the fault; ``with`` cancels it."""
+        (fault_id,) = self._act("ArmFault", "sa{ss}", kind, _fault_texts(params, duration, at))
         return Fault(self, int(fault_id), kind)
 
     def faults(self) -> List[Fault]:
         """The faults armed on this node now."""
         return [Fault(self, int(f[0]), f[1], tuple(f)) for f in self._call("ListFaults")[0]]
 
-    def power_cycle(self, off: float = 0.5) -> None:
-        """Power off now, on again after ``off`` seconds (stored values kept)."""
+    def power_cycle(self, off: float = POWER_CYCLE_OFF_S) -> None:
+        """Power off now, on again after ``off`` seconds (0: an immediate
+        reboot; stored values kept)."""
         self._act("PowerCycle", "d", float(off))
 
     def nmt(self, command: str) -> None:
         """A local NMT transition: ``"start"``, ``"stop"``, ``"pre-operational"``,
-        ``"reset-node"``, ``"reset-communication"``."""
+        ``"reset-node"``, ``"reset-communication"`` (CiA 301's names), or
+        cansimctl's aliases ``"preop"``, ``"reset"``, ``"reset-comm"``."""
         try:
             daemon_command = _NMT_COMMANDS[command]
         except KeyError:
-            raise ValueError(f"NMT command {command!r}: expected one of "
-                             "start, stop, pre-operational, reset-node, reset-communication") from None
+            raise ValueError(f"NMT command {command!r}: expected one of start, stop, pre-operational (preop), "
+                             "reset-node (reset), reset-communication (reset-comm)") from None
         self._act("Nmt", "s", daemon_command)
 
     def store(self, sub: int = 1) -> None:
         """As if the master wrote "save" to 0x1010:sub (1: all parameters)."""
-        self._act("Store", "y", sub)
+        self._act("Store", "y", _checks.integer("sub", sub, "y"))
 
     def restore(self, sub: int = 1) -> None:
         """As if the master wrote "load" to 0x1011:sub (in effect at the next reset)."""
-        self._act("Restore", "y", sub)
+        self._act("Restore", "y", _checks.integer("sub", sub, "y"))
 
     def read(self, index: Union[int, str], sub: int = 0) -> Value:
         """The object's value, typed by the object dictionary: int, float,
@@ -450,8 +509,22 @@ class Node:
         else:
             self._call("StartRecording", "s", str(path))
 
+    # ------------------------------------------------------------ the wire
+    def tpdo(self, number: int) -> "Tpdo":
+        """TPDO ``number``'s frames from now on, decoded by the node's live
+        mapping: ``.next(timeout)`` gives a ``PdoSample`` ({object name:
+        value in its unit} and the raw frame), ``.wait_for(condition)`` the
+        first one that shows an effect (cansim/pdo.py)."""
+        from .pdo import Tpdo
+        return Tpdo(self, number)
+
+    def pdo_mapping(self) -> List["PdoMapping"]:
+        """Every PDO as the node's engine runs it now (GetPdoMapping)."""
+        from ._decode import pdo_mappings
+        return pdo_mappings(self._call("GetPdoMapping")[0])
+
     # ------------------------------------------------------------ events
-    def wait_for(self, event: str, *, timeout: float = 2.0, since: Union[Mark, Event, None] = None,
+    def wait_for(self, event: str, *, timeout: float = 2.0, since: Since = None,
                  **fields: Any) -> Event:
         """The first ``event`` of this node after ``since`` (default: the
         last action this Simulator took) whose fields equal ``fields`` (a
@@ -459,7 +532,7 @@ class Node:
         ``timeout`` seconds."""
         return self._sim.wait_for(event, node=self, timeout=timeout, since=since, **fields)
 
-    def events(self, since: Union[Mark, Event, None] = None) -> List[Event]:
+    def events(self, since: Since = None) -> List[Event]:
         """This node's events received since ``since`` (default: all kept)."""
         return [e for e in self._sim.events(since) if e.node == self.key]
 

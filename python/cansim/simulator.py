@@ -13,12 +13,18 @@ import subprocess
 import sys
 import tempfile
 import time
-from typing import Any, Dict, Iterator, List, NamedTuple, Optional, Sequence, Union
+from typing import TYPE_CHECKING, Any, Dict, Iterable, Iterator, List, NamedTuple, Optional, Sequence, Tuple, Union
 
+from . import _checks
 from ._bus import FLEET_IFACE, ROOT_PATH, Connection, choose_address, round_trip_offset
-from .errors import Error, Timeout
-from .events import EVENT_NAMES, Event, EventLog, Mark, event_of_signal
+from ._wire import BusAddress, Capture, Wire, open_python_can_bus
+from .errors import Error, NoSuchNode, Refused, Timeout
+from .events import EVENT_NAMES, Event, EventLog, Mark, Since, event_of_signal
 from .node import Node, NodeState
+
+if TYPE_CHECKING:
+    from .plant import Plant
+    from ._replay import Replay
 
 #: how far before the estimated simulated time of a mark an event may lie
 #: and still count as after it (covers the clock estimate's error)
@@ -56,8 +62,13 @@ class Simulator:
         self._process = _process
         self._log = EventLog()
         self._nodes: Dict[str, Node] = {}
+        self._wire: Optional[Wire] = None
+        self._epoch: Optional[float] = None
         self._conn = Connection(address, on_signal=self._on_signal, on_close=self._on_close)
         self._offset_us = round_trip_offset(self._conn)
+        if self._offset_us is not None:
+            mono, wall = time.monotonic(), time.time()
+            self._epoch = wall - (mono + self._offset_us / 1e6)
         self._conn.method(ROOT_PATH, FLEET_IFACE, "Subscribe")
         self._last_action = self.mark()
         self._closed = False
@@ -67,7 +78,7 @@ class Simulator:
         from jeepney.low_level import HeaderFields
         member = msg.header.fields.get(HeaderFields.member, "")
         path = msg.header.fields.get(HeaderFields.path, "")
-        self._log.append(lambda pos: _positioned(event_of_signal(member, path, msg.body), pos))
+        self._log.append(lambda pos: _positioned(event_of_signal(member, path, msg.body), pos, self._epoch))
 
     def _on_close(self) -> None:
         self._log.close(self._lost_message())
@@ -91,16 +102,38 @@ class Simulator:
         states = [NodeState.from_properties(p) for p in self._conn.managed_objects().values()]
         return sorted(states, key=lambda s: natural_key(s.key))
 
-    def node(self, name: Union[str, Node]) -> Node:
+    def node(self, name: Union[str, int, Node]) -> Node:
         """A node by fleet key (``vcan0/dps/0``), entry name (``dps``,
-        ``pt/3`` in a ``count:`` group) or ``IFACE/ID`` (``vcan0/0x10``)."""
+        ``pt/3`` in a ``count:`` group), ``IFACE/ID`` (``vcan0/0x10``) or
+        integer node-ID (``0x11``: unique across the fleet, else
+        cansim.NoSuchNode lists the candidates)."""
         if isinstance(name, Node):
             return name
+        if isinstance(name, int) and not isinstance(name, bool):
+            return self._node_by_id(name)
         (path,) = self._conn.method(ROOT_PATH, FLEET_IFACE, "GetNode", "s", (str(name),))
         cached = self._nodes.get(path)
         if cached is not None:
             return cached
         return self._node_at(path, self._conn.get_all(path, "io.cansim.Node1"))
+
+    def _node_by_id(self, node_id: int) -> Node:
+        if not 0 <= node_id <= 0xFF:
+            raise ValueError(f"node-ID {node_id}: expected 1..127 (255: LSS-unconfigured)")
+        objects = self._conn.managed_objects()
+        found = sorted(((p, props) for p, props in objects.items() if props.get("NodeId") == node_id),
+                       key=lambda item: natural_key(str(item[1].get("Key", ""))))
+        if len(found) == 1:
+            return self._node_at(*found[0])
+        if not found:
+            ids = sorted({int(props.get("NodeId", 0)) for props in objects.values()})
+            have = ", ".join(f"0x{i:02X}" for i in ids[:40]) + (" ..." if len(ids) > 40 else "")
+            raise NoSuchNode("io.cansim.Error.UnknownNode",
+                             f"no node has node-ID 0x{node_id:02X} (the fleet's: {have or 'none'})")
+        keys = ", ".join(str(props.get("Key")) for _, props in found)
+        raise NoSuchNode("io.cansim.Error.UnknownNode",
+                         f"node-ID 0x{node_id:02X} is used on {len(found)} buses: {keys}; "
+                         f"name one by key or IFACE/ID")
 
     def _node_at(self, path: str, props: Dict[str, Any]) -> Node:
         node = self._nodes.get(path)
@@ -114,6 +147,16 @@ class Simulator:
     def __getitem__(self, name: str) -> Node:
         return self.node(name)
 
+    def plant(self, name: str) -> "Plant":
+        """A plant of the fleet's ``plants:`` by name (cansim.plant, docs/plants.md)."""
+        from .plant import Plant
+        return Plant(self, name)
+
+    def plants(self) -> List["Plant"]:
+        """Every plant of the fleet."""
+        from .plant import plants
+        return plants(self)
+
     def __iter__(self) -> Iterator[Node]:
         return iter(self.nodes())
 
@@ -124,6 +167,14 @@ class Simulator:
     def time(self) -> float:
         """Simulated seconds since cansimd started (the clock of ``at:``)."""
         return float(self._conn.get(ROOT_PATH, FLEET_IFACE, "SimulatedTime")) / 1e6
+
+    @property
+    def epoch(self) -> Optional[float]:
+        """Wall-clock time (seconds since the Unix epoch, the clock of
+        python-can's frame timestamps) of simulated time 0: an event at
+        simulated ``t`` happened at ``sim.epoch + t`` (``Event.wall_time``).
+        None when cansimd's clock could not be read."""
+        return self._epoch
 
     @property
     def version(self) -> str:
@@ -148,10 +199,94 @@ class Simulator:
         self._action()
         self._conn.method(ROOT_PATH, FLEET_IFACE, "Reload")
 
+    def reset(self, timeout: float = 10.0) -> None:
+        """The whole fleet back to power-on as configured (Fleet1.Reset):
+        nodes added at run time gone, removed ones back, every node rebuilt
+        (values, process models, faults, NMT state) with its stored
+        parameters erased; returns once every node has booted again."""
+        self._action()
+        self._conn.method(ROOT_PATH, FLEET_IFACE, "Reset")
+        _wait_booted(self, time.monotonic() + timeout, timeout)
+
     def bus_statistics(self) -> List[BusStatistics]:
         """Per interface: state, bit rate, frame counts and bus load."""
         (rows,) = self._conn.method(ROOT_PATH, FLEET_IFACE, "GetBusStatistics")
         return [BusStatistics(*r) for r in rows]
+
+    # ------------------------------------------------------------ the wire
+    def buses(self) -> List[BusAddress]:
+        """Where the fleet's buses are: ``BusAddress(name, transport, host,
+        port)``, transport ``"socketcan"`` (a kernel CAN interface) or
+        ``"socketcand"`` (cansimd's kernel-free bus, at host:port)."""
+        names = [str(row[0]) for row in self._conn.get(ROOT_PATH, FLEET_IFACE, "BusLoad")]
+        try:
+            served = {str(n): (str(h), int(p)) for n, h, p, *_ in
+                      self._conn.get(ROOT_PATH, FLEET_IFACE, "SocketcandBuses")}
+        except Refused:  # a cansimd without socketcand buses
+            served = {}
+        out = []
+        for name in names:
+            if name in served:
+                host, port = served[name]
+                out.append(BusAddress(name, "socketcand", _connect_host(host), port))
+            else:
+                out.append(BusAddress(name, "socketcan"))
+        return out
+
+    def _bus(self, name: Optional[str]) -> BusAddress:
+        buses = self.buses()
+        if name is None and len(buses) == 1:
+            return buses[0]
+        for b in buses:
+            if b.name == name:
+                return b
+        have = ", ".join(b.name for b in buses) or "none"
+        raise ValueError(f"the fleet has {'no bus ' + repr(name) if name else 'several buses'}: {have}")
+
+    def _listen(self) -> Wire:
+        if self._wire is None:
+            self._wire = Wire()
+        buses = self.buses()
+        closed = [b.name for b in buses if b.transport == "socketcand" and b.port == 0]
+        if closed:
+            raise Error(f"socketcand bus {', '.join(closed)} is not listening (see {self.log or 'the log'})")
+        self._wire.listen(buses)
+        return self._wire
+
+    def capture(self, buses: Optional[Sequence[str]] = None) -> Capture:
+        """The frames on the fleet's buses (or the ``buses`` named) from now
+        on, as python-can ``Message``s with wall-clock timestamps: a
+        context manager (leaving it stops the capture) and a mark
+        (``capture.wait_for(can_id=0x190)``, ``wait_for(..., since=capture)``).
+        Needs python-can for SocketCAN interfaces and for ``frames``."""
+        wire = self._listen()
+        return Capture(wire, wire.log.next_position, time.time(), self.mark(), buses)
+
+    def open_bus(self, name: Optional[str] = None, **kwargs: Any) -> Any:
+        """A python-can bus on one of the fleet's buses (``name``; default:
+        the only one): ``can.Bus(interface="socketcand", host=..., port=...,
+        channel=name)`` on a kernel-free bus, ``interface="socketcan"`` on a
+        kernel interface. The caller shuts it down (it is a context manager)."""
+        return open_python_can_bus(self._bus(name), **kwargs)
+
+    def replay(self, source: Union[str, "os.PathLike[str]", Capture, Iterable[Any]], on: str, *,
+               loop: bool = False, filter: Union[str, int, Tuple[int, int], None] = None,
+               speed: float = 1.0) -> "Replay":
+        """Plays frames onto bus ``on`` as an outside participant, as
+        ``cansimctl replay FILE --on BUS`` does (through Fleet1.QueueFrames:
+        on a timed bus they arbitrate with the nodes' frames). ``source``: a
+        candump -L file (``cansimctl capture``'s, ``Capture.save()``'s), a
+        Capture, or python-can Messages. The first frame goes 100 ms after
+        the call, the others with the source's spacing divided by ``speed``;
+        ``loop``: again and again until ``stop()``; ``filter``: only frames
+        whose (ID & MASK) == (FILTER & MASK), ``"181:7FF"`` as cansimctl's
+        --filter. Returns the running Replay: ``.wait()`` until it is over."""
+        from ._replay import replay
+        return replay(self, source, on, loop=loop, filter=filter, speed=speed)
+
+    def _sync(self) -> None:
+        """One round trip: every signal cansimd sent before it has arrived."""
+        self._conn.get(ROOT_PATH, FLEET_IFACE, "NodeCount")
 
     # ------------------------------------------------------------ events
     def mark(self) -> Mark:
@@ -166,19 +301,20 @@ class Simulator:
     def _action(self) -> None:
         self._last_action = self.mark()
 
-    def events(self, since: Union[Mark, Event, None] = None) -> Iterator[Event]:
+    def events(self, since: Since = None) -> Iterator[Event]:
         """The events received since ``since`` (default: all kept, the newest
         100,000), oldest first."""
         return iter(self._log.snapshot(_as_mark(since) or Mark(0)))
 
     def wait_for(self, event: str, *, node: Union[str, Node, None] = None, timeout: float = 2.0,
-                 since: Union[Mark, Event, None] = None, **fields: Any) -> Event:
+                 since: Since = None, **fields: Any) -> Event:
         """The first ``event`` (of ``node``, when given) after ``since``
         (default: the last action this Simulator took) whose fields match
         ``fields`` (equal, or a callable returning true). cansim.Timeout
         after ``timeout`` seconds, with what was seen."""
         if event not in EVENT_NAMES:
             raise ValueError(f"unknown event {event!r}: expected one of {', '.join(EVENT_NAMES)}")
+        timeout = _checks.seconds("timeout", timeout)
         key = self.node(node).key if isinstance(node, str) else (node.key if node else None)
         mark = _as_mark(since) or self._last_action
 
@@ -220,6 +356,8 @@ class Simulator:
         if self._closed:
             return
         self._closed = True
+        if self._wire is not None:
+            self._wire.close()
         self._conn.close()
         if self._process is not None:
             self._process.stop()
@@ -253,20 +391,28 @@ def _field_matches(actual: Any, wanted: Any) -> bool:
     return bool(actual == wanted)
 
 
-def _positioned(event: Optional[Event], position: int) -> Optional[Event]:
+def _positioned(event: Optional[Event], position: int, epoch: Optional[float]) -> Optional[Event]:
     if event is None:
         return None
-    return Event(event.name, event.node, event.time, event.fields, position)
+    wall = epoch + event.time if epoch is not None and event.time is not None else time.time()
+    return Event(event.name, event.node, event.time, event.fields, wall, position)
 
 
-def _as_mark(since: Union[Mark, Event, None]) -> Optional[Mark]:
+def _as_mark(since: Since) -> Optional[Mark]:
     if since is None:
         return None
     if isinstance(since, Event):
         return Mark(since.position + 1)
     if isinstance(since, Mark):
         return since
-    raise TypeError(f"since: expected a Mark (sim.mark()) or an Event, got {type(since).__name__}")
+    if isinstance(since, Capture):
+        return since.mark  # type: ignore[no-any-return]
+    raise TypeError(f"since: expected a Mark (sim.mark()), an Event or a Capture, got {type(since).__name__}")
+
+
+def _connect_host(listen_host: str) -> str:
+    """Where a client reaches a server listening on ``listen_host``."""
+    return {"0.0.0.0": "127.0.0.1", "::": "::1", "": "127.0.0.1"}.get(listen_host, listen_host)
 
 
 def _read_if_file(path_or_text: Union[str, "os.PathLike[str]"]) -> str:
@@ -410,14 +556,37 @@ def _die_with_parent() -> None:
         pass
 
 
+#: cansimd's option that serves every interface of the fleet as a
+#: kernel-free socketcand bus of the same name on a free loopback port
+SOCKETCAND_OPTION = "--socketcand"
+
+TRANSPORTS = ("socketcan", "socketcand", "auto")
+
+ARPHRD_CAN = 280
+
+
+def can_interface_exists(name: str) -> bool:
+    """True when ``name`` is a kernel CAN network interface (up or not)."""
+    try:
+        with open(f"/sys/class/net/{name}/type") as f:
+            return int(f.read().strip()) == ARPHRD_CAN
+    except (OSError, ValueError):
+        return False
+
+
 def start(config: Union[str, "os.PathLike[str]", None] = None, *, profile: Optional[str] = None,
           interface: str = "vcan0", node_id: Optional[int] = None, binary: Optional[str] = None,
-          args: Sequence[str] = (), timeout: float = 10.0) -> Simulator:
+          args: Sequence[str] = (), timeout: float = 10.0, transport: str = "socketcan") -> Simulator:
     """Start cansimd and return once every node has sent its boot-up.
 
     ``config``: a fleet file, or a fleet as YAML text (``$INTERFACE`` in the
     text stands for ``interface``). ``profile``: one node instead (profile
     name or file, on ``interface``, at ``node_id`` or the profile's).
+    ``transport``: ``"socketcan"`` (the fleet's interfaces are kernel CAN
+    interfaces, as the file says), ``"socketcand"`` (every interface of the
+    fleet is served as a kernel-free socketcand bus of the same name on a
+    free loopback port: ``sim.buses()``, ``sim.open_bus()``), or
+    ``"auto"`` (socketcan when ``interface`` exists, else socketcand).
     cansimd gets its own private control socket in a temporary folder,
     ``--bus none``, and its stored parameters there too unless ``args``
     has ``--state-dir``. Use it as a context manager: on exit cansimd gets
@@ -425,6 +594,11 @@ def start(config: Union[str, "os.PathLike[str]", None] = None, *, profile: Optio
     """
     if (config is None) == (profile is None):
         raise ValueError("start(): give a fleet (config=) or one profile (profile=), not both or neither")
+    timeout = _checks.seconds("timeout", timeout)
+    if transport not in TRANSPORTS:
+        raise ValueError(f"start(): transport {transport!r}: expected one of {', '.join(TRANSPORTS)}")
+    if transport == "auto":
+        transport = "socketcan" if can_interface_exists(interface) else "socketcand"
     command = [find_binary(binary)]
     workdir = tempfile.mkdtemp(prefix="cansim-")
     try:
@@ -434,10 +608,7 @@ def start(config: Union[str, "os.PathLike[str]", None] = None, *, profile: Optio
             command += ["--profile", str(profile), "--interface", interface]
             if node_id is not None:
                 command += ["--node-id", str(node_id)]
-        command += ["--control-socket", os.path.join(workdir, "control"), "--bus", "none"]
-        if not any(a == "--state-dir" or str(a).startswith("--state-dir=") for a in args):
-            command += ["--state-dir", os.path.join(workdir, "state")]
-        command += [str(a) for a in args]
+        command += _private_options(workdir, transport, args)
         process = _Process(command, workdir)
     except BaseException:
         shutil.rmtree(workdir, ignore_errors=True)
@@ -456,6 +627,16 @@ def start(config: Union[str, "os.PathLike[str]", None] = None, *, profile: Optio
         process.kill()
         raise
     return sim
+
+
+def _private_options(workdir: str, transport: str, args: Sequence[str]) -> List[str]:
+    """A started cansimd's own control socket and state folder, its bus, then ``args``."""
+    options = ["--control-socket", os.path.join(workdir, "control"), "--bus", "none"]
+    if transport == "socketcand":
+        options.append(SOCKETCAND_OPTION)
+    if not any(a == "--state-dir" or str(a).startswith("--state-dir=") for a in args):
+        options += ["--state-dir", os.path.join(workdir, "state")]
+    return options + [str(a) for a in args]
 
 
 def _wait_booted(sim: Simulator, deadline: float, timeout: float) -> None:

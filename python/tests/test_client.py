@@ -88,6 +88,22 @@ def test_node_by_key_name_and_id(sim):
     assert sim.node("pt/11").node_id == 0x10 + 11
 
 
+def test_node_by_integer_node_id(sim):
+    assert sim.node(0x7F) == sim.node("dps")
+    assert sim.node(0x13).key == "vcan0/pt/3"
+    with pytest.raises(cansim.NoSuchNode) as e:
+        sim.node(0x55)
+    assert "0x55" in str(e.value) and "0x10" in str(e.value)  # the fleet's node-IDs, for the reader
+    (twin,) = sim.add("{profile: generic-404, interface: vcan1, node_id: 0x13, name: twin}")
+    try:
+        with pytest.raises(cansim.NoSuchNode) as e:
+            sim.node(0x13)
+        assert "vcan0/pt/3" in str(e.value) and "vcan1/twin/0" in str(e.value)
+        assert sim.node("vcan1/0x13") == twin
+    finally:
+        sim.remove(twin)
+
+
 def test_unknown_node_is_no_such_node(sim):
     with pytest.raises(cansim.NoSuchNode) as e:
         sim.node("nothing-here")
@@ -119,6 +135,18 @@ def test_set_steps_the_true_value(pt):
     assert r.true_value == pytest.approx(3.25)
     assert (r.unit, r.status) == ("bar", 0)
     assert pt.pressure.wait_for(3.25, tolerance=0.05).value == pytest.approx(3.25, abs=0.05)
+
+
+def test_a_device_in_counts_reads_in_true_units(sim):
+    # The SMC reports field counts by default (0..20000 over 0..5 bar; its
+    # 0x6131 is informational): the reading says what they mean, in bar.
+    smc = sim.node("smc")
+    smc.pressure.set(4, "bar")
+    r = smc.pressure.wait_for(4, tolerance=0.01)
+    assert r.unit == "bar" and r.value == pytest.approx(4, abs=0.01)
+    assert r.counts == pytest.approx(16000, abs=40)
+    assert smc.state().pressure.counts == pytest.approx(16000, abs=40)
+    assert sim.node("pt/0").pressure.reading().counts is None  # a CiA 404 PV is in its unit
 
 
 def test_set_converts_units_and_defaults_to_the_channel_unit(pt):
@@ -229,6 +257,20 @@ def test_unknown_fault_kind_is_refused(pt):
     assert e.value.name == "io.cansim.Error.InvalidArgument"
 
 
+def test_network_faults_take_their_keys_as_python_names(pt):
+    # class_ is error_frames' class; delay and jitter are seconds; a key of
+    # another kind is refused by the daemon, naming it.
+    with pt.fault("error_frames", duration=0.5, class_="passive", period=0.1) as e, \
+            pt.fault("frame_delay", service="heartbeat", delay=0.03, jitter=0.01) as d:
+        assert {f.id: f.kind for f in pt.faults()} == {e.id: "error_frames", d.id: "frame_delay"}
+        assert pt.wait_for("FaultEnded", id=e.id, timeout=5).node == pt.key
+    with pytest.raises(cansim.Refused) as r:
+        pt.fault("frame_drop", service="tpdo1", dlc=3)
+    assert r.value.name == "io.cansim.Error.InvalidArgument" and "dlc" in str(r.value)
+    with pytest.raises(cansim.Refused):
+        pt.fault("error_frames", class_="meteor")
+
+
 def test_vendor_emcy_and_last_emcy(sim):
     dps = sim.node("dps")
     count = dps.emcy_count
@@ -257,8 +299,19 @@ def test_nmt_commands(pt):
     pt.nmt("reset-node")
     pt.wait_for("BootUp")
     assert pt.nmt_state == "pre-operational"
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError) as e:
         pt.nmt("explode")
+    assert "pre-operational (preop)" in str(e.value)
+
+
+def test_nmt_aliases_are_cansimctls_words(pt):
+    pt.nmt("start")
+    pt.nmt("preop")
+    assert pt.wait_for("NmtStateChanged", new="pre-operational")
+    pt.nmt("reset-comm")
+    pt.wait_for("BootUp")
+    pt.nmt("reset")
+    assert pt.wait_for("BootUp")["node_id"] == pt.node_id
 
 
 def test_power_cycle(pt):
@@ -350,6 +403,24 @@ def test_mark_and_since(pt, sim):
     pt.nmt("pre-operational")
 
 
+def test_events_carry_their_wall_time(pt, sim):
+    before = time.time()
+    pt.nmt("start")
+    e = pt.wait_for("NmtStateChanged")
+    after = time.time()
+    assert e.wall_time == pytest.approx(sim.epoch + e.time, abs=1e-6)
+    # the epoch is estimated from one round trip: good to a fraction of a millisecond
+    assert before - 0.002 <= e.wall_time <= after + 0.002, (before, e.wall_time, after)
+    pt.nmt("pre-operational")
+
+
+def test_wait_for_pdo_mapping_changed(pt):
+    pt.nmt("reset-communication")  # the PDO configuration is loaded again
+    e = pt.wait_for("PdoMappingChanged")
+    assert e.node == pt.key and e.fields == {}
+    pt.wait_for("BootUp")
+
+
 def test_wait_for_names_are_checked(pt):
     with pytest.raises(ValueError) as e:
         pt.wait_for("Bootup")
@@ -398,6 +469,29 @@ def test_bad_fragment_names_its_place(sim):
     with pytest.raises(cansim.Refused):
         sim.add("{profile: generic-404, interface: vcan0, node_id: 0x10}")  # node-ID taken
     assert len(sim) == 14
+
+
+def test_reset_returns_the_fleet_to_power_on():
+    fleet = (f"nodes:\n  - {{profile: {PROFILES}/generic-404.yaml, interface: vcan0, node_id: 0x10, count: 2, name: pt}}\n"
+             f"  - {{profile: {PROFILES}/dps.yaml, interface: vcan0, bit_rate: 250, name: dps}}\n")
+    with cansim.start(fleet) as sim:
+        pt, dps = sim.node("pt/0"), sim.node("dps")
+        pt.write(0x1017, 0, 321)
+        pt.store()
+        pt.nmt("start")
+        pt.pressure.override(9.5, "bar")
+        dps.fault("open", channel="pressure")
+        sim.add("{profile: generic-404, interface: vcan0, node_id: 0x30, name: extra}")
+        sim.remove("pt/1")
+        sim.reset()
+        assert [n.key for n in sim.nodes()] == ["vcan0/dps/0", "vcan0/pt/0", "vcan0/pt/1"]
+        assert {s.nmt_state for s in sim.states()} == {"pre-operational"}
+        assert pt.read(0x1017) == 1000  # the stored 321 is erased: the profile's default
+        assert pt.state().overrides == [] and dps.faults() == []
+        assert pt.wait_for("BootUp")["node_id"] == 0x10  # waits from the reset
+        pt.power_cycle(off=0)
+        pt.wait_for("BootUp", timeout=5)
+        assert pt.read(0x1017) == 1000  # nothing stored comes back
 
 
 def test_reload(sim):

@@ -2,7 +2,10 @@
 
 #include <cmath>
 #include <string>
+#include <string_view>
+#include <type_traits>
 #include <utility>
+#include <vector>
 
 #include "config/physics_config.hpp"
 
@@ -13,84 +16,44 @@ namespace {
 using model::ChannelConfig;
 using model::Cia404Builder;
 using model::Cia404Settings;
-using model::DigitsOnUnitChange;
 using model::Param;
-using model::QuantityKind;
 using model::RoleInfo;
 using model::UnitChoice;
 
-// One of `words` (the result is its position), else "expected <expected>".
-std::size_t get_word(const Where& w, const YAML::Node& n, std::initializer_list<const char*> words,
-                     const char* expected) {
-  const std::string v = get_string(w, n);
-  std::size_t i = 0;
-  for (const char* word : words) {
-    if (v == word) return i;
-    ++i;
+// One chain setting's value as its kind declares it (model/cia404_settings.hpp):
+// a value the kind refuses fails with what it expected.
+template <class Kind>
+void parse_setting(const Where& w, const YAML::Node& n, const Kind& kind, typename Kind::Value& out) {
+  if constexpr (std::is_same_v<Kind, option_kind::Time>) {
+    const double secs = get_quantity(w, n, Dim::kTime);
+    if (secs < 0) fail(w, n, kind.expected());
+    out = TimeUs(std::llround(secs * 1e6));
+  } else if constexpr (std::is_same_v<Kind, option_kind::Bool>) {
+    out = get_bool(w, n);
+  } else if constexpr (requires { kind.parse(std::string_view(), out); }) {
+    if (!n.IsScalar() || !kind.parse(n.Scalar(), out)) fail(w, n, kind.expected());
+  } else {  // Code32
+    out = typename Kind::Value(std::uint32_t(get_int(w, n, 0, 0xFFFFFFFF)));
   }
-  fail(w, n, std::string("expected ") + expected);
 }
 
-struct SettingsParser {
-  const Where& w;
-  const YAML::Node& section;
-  Cia404Settings& s;
+// The keys of `vendor: cia404:`: the settings and the channel list.
+void check_cia404_keys(const Where& w, const YAML::Node& section) {
+  static const std::vector<const char*> kKeys = {
+#define CANSIM_SETTING_KEY(kind, key, field, def, strict, help) #key,
+      CANSIM_CIA404_SETTINGS(CANSIM_SETTING_KEY)
+#undef CANSIM_SETTING_KEY
+          "channels"};
+  for (const auto& kv : section) check_key(w, kv.first, kKeys);
+}
 
-  bool has(const char* key) const { return bool(section[key]); }
-  Where at(const char* key) const { return w.child(key); }
-
-  void time_us(const char* key, TimeUs& field) const {
-    if (!has(key)) return;
-    const double secs = get_quantity(at(key), section[key], Dim::kTime);
-    if (secs < 0) fail(at(key), section[key], "expected a time >= 0");
-    field = TimeUs(std::llround(secs * 1e6));
-  }
-  void types(const char* key, ByteSet& set) const {
-    if (has(key) && !ByteSet::parse(get_string(at(key), section[key]), set))
-      fail(at(key), section[key], "expected ranges like '254-255'");
-  }
-  // A two-word choice; true when the value is `second`.
-  void either(const char* key, bool& field, const char* first, const char* second) const {
-    if (!has(key)) return;
-    const std::string expected = std::string(first) + " or " + second;
-    field = get_word(at(key), section[key], {first, second}, expected.c_str()) == 1;
-  }
-  void abort_code(const char* key, SdoAbort& field) const {
-    if (has(key)) field = SdoAbort(std::uint32_t(get_int(at(key), section[key], 0, 0xFFFFFFFF)));
-  }
-
-  void parse() const {
-    check_keys(w, section,
-               {"event_check_period", "event_channels", "filter_type_without_object",
-                "event_tpdo_types", "change_event_tpdo_types", "limit_trigger", "span_compare", "unit_informational",
-                "digits_on_unit_change", "autozero_signature", "autozero_target", "bad_unit_abort",
-                "bad_autozero_abort", "digits_abort", "unit_digits_abort", "negative_abort", "channels"});
-    time_us("event_check_period", s.event_check_period_us);
-    types("event_tpdo_types", s.event_tpdo_types);
-    types("change_event_tpdo_types", s.change_event_tpdo_types);
-    either("event_channels", s.events_all_channels, "mapped", "all");
-    if (has("filter_type_without_object"))
-      s.filter_type_without_object =
-          std::uint8_t(get_word(at("filter_type_without_object"), section["filter_type_without_object"],
-                                {"none", "moving_average", "repeating_average"},
-                                "none, moving_average or repeating_average"));
-    either("limit_trigger", s.limit_level, "edge", "level");
-    either("span_compare", s.span_compares_input, "pv", "input");
-    if (has("unit_informational")) s.unit_informational = get_bool(at("unit_informational"), section["unit_informational"]);
-    if (has("digits_on_unit_change"))
-      s.digits_on_unit_change = DigitsOnUnitChange(get_word(at("digits_on_unit_change"), section["digits_on_unit_change"],
-                                                            {"keep", "reject", "clamp", "adjust"},
-                                                            "keep, reject, clamp or adjust"));
-    if (has("autozero_signature"))
-      s.autozero_signature = std::uint32_t(get_int(at("autozero_signature"), section["autozero_signature"], 0, 0xFFFFFFFF));
-    either("autozero_target", s.autozero_to_correction, "offset", "correction");
-    abort_code("bad_unit_abort", s.bad_unit_abort);
-    abort_code("bad_autozero_abort", s.bad_autozero_abort);
-    abort_code("digits_abort", s.digits_abort);
-    abort_code("unit_digits_abort", s.unit_digits_abort);
-    abort_code("negative_abort", s.negative_abort);
-  }
-};
+void parse_settings(const Where& w, const YAML::Node& section, Cia404Settings& s) {
+  check_cia404_keys(w, section);
+#define CANSIM_PARSE_SETTING(kind, key, field, def, strict, help) \
+  if (section[#key]) parse_setting(w.child(#key), section[#key], CANSIM_SETTING_KIND_##kind, s.field);
+  CANSIM_CIA404_SETTINGS(CANSIM_PARSE_SETTING)
+#undef CANSIM_PARSE_SETTING
+}
 
 // One entry of `channels:`.
 struct ChannelParser {
@@ -129,7 +92,7 @@ struct ChannelParser {
     }
   }
 
-  UnitChoice unit(const Where& wi, const YAML::Node& n, QuantityKind kind) const {
+  UnitChoice unit(const Where& wi, const YAML::Node& n, physics::Channel kind) const {
     UnitChoice u;
     std::string name;
     if (n.IsScalar()) {
@@ -159,7 +122,7 @@ struct ChannelParser {
   void units(const Where& wu, const YAML::Node& list, ChannelConfig& c) const {
     if (!list.IsSequence() || list.size() == 0) fail(wu, list, "expected a list of units");
     c.units.clear();
-    for (std::size_t i = 0; i < list.size(); ++i) c.units.push_back(unit(wu.item(i), list[i], c.kind));
+    for (std::size_t i = 0; i < list.size(); ++i) c.units.push_back(unit(wu.item(i), list[i], c.source));
   }
 
   void dependents(const Where& wd, const YAML::Node& list, ChannelConfig& c) const {
@@ -182,7 +145,9 @@ struct ChannelParser {
       const YAML::Node idx = n.IsMap() ? n["index"] : n;
       std::int64_t index = 0;
       if (!idx.IsScalar() || !parse_int_literal(idx.Scalar(), index) || index < 0x1000 || index > 0xFFFF)
-        fail(wi, idx, "expected a role name (offset, delta, lower_limit, upper_limit, hysteresis, span_start, span_end) or an OD index");
+        fail(wi, idx,
+             "expected a role name (offset, delta, lower_limit, upper_limit, hysteresis, span_start, span_end) or an "
+             "OD index");
       const OdEntry* e = b.entry(std::uint16_t(index), sub);
       if (!e) fail(wi, idx, no_object());
       if (is_variable_size(e->type)) fail(wi, idx, "expected a numeric object");
@@ -204,12 +169,12 @@ struct ChannelParser {
   }
 
   ChannelConfig parse(const Where& wc, const YAML::Node& m) const {
-    std::optional<QuantityKind> kind;
-    if (m["quantity"])
-      kind = get_word(wc.child("quantity"), m["quantity"], {"pressure", "temperature"}, "pressure or temperature") == 0
-                 ? QuantityKind::kPressure
-                 : QuantityKind::kTemperature;
-    ChannelConfig c = b.channel(sub, kind);
+    std::optional<physics::Channel> quantity;
+    if (m["quantity"]) {
+      quantity = physics::parse_channel(get_string(wc.child("quantity"), m["quantity"]));
+      if (!quantity) fail(wc.child("quantity"), m["quantity"], "expected pressure or temperature");
+    }
+    ChannelConfig c = b.channel(sub, quantity);
     if (m["objects"]) objects(wc.child("objects"), m["objects"], c);
     if (m["units"]) units(wc.child("units"), m["units"], c);
     else Cia404Builder::default_units(c);
@@ -217,7 +182,8 @@ struct ChannelParser {
     if (m["fixed_unit"]) {
       const std::string name = get_string(wc.child("fixed_unit"), m["fixed_unit"]);
       auto s = model::named_unit(name, &c.fixed_unit.code);
-      if (!s || s->kind != c.kind) fail(wc.child("fixed_unit"), m["fixed_unit"], "expected a unit of this channel's quantity");
+      if (!s || s->kind != c.source)
+        fail(wc.child("fixed_unit"), m["fixed_unit"], "expected a unit of this channel's quantity");
       c.fixed_unit.scale = *s;
     }
     if (m["unit_dependent"]) dependents(wc.child("unit_dependent"), m["unit_dependent"], c);
@@ -246,11 +212,11 @@ std::shared_ptr<model::Cia404Profile> parse_cia404(const Where& w, const YAML::N
   if (given && !section.IsMap()) fail(w, section, "expected a mapping");
   if (!given || !section["channels"]) {
     Cia404Settings s;
-    if (given) SettingsParser{w, section, s}.parse();
+    if (given) parse_settings(w, section, s);
     return model::Cia404Profile::discover(layout, s);
   }
   Cia404Builder b(layout);
-  SettingsParser{w, section, b.settings()}.parse();
+  parse_settings(w, section, b.settings());
   parse_channels(w.child("channels"), section["channels"], layout, b);
   return b.finish();
 }

@@ -9,12 +9,12 @@
 #include <set>
 #include <sstream>
 
+#include "core/protocol.hpp"
+
 namespace cansim::config {
 
 namespace {
 
-// CiA 301 predefined connection set (§7.3.3, Table 43).
-constexpr std::uint32_t kNmtId = 0x000, kSyncId = 0x080, kEmcyBase = 0x080, kHeartbeatBase = 0x700;
 constexpr std::uint32_t kDbcExtended = 0x80000000u;  // DBC: bit 31 of a BO_ id marks a 29-bit CAN-ID
 constexpr const char* kMaster = "Master";
 
@@ -35,8 +35,8 @@ struct Signal {
   std::string name;
   unsigned start = 0, bits = 0;
   bool is_signed = false;
-  int float_type = 0;  // SIG_VALTYPE_: 1 IEEE float, 2 IEEE double
-  double factor = 1.0;
+  int float_type = 0;                 // SIG_VALTYPE_: 1 IEEE float, 2 IEEE double
+  double factor = 1.0, offset = 0.0;  // physical value = raw x factor + offset
   double min = 0, max = 0;
   std::string unit;
   std::string receiver = kMaster;
@@ -95,8 +95,8 @@ Message pdo_message(const DbcNode& n, const std::string& node_name, const person
   m.name = node_name + "_" + p.name();
   m.dlc = (p.bits + 7u) / 8u;
   m.transmitter = p.transmit ? node_name : kMaster;
-  m.comment = p.name() + " of " + n.label + " (" + n.key + "), transmission type " +
-              std::to_string(p.transmission_type);
+  m.comment =
+      p.name() + " of " + n.label + " (" + n.key + "), transmission type " + std::to_string(p.transmission_type);
   std::set<std::string> taken;
   unsigned start = 0;
   for (const personalities::PdoEntryView& e : p.entries) {
@@ -108,15 +108,21 @@ Message pdo_message(const DbcNode& n, const std::string& node_name, const person
       s.is_signed = is_signed(e.entry->type) || is_real(e.entry->type);
       if (is_real(e.entry->type)) s.float_type = e.bits == 64 ? 2 : 1;
       s.factor = e.meaning.scale;
+      s.offset = e.meaning.offset;
       double lo = 0, hi = 0;
       raw_range(*e.entry, e.bits, lo, hi);
-      s.min = engineering(lo, s.factor);
-      s.max = engineering(hi, s.factor);
+      s.min = engineering(lo, s.factor) + s.offset;
+      s.max = engineering(hi, s.factor) + s.offset;
+      if (s.min > s.max) std::swap(s.min, s.max);
       s.unit = e.meaning.unit;
       s.receiver = p.transmit ? kMaster : node_name;
       char where[16];
       std::snprintf(where, sizeof where, "0x%04X:%02X", e.index, e.sub);
       s.comment = std::string(where) + " " + e.entry->name + " (" + type_name(e.entry->type) + ")";
+      if (e.meaning.counts)
+        s.comment += "; the device sends counts" +
+                     (e.meaning.count_scale != 1.0 ? " (raw x " + number(e.meaning.count_scale) + ")" : "") +
+                     ": factor and offset are its own scaling";
       m.signals.push_back(std::move(s));
     }
     start += e.bits;
@@ -125,35 +131,58 @@ Message pdo_message(const DbcNode& n, const std::string& node_name, const person
 }
 
 Message heartbeat_message(const DbcNode& n, const std::string& node_name) {
-  Message m{kHeartbeatBase + n.node_id, node_name + "_heartbeat", 1, node_name,
-            "heartbeat / boot-up (state 0) of " + n.label + " (node-ID " + hex(n.node_id, 2) + ")", {}};
-  Signal state{"NMT_state", 0, 7, false, 0, 1.0, 0, 127, "", kMaster, "CiA 301 §7.2.8.3.2", {}};
-  state.values = {{0, "boot-up"}, {4, "stopped"}, {5, "operational"}, {127, "pre-operational"}};
+  Message m{cob::kErrorControlBase + n.node_id,
+            node_name + "_heartbeat",
+            1,
+            node_name,
+            "heartbeat / boot-up (state 0) of " + n.label + " (node-ID " + hex(n.node_id, 2) + ")",
+            {}};
+  Signal state{"NMT_state", 0, 7, false, 0, 1.0, 0, 0, 127, "", kMaster, "CiA 301 §7.2.8.3.2", {}};
+  state.values = {{std::int64_t(NmtState::kInitialising), "boot-up"},
+                  {std::int64_t(NmtState::kStopped), "stopped"},
+                  {std::int64_t(NmtState::kOperational), "operational"},
+                  {std::int64_t(NmtState::kPreOperational), "pre-operational"}};
   m.signals.push_back(std::move(state));
-  m.signals.push_back({"toggle", 7, 1, false, 0, 1.0, 0, 1, "", kMaster, "node guarding toggle bit", {}});
+  m.signals.push_back({"toggle", 7, 1, false, 0, 1.0, 0, 0, 1, "", kMaster, "node guarding toggle bit", {}});
   return m;
 }
 
 Message emcy_message(const DbcNode& n, const std::string& node_name) {
-  Message m{kEmcyBase + n.node_id, node_name + "_EMCY", 8, node_name, "EMCY of " + n.label, {}};
-  Signal code{"error_code", 0, 16, false, 0, 1.0, 0, 65535, "", kMaster, "CiA 301 Table 21; the values as the device's manual names them", {}};
+  Message m{cob::kEmcyBase + n.node_id, node_name + "_EMCY", 8, node_name, "EMCY of " + n.label, {}};
+  Signal code{"error_code",
+              0,
+              16,
+              false,
+              0,
+              1.0,
+              0,
+              0,
+              65535,
+              "",
+              kMaster,
+              "CiA 301 Table 21; the values as the device's manual names them",
+              {}};
   code.values.emplace_back(0, "error reset / no error");
   for (const auto& [c, meaning] : n.emcy_codes)
     if (c != 0) code.values.emplace_back(c, meaning);
   m.signals.push_back(std::move(code));
-  m.signals.push_back({"error_register", 16, 8, false, 0, 1.0, 0, 255, "", kMaster, "0x1001", {}});
-  m.signals.push_back({"vendor", 24, 40, false, 0, 1.0, 0, 1099511627775.0, "", kMaster, "manufacturer-specific", {}});
+  m.signals.push_back({"error_register", 16, 8, false, 0, 1.0, 0, 0, 255, "", kMaster, "0x1001", {}});
+  m.signals.push_back(
+      {"vendor", 24, 40, false, 0, 1.0, 0, 0, 1099511627775.0, "", kMaster, "manufacturer-specific", {}});
   return m;
 }
 
 std::vector<Message> bus_messages() {
-  Message nmt{kNmtId, "NMT", 2, kMaster, "NMT node control (CiA 301 §7.2.8.3.1)", {}};
-  Signal command{"command", 0, 8, false, 0, 1.0, 0, 255, "", "", "", {}};
-  command.values = {{1, "start"}, {2, "stop"}, {128, "enter pre-operational"}, {129, "reset node"},
-                    {130, "reset communication"}};
+  Message nmt{cob::kNmt, "NMT", 2, kMaster, "NMT node control (CiA 301 §7.2.8.3.1)", {}};
+  Signal command{"command", 0, 8, false, 0, 1.0, 0, 0, 255, "", "", "", {}};
+  command.values = {{kNmtStart, "start"},
+                    {kNmtStop, "stop"},
+                    {kNmtEnterPreOperational, "enter pre-operational"},
+                    {kNmtResetNode, "reset node"},
+                    {kNmtResetCommunication, "reset communication"}};
   nmt.signals.push_back(std::move(command));
-  nmt.signals.push_back({"node_id", 8, 8, false, 0, 1.0, 0, 127, "", "", "0: all nodes", {}});
-  Message sync{kSyncId, "SYNC", 0, kMaster, "SYNC (CiA 301 §7.2.5)", {}};
+  nmt.signals.push_back({"node_id", 8, 8, false, 0, 1.0, 0, 0, 127, "", "", "0: all nodes", {}});
+  Message sync{cob::kSync, "SYNC", 0, kMaster, "SYNC (CiA 301 §7.2.5)", {}};
   return {std::move(nmt), std::move(sync)};
 }
 
@@ -161,8 +190,8 @@ void write_message(std::ostringstream& out, const Message& m) {
   out << "\nBO_ " << m.id << " " << m.name << ": " << m.dlc << " " << m.transmitter << "\n";
   for (const Signal& s : m.signals) {
     out << " SG_ " << s.name << " : " << s.start << "|" << s.bits << "@1" << (s.is_signed ? "-" : "+") << " ("
-        << number(s.factor) << ",0) [" << number(s.min) << "|" << number(s.max) << "] " << quoted(s.unit) << " "
-        << (s.receiver.empty() ? "Vector__XXX" : s.receiver) << "\n";
+        << number(s.factor) << "," << number(s.offset) << ") [" << number(s.min) << "|" << number(s.max) << "] "
+        << quoted(s.unit) << " " << (s.receiver.empty() ? "Vector__XXX" : s.receiver) << "\n";
   }
 }
 
@@ -184,10 +213,11 @@ std::string write_dbc(const DbcBus& bus) {
   std::vector<Message> messages = bus_messages();
   std::vector<std::string> node_names;
   std::set<std::string> taken_nodes{kMaster};
-  std::set<std::uint32_t> ids{kNmtId, kSyncId};
+  std::set<std::uint32_t> ids{cob::kNmt, cob::kSync};
   std::vector<std::string> skipped;
   auto add = [&](Message m) {
-    if (!ids.insert(m.id).second) return skipped.push_back(m.name + " (CAN-ID " + hex(m.id & ~kDbcExtended, 3) + " taken)");
+    if (!ids.insert(m.id).second)
+      return skipped.push_back(m.name + " (CAN-ID " + hex(m.id & ~kDbcExtended, 3) + " taken)");
     messages.push_back(std::move(m));
   };
   for (const DbcNode& n : bus.nodes) {
@@ -216,8 +246,8 @@ std::string write_dbc(const DbcBus& bus) {
   out << "CM_ BU_ " << kMaster << " \"the CANopen master (NMT, SYNC, RPDOs)\";\n";
   for (std::size_t i = 0; i < bus.nodes.size(); ++i) {
     const DbcNode& n = bus.nodes[i];
-    out << "CM_ BU_ " << node_names[i] << " " << quoted(n.key + ", profile " + n.profile + ", node-ID " + hex(n.node_id, 2))
-        << ";\n";
+    out << "CM_ BU_ " << node_names[i] << " "
+        << quoted(n.key + ", profile " + n.profile + ", node-ID " + hex(n.node_id, 2)) << ";\n";
   }
   for (const Message& m : messages) {
     if (!m.comment.empty()) out << "CM_ BO_ " << m.id << " " << quoted(m.comment) << ";\n";

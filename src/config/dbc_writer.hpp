@@ -24,11 +24,13 @@ struct DbcNode {
   std::string profile;  // profile name
   std::uint8_t node_id = 1;
   std::vector<personalities::PdoView> pdos;
-  std::map<std::uint16_t, std::string> emcy_codes;  // the profile's `emcy:` (the EMCY message's value table)
+  // Every EMCY code the node may send and what it means (the EMCY message's
+  // value table): the profile's `emcy:` and its CiA 301 services' codes.
+  std::map<std::uint16_t, std::string> emcy_codes;
 };
 
 struct DbcBus {
-  std::string name;            // "vcan0"
+  std::string name;  // "vcan0"
   std::uint32_t bit_rate_kbit = 250;
   std::vector<DbcNode> nodes;
 };

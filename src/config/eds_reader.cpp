@@ -2,7 +2,7 @@
 
 #include "config/limits.hpp"
 #include "config/strict_mode.hpp"
-#include "core/cob_id.hpp"
+#include "core/protocol.hpp"
 
 #include <algorithm>
 #include <array>
@@ -38,7 +38,8 @@ std::string_view trimmed(std::string_view s) {
 }
 
 bool is_hex(std::string_view s) {
-  return !s.empty() && std::all_of(s.begin(), s.end(), [](char c) { return std::isxdigit(static_cast<unsigned char>(c)); });
+  return !s.empty() &&
+         std::all_of(s.begin(), s.end(), [](char c) { return std::isxdigit(static_cast<unsigned char>(c)); });
 }
 
 // Control characters of the file as \xNN: a message is one line of text.
@@ -146,7 +147,7 @@ class LineParser {
 
 // ---------------------------------------------------------------- values
 
-// What real masters repair or ignore in a file, one kind each (README,
+// What real masters repair or ignore in a file, one kind each (docs/eds-dbc.md,
 // "Device descriptions": what is tolerated). Each loads with one warning per
 // kind per file naming its first place; `cansimd --strict-eds` refuses them.
 enum class Repair {
@@ -158,6 +159,8 @@ enum class Repair {
   kSubNumber,           // SubNumber other than the [xxxxsubN] sections
   kRealBits,            // a REAL written as its IEEE 754 bits (0x3E6B851F)
   kNodeIdLimit,         // $NODEID in LowLimit / HighLimit
+  kUnknownDataType,     // a manufacturer complex or other non-basic DataType (0x0020-0x025F): an empty DOMAIN
+  kNoSubObjects,        // an ARRAY / RECORD without [xxxxsubN] sections or CompactSubObj: no entries
   kCount
 };
 
@@ -288,7 +291,8 @@ std::vector<std::uint8_t> get_hex_bytes(const Field& f) {
   if (hex.size() >= 2 && hex[0] == '0' && (hex[1] == 'x' || hex[1] == 'X')) hex.erase(0, 2);
   if (hex.size() % 2 || (!hex.empty() && !is_hex(hex))) f.fail("expected hex bytes, e.g. 0A1B2C");
   std::vector<std::uint8_t> out;
-  for (std::size_t i = 0; i < hex.size(); i += 2) out.push_back(std::uint8_t(std::stoul(hex.substr(i, 2), nullptr, 16)));
+  for (std::size_t i = 0; i < hex.size(); i += 2)
+    out.push_back(std::uint8_t(std::stoul(hex.substr(i, 2), nullptr, 16)));
   return out;
 }
 
@@ -353,8 +357,7 @@ void parse_number(const Field& f, DataType t, std::vector<std::uint8_t>& out, bo
     // Halfway above the largest float rounds to infinity (and converting past it is undefined).
     const float top = std::numeric_limits<float>::max();
     const double real32_limit = double(top) + (double(top) - double(std::nextafter(top, 0.0f))) / 2;
-    if (t == DataType::kReal32 && std::fabs(v) >= real32_limit)
-      f.fail("expected a number in the range of REAL32");
+    if (t == DataType::kReal32 && std::fabs(v) >= real32_limit) f.fail("expected a number in the range of REAL32");
     encode_f(t, v, out.data());
     return;
   }
@@ -415,7 +418,8 @@ SectionName classify(const EdsDocument& doc, const EdsSection& s) {
     out.kind = SectionName::kSub;
     out.sub = std::uint8_t(std::stoul(rest.substr(3), nullptr, 16));
   } else {
-    reject(doc.file, s.line, "[" + s.name + "]", "expected an object section [xxxx], [xxxxsubN], [xxxxName] or [xxxxValue]");
+    reject(doc.file, s.line, "[" + s.name + "]",
+           "expected an object section [xxxx], [xxxxsubN], [xxxxName] or [xxxxValue]");
   }
   if (out.index == 0) reject(doc.file, s.line, "[" + s.name + "]", "expected an object index 0x0001..0xFFFF");
   return out;
@@ -503,8 +507,29 @@ class ObjectReader {
       count.tolerate(Repair::kSubNumber,
                      "expected the number of [" + s.name + "subN] sections (" + std::to_string(o.subs.size()) + ")",
                      "the " + std::to_string(o.subs.size()) + " sections are read");
-    if (o.subs.empty()) reject(doc_.file, s.line, "[" + s.name + "]", "expected [" + s.name + "subN] sections or CompactSubObj");
+    if (o.subs.empty()) return no_entries(index, kind, count);
     for (const auto& [sub, section] : o.subs) add(entry(*section, index, std::uint8_t(sub), kind));
+  }
+
+  // An ARRAY or RECORD that lists no sub-object (python-canopen's sample
+  // does): its sub 0, the highest sub-index, is 0.
+  void no_entries(std::uint16_t index, ObjectKind kind, const Field& count) {
+    const std::string& name = count.section->name;
+    count.tolerate(Repair::kNoSubObjects, "expected [" + name + "subN] sections or CompactSubObj",
+                   "read with no entries (sub 0 = 0)");
+    add(sub0(index, kind, Access::kConst, "Highest sub-index supported", 0));
+  }
+
+  // Sub 0 of an ARRAY or RECORD the file does not write: UNSIGNED8 n.
+  static OdEntry sub0(std::uint16_t index, ObjectKind kind, Access access, const char* name, std::uint8_t n) {
+    OdEntry e;
+    e.index = index;
+    e.kind = kind;
+    e.type = DataType::kUnsigned8;
+    e.access = access;
+    e.name = name;
+    e.default_bytes = {n};
+    return e;
   }
 
   // CiA 306 §4.5.2.4 (compact storage): sub 0 holds the number of entries,
@@ -514,15 +539,10 @@ class ObjectReader {
     const EdsSection& s = *o.object;
     if (!o.subs.empty()) {
       const EdsSection& sub = *o.subs.begin()->second;
-      reject(doc_.file, sub.line, "[" + sub.name + "]", "expected no sub-object sections with CompactSubObj in [" + s.name + "]");
+      reject(doc_.file, sub.line, "[" + sub.name + "]",
+             "expected no sub-object sections with CompactSubObj in [" + s.name + "]");
     }
-    OdEntry count;
-    count.index = index;
-    count.kind = kind;
-    count.type = DataType::kUnsigned8;
-    count.access = Access::kRo;
-    count.name = "Number of entries";
-    count.default_bytes = {n};
+    OdEntry count = sub0(index, kind, Access::kRo, "Number of entries", n);
     if (index == 0x1003) {  // CiA 301 §7.5.2.5: the number of errors recorded, 0 at boot, 0 written clears
       count.access = Access::kRw;
       count.default_bytes = {0};
@@ -572,10 +592,7 @@ class ObjectReader {
     if (name) e.name = name.value();
     const Field type = field(src_, s, "DataType");
     if (type.empty()) type.fail("missing required key");
-    const std::int64_t t = get_integer(type, 0, 0xFFFF);
-    if (t > 0x1F || std::string_view(type_name(DataType(t))) == "?")
-      type.fail("expected a CiA 301 basic data type 0x0001..0x001B (BOOLEAN, INTEGERn, UNSIGNEDn, REAL32/64, strings, DOMAIN)");
-    e.type = DataType(t);
+    const bool basic = read_data_type(type, e.type);
     const Field access = field(src_, s, "AccessType");
     if (access.empty()) access.fail("missing required key");
     if (!parse_access(normalized(access.value()), e.access)) access.fail("expected one of ro, wo, rw, rwr, rww, const");
@@ -583,12 +600,34 @@ class ObjectReader {
     e.pdo_mappable = !pdo.empty() && get_flag(pdo);
     const Field flags = field(src_, s, "ObjFlags");
     if (!flags.empty()) get_integer(flags, 0, 0xFFFFFFFF);  // CiA 306 §4.5.2.1: tool hints, no node behaviour
-    value(s, e);
-    limits(s, e);
+    if (basic) {
+      value(s, e);
+      limits(s, e);
+    }
     if (is_variable_size(e.type))
-      e.capacity = std::uint32_t(std::max<std::size_t>(e.default_bytes.size(), e.type == DataType::kDomain ? 4096 : 255));
+      e.capacity =
+          std::uint32_t(std::max<std::size_t>(e.default_bytes.size(), e.type == DataType::kDomain ? 4096 : 255));
     e.persist = persistence_group(e);
     return e;
+  }
+
+  // A CiA 301 basic data type: true. A complex, manufacturer or device
+  // profile type (0x0020-0x025F, CiA 306 §4.6.3), which this reader does not
+  // know (python-canopen's sample has 0x40), is a repair:
+  // an empty DOMAIN, its bytes as a master writes them, its value and limits
+  // (that type's) not read: false.
+  bool read_data_type(const Field& type, DataType& out) {
+    const std::int64_t t = get_integer(type, 0, 0xFFFF);
+    if (t >= 1 && t <= 0x1F && std::string_view(type_name(DataType(t))) != "?") {
+      out = DataType(t);
+      return true;
+    }
+    const char* expected =
+        "expected a CiA 301 basic data type 0x0001..0x001B (BOOLEAN, INTEGERn, UNSIGNEDn, REAL32/64, strings, DOMAIN)";
+    if (t < 0x20 || t > 0x25F) type.fail(expected);
+    type.tolerate(Repair::kUnknownDataType, expected, "read as an empty DOMAIN, its value and limits not read");
+    out = DataType::kDomain;
+    return false;
   }
 
   // A DCF's ParameterValue (the configured value) wins over DefaultValue
@@ -746,16 +785,18 @@ std::optional<std::uint8_t> commissioning(const Source& src, Profile& p) {
   if (const Field id = field(src, *s, "NodeID"); !id.empty()) {
     const std::int64_t v = get_integer(id, 0, 255);
     if (v > 127 && v != 255) id.fail("expected a node-ID 1..127 or 255 (LSS-unconfigured)");
-    if (v == 0) id.tolerate(Repair::kUnsetCommissioning, "expected a node-ID 1..127 or 255 (LSS-unconfigured)",
-                            "taken as not set (node-ID " + std::to_string(p.node_id) + ")");
+    if (v == 0)
+      id.tolerate(Repair::kUnsetCommissioning, "expected a node-ID 1..127 or 255 (LSS-unconfigured)",
+                  "taken as not set (node-ID " + std::to_string(p.node_id) + ")");
     else stated = p.node_id = std::uint8_t(v);
   }
   if (const Field rate = field(src, *s, "Baudrate"); !rate.empty()) {
     const char* expected = "expected a CiA bit rate in kbit/s: 1000, 800, 500, 250, 125, 50, 20 or 10";
     const std::int64_t v = get_integer(rate, 0, 1000);
     if (v != 0 && bit_rate_index(std::uint32_t(v)) < 0) rate.fail(expected);
-    if (v == 0) rate.tolerate(Repair::kUnsetCommissioning, expected,
-                              "taken as not set (" + std::to_string(p.bit_rate_kbit) + " kbit/s)");
+    if (v == 0)
+      rate.tolerate(Repair::kUnsetCommissioning, expected,
+                    "taken as not set (" + std::to_string(p.bit_rate_kbit) + " kbit/s)");
     else p.bit_rate_kbit = std::uint32_t(v);
   }
   return stated;
@@ -845,7 +886,8 @@ Profile profile_from_eds(const EdsDocument& doc, bool strict, bool strict_eds) {
   check_object_lists(src, objects);
   ObjectReader reader(src, *p.layout, file_node_id);
   for (const auto& [index, sections] : objects) reader.object(index, sections);
-  if (p.layout->entries().empty()) throw ConfigError(doc.file + ":1: (top level): expected at least one object section [xxxx]");
+  if (p.layout->entries().empty())
+    throw ConfigError(doc.file + ":1: (top level): expected at least one object section [xxxx]");
   p.layout->finalize();
   // The generic personality with the CiA 404 chain on the file's channels
   // and the default physics: what a YAML profile without `vendor:`,

@@ -29,7 +29,7 @@ struct EdsKey {
 struct EdsSection {
   std::string name;  // as written, without the brackets
   int line = 0;
-  std::string key;   // the name in lower case without blanks
+  std::string key;  // the name in lower case without blanks
   std::vector<EdsKey> keys;
   // Case- and space-insensitive ("lowlimit" finds "Low Limit").
   const EdsKey* find(std::string_view key) const;
@@ -53,7 +53,7 @@ EdsDocument load_eds_file(const std::string& path);
 // file states (LSS support, bit rates, dummy mapping). The only place where an
 // EDS becomes a Profile.
 // `strict`: in strict mode (an EDS has no quirks: its options stay CiA's).
-// What real masters tolerate (README "Device descriptions": a SubNumber or
+// What real masters tolerate (docs/eds-dbc.md: a SubNumber or
 // SupportedObjects that miscounts, a listed object without its section, the
 // default SDO server's COB-IDs other than 600h / 580h + node-ID, NodeID=0 /
 // Baudrate=0 for "not set", a DOMAIN "0", a REAL as IEEE 754 bits, $NODEID

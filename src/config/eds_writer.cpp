@@ -192,8 +192,9 @@ class Writer {
   }
 
   void comments() {
-    std::vector<std::string> lines = {"Simulated by cansimd, profile " + id_.name + ".",
-                                      "Node behaviour beyond this file: the profile's options (README, Profile options)."};
+    std::vector<std::string> lines = {
+        "Simulated by cansimd, profile " + id_.name + ".",
+        "Node behaviour beyond this file: the profile's options (docs/profiles.md, Profile options)."};
     section("Comments");
     key("Lines", lines.size());
     for (std::size_t i = 0; i < lines.size(); ++i) {

@@ -19,11 +19,11 @@ using Profile = model::Profile;
 
 // What the file says about the device besides its object dictionary.
 struct EdsIdentity {
-  std::string file_name;    // [FileInfo] FileName, e.g. "p92c.eds"
-  std::string name;         // profile name ([DeviceInfo] OrderCode)
-  std::string description;  // [FileInfo] Description
+  std::string file_name;              // [FileInfo] FileName, e.g. "p92c.eds"
+  std::string name;                   // profile name ([DeviceInfo] OrderCode)
+  std::string description;            // [FileInfo] Description
   std::uint32_t bit_rate_kbit = 250;  // the profile's own rate (always listed as supported)
-  std::string created;      // "hh:mmAM mm-dd-yyyy"; empty: none written
+  std::string created;                // "hh:mmAM mm-dd-yyyy"; empty: none written
 };
 
 // A DCF: the node's commissioning and its current values.

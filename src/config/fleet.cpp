@@ -7,9 +7,14 @@
 #include "config/vendor_params.hpp"
 #include "core/can_frame.hpp"
 
+#include <arpa/inet.h>
+
 #include <algorithm>
+#include <charconv>
 #include <filesystem>
+#include <functional>
 #include <map>
+#include <optional>
 #include <set>
 #include <unordered_map>
 
@@ -39,18 +44,10 @@ std::string hex2(unsigned v) {
   return buf;
 }
 
-// True when `file` (symbolic links resolved) lies in one of `dirs`.
-bool inside_any(const std::string& file, const std::vector<std::string>& dirs) {
-  std::error_code ec;
-  const fs::path real = fs::canonical(file, ec);
-  if (ec) return false;
-  for (const auto& d : dirs) {
-    const fs::path root = fs::canonical(d, ec);
-    if (ec) continue;
-    const fs::path rel = real.lexically_relative(root);
-    if (!rel.empty() && *rel.begin() != ".." && rel != ".") return true;
-  }
-  return false;
+std::uint64_t mix(std::uint64_t z) {
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
 }
 
 // Loads each profile file once per configuration; variants are copies.
@@ -78,13 +75,15 @@ class ProfileCache {
     if (it != by_path_.end()) return it->second;
     std::shared_ptr<Profile> p;
     try {
-      text_[path] = read_text(path);
-      if (is_device_description(path)) {
+      texts_[path] = read_text(path);
+      const Digest& digest = digests_[path] = Digest{}.add(texts_[path]);
+      if (search_.store) p = search_.store->find(path, digest, search_.strict, search_.strict_eds);
+      if (!p && is_device_description(path))
         p = std::make_shared<Profile>(load_any_profile(path, search_.strict, search_.strict_eds));
-      } else {  // parsed once: the variants of its entries start from copies
-        docs_[path] = load_yaml_text(text_[path], path);
-        p = std::make_shared<Profile>(parse_profile(docs_[path], path, search_.strict));
-      }
+      else if (!p)  // parsed once: the variants of its entries start from copies
+        p = std::make_shared<Profile>(parse_profile(document(path), path, search_.strict));
+      out_.loaded.push_back({path, digest, search_.strict, search_.strict_eds, p});
+      if (search_.store) search_.store->put(out_.loaded.back());
     } catch (const TooLarge&) {
       throw;  // names the file and its size only
     } catch (const ConfigError&) {
@@ -95,9 +94,17 @@ class ProfileCache {
     out_.profiles.push_back(p);
     return p;
   }
-  const std::string& text(const std::string& path) { return text_[path]; }
-  // The profile's YAML document (an empty mapping for an EDS / DCF).
-  const YAML::Node& document(const std::string& path) { return docs_[path]; }
+  // The digest of the profile file's text.
+  const Digest& digest(const std::string& path) { return digests_[path]; }
+  // The profile's YAML document (an empty node for an EDS / DCF), parsed
+  // when first asked for (a profile from the store may need none).
+  const YAML::Node& document(const std::string& path) {
+    auto it = docs_.find(path);
+    if (it != docs_.end()) return it->second;
+    YAML::Node& doc = docs_[path];
+    if (!is_device_description(path)) doc = load_yaml_text(texts_[path], path);
+    return doc;
+  }
   bool strict() const { return search_.strict; }
   void add_variant(std::shared_ptr<Profile> p) { out_.profiles.push_back(std::move(p)); }
 
@@ -106,9 +113,33 @@ class ProfileCache {
   std::string config_dir_;
   FleetConfig& out_;
   std::map<std::string, std::shared_ptr<Profile>> by_path_;
-  std::map<std::string, std::string> text_;
+  std::map<std::string, std::string> texts_;  // for this parse only
+  std::map<std::string, Digest> digests_;
   std::map<std::string, YAML::Node> docs_;
 };
+
+// `transport: socketcand` and its keys (docs/socketcand.md).
+void parse_transport(const Where& wi, const YAML::Node& v, InterfaceConfig& ic) {
+  if (const YAML::Node& t = v["transport"]) {
+    const std::string kind = get_string(wi.child("transport"), t);
+    if (kind == "socketcand") ic.transport = TransportKind::kSocketcand;
+    else if (kind != "socketcan")
+      fail(wi.child("transport"), t, "expected socketcan (a kernel interface) or socketcand");
+  }
+  for (const char* key : {"listen", "allow_remote"})
+    if (v[key] && !ic.socketcand()) fail(wi.child(key), v[key], "expected only with transport: socketcand");
+  if (const YAML::Node& l = v["listen"]) {
+    if (!parse_listen_address(get_string(wi.child("listen"), l), ic.listen_host, ic.listen_port))
+      fail(wi.child("listen"), l,
+           "expected HOST:PORT with a numeric address, e.g. 127.0.0.1:29536 or [::1]:0 (port 0: a free one)");
+  }
+  if (const YAML::Node& a = v["allow_remote"]) ic.allow_remote = get_bool(wi.child("allow_remote"), a);
+  if (ic.socketcand() && !ic.allow_remote && !is_loopback_address(ic.listen_host))
+    fail(wi.child("listen"), v["listen"],
+         "expected a loopback address (127.0.0.1, ::1): the socketcand protocol has no authentication, anyone who "
+         "reaches " +
+             ic.listen_host + " could send frames on this bus; add allow_remote: true to listen there");
+}
 
 void parse_interfaces(const Where& w, const YAML::Node& map, FleetConfig& out) {
   if (!map.IsMap()) fail(w, map, "expected a mapping of interface names to settings, e.g. vcan0: {bit_rate: 250}");
@@ -120,7 +151,7 @@ void parse_interfaces(const Where& w, const YAML::Node& map, FleetConfig& out) {
       fail(wi, kv.first, "expected a network interface name (at most 15 characters)");
     const YAML::Node& v = kv.second;
     if (v.IsDefined() && !v.IsNull()) {
-      check_keys(wi, v, {"bit_rate", "bus_model"});
+      check_keys(wi, v, {"bit_rate", "bus_model", "transport", "listen", "allow_remote"});
       if (v["bit_rate"]) {
         ic.bit_rate_kbit = std::uint32_t(get_int(wi.child("bit_rate"), v["bit_rate"], 1, 1000));
         if (bit_rate_index(ic.bit_rate_kbit) < 0)
@@ -133,6 +164,7 @@ void parse_interfaces(const Where& w, const YAML::Node& map, FleetConfig& out) {
         else if (model == "ideal") ic.bus_model = BusModelChoice::kIdeal;
         else fail(wi.child("bus_model"), m, "expected timed or ideal");
       }
+      parse_transport(wi, v, ic);
     }
     out.interfaces.push_back(ic);
   }
@@ -142,10 +174,13 @@ void parse_interfaces(const Where& w, const YAML::Node& map, FleetConfig& out) {
 // written (the fleet file), then laid over the profile's document: physics
 // channel by channel (gas_volume stands for both), sensor key by key within
 // each channel, faults as a whole list.
-void merge_physics(const Where& w, const YAML::Node& entry, YAML::Node& root) {
+// Returns the entry's process as parsed at its place (its plant terms name
+// the fleet file).
+std::optional<physics::ProcessSpec> merge_physics(const Where& w, const YAML::Node& entry, YAML::Node& root) {
+  std::optional<physics::ProcessSpec> process;
   if (const YAML::Node& e = entry["physics"]) {
-    parse_process(w.child("physics"), e);
-    if (!e.IsMap()) return;
+    process = parse_process(w.child("physics"), e);
+    if (!e.IsMap()) return process;
     if (!root["physics"] || !root["physics"].IsMap()) root["physics"] = YAML::Node(YAML::NodeType::Map);
     YAML::Node physics = root["physics"];
     if (e["gas_volume"]) {
@@ -158,7 +193,7 @@ void merge_physics(const Where& w, const YAML::Node& entry, YAML::Node& root) {
   }
   if (const YAML::Node& e = entry["sensor"]) {
     parse_sensor(w.child("sensor"), e, default_sensor());
-    if (!e.IsMap()) return;
+    if (!e.IsMap()) return process;
     if (!root["sensor"] || !root["sensor"].IsMap()) root["sensor"] = YAML::Node(YAML::NodeType::Map);
     YAML::Node sensor = root["sensor"];
     for (const auto& ch : e) {
@@ -173,6 +208,22 @@ void merge_physics(const Where& w, const YAML::Node& entry, YAML::Node& root) {
     parse_faults(w.child("faults"), e);
     root["faults"] = YAML::Clone(e);
   }
+  return process;
+}
+
+// The plant terms of a channel the entry wrote keep the entry's place (the
+// merged document was parsed again under the profile's name).
+void keep_plant_origins(physics::ProcessSpec& merged, const physics::ProcessSpec& entry, const YAML::Node& physics) {
+  auto fix = [](std::vector<physics::TermSpec>& into, const std::vector<physics::TermSpec>& from) {
+    for (std::size_t i = 0; i < into.size() && i < from.size(); ++i) {
+      auto* a = std::get_if<physics::PlantTermSpec>(&into[i]);
+      const auto* b = std::get_if<physics::PlantTermSpec>(&from[i]);
+      if (a && b) a->origin = b->origin;
+    }
+  };
+  if (!physics.IsMap()) return;
+  if (physics["pressure"]) fix(merged.pressure, entry.pressure);
+  if (physics["temperature"]) fix(merged.temperature, entry.temperature);
 }
 
 // `over`'s keys laid on the mapping `into` (the last of a repeated key wins),
@@ -214,9 +265,10 @@ std::shared_ptr<Profile> make_variant(const Where& w, const YAML::Node& entry, c
     if (!vendor.IsMap()) vendor = YAML::Node(YAML::NodeType::Map);
     merge_keys(vendor, v);
   }
-  merge_physics(w, entry, root);
+  const std::optional<physics::ProcessSpec> entry_process = merge_physics(w, entry, root);
   const VendorLayer over{w.child("vendor"), entry["vendor"]};  // the entry's keys are reported in the fleet file
   parse_personality(*p, root, vendor, entry["vendor"] ? &over : nullptr);
+  if (entry_process) keep_plant_origins(p->physics.process, *entry_process, entry["physics"]);
   return p;
 }
 
@@ -240,7 +292,8 @@ std::optional<std::uint32_t> first_serial(const Profile& profile, int count) {
   return e && e->default_bytes.size() >= 4 ? get_u32(e->default_bytes.data()) : 0;
 }
 
-void parse_node_entry(const Where& w, const YAML::Node& entry, ProfileCache& cache, FleetConfig& out) {
+void parse_node_entry(const Where& w, const YAML::Node& entry, ProfileCache& cache, FleetConfig& out,
+                      const std::string& plants_fingerprint) {
   check_keys(w, entry,
              {"profile", "interface", "node_id", "count", "name", "serial", "bit_rate", "record", "options", "vendor",
               "physics", "sensor", "faults", "strict"});
@@ -287,12 +340,15 @@ void parse_node_entry(const Where& w, const YAML::Node& entry, ProfileCache& cac
     if (record.empty() || record.back() == '/')
       fail(w.child("record"), entry["record"], "expected a CSV file name, e.g. recordings/dps-{id}.csv");
   }
-  if (entry["options"] || entry["vendor"] || entry["physics"] || entry["sensor"] || entry["faults"] || entry["strict"]) {
+  if (entry["options"] || entry["vendor"] || entry["physics"] || entry["sensor"] || entry["faults"] ||
+      entry["strict"]) {
     profile = make_variant(w, entry, *profile, cache.document(path), cache.strict());
     cache.add_variant(profile);
   }
   if (!serial) serial = first_serial(*profile, count);
-  const std::string fingerprint_base = cache.text(path) + "\n---\n" + YAML::Dump(entry);
+  // A node that reads a plant restarts when the plants change.
+  Digest fingerprint_base = Digest(cache.digest(path)).add("\n---\n").add(YAML::Dump(entry));
+  if (reads_plant(*profile)) fingerprint_base.add("\n--- plants\n").add(plants_fingerprint);
   // Appended piece by piece: GCC 12 -O3 reports a false -Wrestrict for a
   // chain of std::string operator+ here (as in name += '-' above).
   std::string origin = w.file;
@@ -315,7 +371,7 @@ void parse_node_entry(const Where& w, const YAML::Node& entry, ProfileCache& cac
     if (serial) n.serial = *serial + std::uint32_t(i);
     if (!record.empty()) n.record_file = record_file_name(record, n.node_id, count > 1);
     n.profile = profile;
-    n.fingerprint = fingerprint_base + "\nindex " + std::to_string(i);
+    n.fingerprint = Digest(fingerprint_base).add("\nindex ").add(std::to_string(i));
     n.origin = origin;
     out.nodes.push_back(std::move(n));
   }
@@ -361,6 +417,13 @@ void declare_entry_interfaces(YAML::Node root, const std::string& file, const Fl
       if (ic->bit_rate_kbit) setting["bit_rate"] = ic->bit_rate_kbit;
       if (ic->bus_model != BusModelChoice::kAuto)
         setting["bus_model"] = ic->bus_model == BusModelChoice::kTimed ? "timed" : "ideal";
+      if (ic->socketcand()) {
+        setting["transport"] = "socketcand";
+        setting["listen"] = ic->listen_host + ":" + std::to_string(ic->listen_port);
+        if (ic->listen_host.find(':') != std::string::npos)
+          setting["listen"] = "[" + ic->listen_host + "]:" + std::to_string(ic->listen_port);
+        setting["allow_remote"] = ic->allow_remote;
+      }
     }
     ifaces[name] = setting;
   }
@@ -370,10 +433,14 @@ void declare_entry_interfaces(YAML::Node root, const std::string& file, const Fl
 // `interfaces:` may be left out: then it is every interface the nodes name,
 // at its default rate. Where it is given, a node's interface must be in it
 // (a misspelt name is an error, not a new bus).
-FleetConfig parse_root(const YAML::Node& root, const std::string& file, const ProfileSearch& search) {
+FleetConfig parse_root(const YAML::Node& root, const std::string& file, const ProfileSearch& search,
+                       const PlantsConfig* running_plants = nullptr) {
   Where w{file, ""};
   if (!root.IsMap()) fail(w, root, "expected a mapping with 'nodes:' (and 'interfaces:')");
-  check_keys(w, root, {"seed", "interfaces", "nodes"});
+  check_keys(w, root, {"seed", "interfaces", "nodes", "plants"});
+  if (running_plants && root["plants"])
+    fail(w.child("plants"), root["plants"],
+         "plants are defined in the configuration file only (a node added may read them)");
   // The node list first: without `interfaces:` the interfaces come from it.
   if (!root["nodes"]) fail(w.child("nodes"), root, "missing required key 'nodes'");
   const YAML::Node& list = root["nodes"];
@@ -384,27 +451,87 @@ FleetConfig parse_root(const YAML::Node& root, const std::string& file, const Pr
   out.file = file;
   if (root["seed"]) out.seed = get_uint(w.child("seed"), root["seed"]);
   parse_interfaces(w.child("interfaces"), root["interfaces"], out);
+  out.plants = running_plants ? *running_plants : parse_plants(w.child("plants"), root["plants"]);
   std::string dir = fs::path(file).parent_path().string();
   ProfileCache cache(search, dir.empty() ? "." : dir, out);
   std::vector<std::size_t> entry_of;
   for (std::size_t i = 0; i < list.size(); ++i) {
-    parse_node_entry(wn.item(i), list[i], cache, out);
+    parse_node_entry(wn.item(i), list[i], cache, out, out.plants.fingerprint);
     entry_of.resize(out.nodes.size(), i);
   }
   check_collisions(wn, list, out, entry_of);
+  check_plants(out, /*bindings=*/running_plants == nullptr);
+  if (running_plants) out.plants = PlantsConfig{};  // the running fleet's, not the fragment's
   return out;
 }
 
 }  // namespace
 
+bool reads_plant(const Profile& profile) {
+  const physics::ProcessSpec& p = profile.physics.process;
+  auto plant = [](const physics::TermSpec& t) { return std::holds_alternative<physics::PlantTermSpec>(t); };
+  return std::any_of(p.pressure.begin(), p.pressure.end(), plant) ||
+         std::any_of(p.temperature.begin(), p.temperature.end(), plant);
+}
+
 Profile load_any_profile(const std::string& path, bool strict, bool strict_eds) {
   return is_device_description(path) ? load_eds_profile(path, strict, strict_eds) : load_profile(path, strict);
+}
+
+bool is_loopback_address(const std::string& host) {
+  in_addr v4{};
+  if (inet_pton(AF_INET, host.c_str(), &v4) == 1) return (ntohl(v4.s_addr) >> 24) == 127;
+  in6_addr v6{};
+  if (inet_pton(AF_INET6, host.c_str(), &v6) != 1) return false;
+  return IN6_IS_ADDR_LOOPBACK(&v6) || (IN6_IS_ADDR_V4MAPPED(&v6) && v6.s6_addr[12] == 127);
+}
+
+bool parse_listen_address(const std::string& text, std::string& host, std::uint16_t& port) {
+  std::string h = text, p;
+  if (!text.empty() && text.front() == '[') {  // [IPv6]:PORT
+    const std::size_t close = text.find(']');
+    if (close == std::string::npos) return false;
+    h = text.substr(1, close - 1);
+    if (close + 1 < text.size()) {
+      if (text[close + 1] != ':') return false;
+      p = text.substr(close + 2);
+      if (p.empty()) return false;
+    }
+  } else if (const std::size_t colon = text.rfind(':');
+             colon != std::string::npos && text.find(':') == colon) {  // one colon: IPv4:PORT
+    h = text.substr(0, colon);
+    p = text.substr(colon + 1);
+    if (p.empty()) return false;
+  }
+  unsigned char probe[sizeof(in6_addr)];
+  if (inet_pton(AF_INET, h.c_str(), probe) != 1 && inet_pton(AF_INET6, h.c_str(), probe) != 1) return false;
+  std::uint32_t value = kSocketcandDefaultPort;
+  if (!p.empty()) {
+    auto [end, ec] = std::from_chars(p.data(), p.data() + p.size(), value);
+    if (ec != std::errc{} || end != p.data() + p.size() || value > 65535) return false;
+  }
+  host = h;
+  port = std::uint16_t(value);
+  return true;
 }
 
 const InterfaceConfig* FleetConfig::interface(const std::string& name) const {
   for (const auto& i : interfaces)
     if (i.name == name) return &i;
   return nullptr;
+}
+
+// Two independent hashes of each piece: libstdc++'s (MurmurHash64A) and
+// FNV-1a, each chained through a finalizer with the piece's length.
+Digest& Digest::add(std::string_view text) {
+  std::uint64_t fnv = 0xCBF29CE484222325ull;
+  for (char c : text) {
+    fnv ^= static_cast<unsigned char>(c);
+    fnv *= 0x100000001B3ull;
+  }
+  a = mix(a * 0x9E3779B97F4A7C15ull + std::hash<std::string_view>{}(text) + text.size());
+  b = mix((b ^ fnv) * 0xD6E8FEB86659FD93ull + text.size());
+  return *this;
 }
 
 ProfileSearch default_search(const std::string& config_file, const std::string& installed_dir) {
@@ -443,6 +570,12 @@ FleetConfig parse_fleet(const std::string& text, const std::string& file, const 
 
 FleetConfig parse_fleet_fragment(const std::string& text, const std::string& file, const ProfileSearch& search,
                                  const FleetConfig& running) {
+  return parse_fleet_fragment(text, file, search, running.interfaces, running.nodes.size(), running.plants);
+}
+
+FleetConfig parse_fleet_fragment(const std::string& text, const std::string& file, const ProfileSearch& search,
+                                 const std::vector<InterfaceConfig>& running_interfaces, std::size_t running_nodes,
+                                 const PlantsConfig& running_plants) {
   const YAML::Node given = load_yaml_text(text, file);
   // The fragment's own nodes keep their marks, so errors point into `text`.
   YAML::Node root(YAML::NodeType::Map);
@@ -451,7 +584,8 @@ FleetConfig parse_fleet_fragment(const std::string& text, const std::string& fil
   } else if (given.IsMap() || given.IsSequence()) {
     YAML::Node list(YAML::NodeType::Sequence);
     if (given.IsMap()) list.push_back(given);
-    else for (const auto& e : given) list.push_back(e);
+    else
+      for (const auto& e : given) list.push_back(e);
     root["nodes"] = list;
   } else {
     fail(Where{file, ""}, given, "expected a node entry, a list of node entries or a fleet document");
@@ -460,52 +594,101 @@ FleetConfig parse_fleet_fragment(const std::string& text, const std::string& fil
   const Where nodes{file, "nodes"};
   const YAML::Node list = given.IsMap() && given["nodes"] ? given["nodes"] : given;
   if (root["nodes"].IsSequence() && root["nodes"].size() > limits::kAddNodesEntries)
-    fail_too_large(nodes, list, std::to_string(root["nodes"].size()) + " node entries; expected at most " +
-                                    std::to_string(limits::kAddNodesEntries) + " in one call");
+    fail_too_large(nodes, list,
+                   std::to_string(root["nodes"].size()) + " node entries; expected at most " +
+                       std::to_string(limits::kAddNodesEntries) + " in one call");
+  FleetConfig running;  // only its interfaces: their settings for the entries that do not declare them
+  running.interfaces = running_interfaces;
   declare_entry_interfaces(root, file, running);
-  FleetConfig out = parse_root(root, file, search);
+  std::optional<ConfinedFiles> tables;  // a client's `csv:` tables, as its profiles
+  if (!search.confined_to.empty()) tables.emplace(search.confined_to);
+  FleetConfig out = parse_root(root, file, search, &running_plants);
   if (out.nodes.size() > limits::kAddNodesNodes)
-    fail_too_large(nodes, list, std::to_string(out.nodes.size()) + " nodes; expected at most " +
-                                    std::to_string(limits::kAddNodesNodes) + " in one call");
-  if (running.nodes.size() + out.nodes.size() > limits::kFleetNodes)
-    fail_too_large(nodes, list, std::to_string(out.nodes.size()) + " more nodes would make the fleet " +
-                                    std::to_string(running.nodes.size() + out.nodes.size()) + "; expected at most " +
-                                    std::to_string(limits::kFleetNodes));
+    fail_too_large(nodes, list,
+                   std::to_string(out.nodes.size()) + " nodes; expected at most " +
+                       std::to_string(limits::kAddNodesNodes) + " in one call");
+  if (running_nodes + out.nodes.size() > limits::kFleetNodes)
+    fail_too_large(nodes, list,
+                   std::to_string(out.nodes.size()) + " more nodes would make the fleet " +
+                       std::to_string(running_nodes + out.nodes.size()) + "; expected at most " +
+                       std::to_string(limits::kFleetNodes));
   return out;
 }
 
-void merge_fleet(FleetConfig& into, const FleetConfig& extra) {
-  std::set<std::string> keys;
+std::shared_ptr<Profile> ProfileStore::find(const std::string& path, const Digest& text, bool strict,
+                                            bool strict_eds) const {
+  auto it = by_path_.find(path);
+  if (it == by_path_.end()) return nullptr;
+  for (const Entry& e : it->second)
+    if (e.text == text && e.strict == strict && e.strict_eds == strict_eds)
+      if (auto p = e.profile.lock()) return p;
+  return nullptr;
+}
+
+void ProfileStore::put(const LoadedProfile& p) {
+  std::vector<Entry>& entries = by_path_[p.path];
+  std::erase_if(entries, [&](const Entry& e) {
+    return e.profile.expired() || (e.text == p.text && e.strict == p.strict && e.strict_eds == p.strict_eds);
+  });
+  entries.push_back({p.text, p.strict, p.strict_eds, p.profile});
+}
+
+void NodeIndex::insert(const NodeConfig& n) {
+  keys_.insert(n.key);
+  if (n.node_id != 255) ids_[{n.interface, n.node_id}] = n.key;
+}
+
+void NodeIndex::erase(const NodeConfig& n) {
+  keys_.erase(n.key);
+  if (n.node_id == 255) return;
+  auto it = ids_.find({n.interface, n.node_id});
+  if (it != ids_.end() && it->second == n.key) ids_.erase(it);
+}
+
+void NodeIndex::clear() {
+  keys_.clear();
+  ids_.clear();
+}
+
+void NodeIndex::check(const FleetConfig& extra) const {
+  std::unordered_set<std::string> keys;  // extra's own, so far
   std::map<std::pair<std::string, int>, std::string> ids;
-  for (const NodeConfig& n : into.nodes) {
-    keys.insert(n.key);
-    if (n.node_id != 255) ids[{n.interface, n.node_id}] = n.key;
-  }
   for (const NodeConfig& n : extra.nodes) {
     // "<file>:<line>:<column>: nodes[i]" of the entry (just the file for nodes not from a fleet entry).
     const std::string at = n.origin.empty() ? extra.file + ": " + n.key : n.origin;
-    if (keys.count(n.key))
+    if (keys_.count(n.key) || keys.count(n.key))
       throw ConfigError(at + ".name: node " + n.key + " already exists; expected a new name");
+    keys.insert(n.key);
     if (n.node_id == 255) continue;
-    auto it = ids.find({n.interface, n.node_id});
-    if (it != ids.end())
+    const std::pair<std::string, int> id{n.interface, n.node_id};
+    auto it = ids_.find(id);
+    const std::string* owner = it != ids_.end() ? &it->second : nullptr;
+    if (auto own = ids.find(id); !owner && own != ids.end()) owner = &own->second;
+    if (owner)
       throw ConfigError(at + ".node_id: node " + n.key + ": node-ID " + std::to_string(n.node_id) + " (" +
-                        hex2(n.node_id) + ") is already used on " + n.interface + " by " + it->second +
+                        hex2(n.node_id) + ") is already used on " + n.interface + " by " + *owner +
                         "; expected a free node-ID");
-    ids[{n.interface, n.node_id}] = n.key;
+    ids[id] = n.key;
   }
+}
+
+void merge_fleet(FleetConfig& into, const FleetConfig& extra) {
+  NodeIndex index;
+  for (const NodeConfig& n : into.nodes) index.insert(n);
+  index.check(extra);
   for (const InterfaceConfig& ic : extra.interfaces)
     if (!into.interface(ic.name)) into.interfaces.push_back(ic);
   into.nodes.insert(into.nodes.end(), extra.nodes.begin(), extra.nodes.end());
   into.profiles.insert(into.profiles.end(), extra.profiles.begin(), extra.profiles.end());
+  into.loaded.insert(into.loaded.end(), extra.loaded.begin(), extra.loaded.end());
 }
 
 FleetConfig load_fleet(const std::string& path, const ProfileSearch& search) {
   return parse_root(load_yaml_file(path), path, search);
 }
 
-FleetConfig single_node_fleet(const std::string& profile_ref, const std::string& interface,
-                              std::optional<int> node_id, const ProfileSearch& search) {
+FleetConfig single_node_fleet(const std::string& profile_ref, const std::string& interface, std::optional<int> node_id,
+                              const ProfileSearch& search) {
   std::string path = find_profile(profile_ref, ".", search);
   if (path.empty()) throw ConfigError(profile_ref + ": profile not found (expected a file or a profile name)");
   FleetConfig out;
@@ -523,8 +706,9 @@ FleetConfig single_node_fleet(const std::string& profile_ref, const std::string&
   n.node_id = std::uint8_t(node_id ? *node_id : profile->node_id);
   n.bit_rate_kbit = profile->bit_rate_kbit;
   n.profile = profile;
-  n.fingerprint = read_text(path);
+  n.fingerprint = Digest{}.add(read_text(path));
   out.nodes.push_back(std::move(n));
+  check_plants(out);  // a profile that reads a plant needs a fleet that has it
   return out;
 }
 
@@ -538,7 +722,7 @@ void apply_record_option(FleetConfig& fleet, const std::string& path, bool singl
       std::replace(file.begin(), file.end(), '/', '-');
       n.record_file = (fs::path(path) / (file + ".csv")).string();
     }
-    n.fingerprint += "\nrecord " + n.record_file;
+    n.fingerprint.add("\nrecord ").add(n.record_file);
   }
 }
 

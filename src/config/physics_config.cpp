@@ -33,8 +33,7 @@ struct Scale {
   const char* name;
   double factor;
 };
-constexpr Scale kTimeUnits[] = {{"s", 1.0}, {"ms", 1e-3}, {"us", 1e-6}, {"µs", 1e-6},
-                                {"min", 60.0}, {"h", 3600.0}};
+constexpr Scale kTimeUnits[] = {{"s", 1.0}, {"ms", 1e-3}, {"us", 1e-6}, {"µs", 1e-6}, {"min", 60.0}, {"h", 3600.0}};
 constexpr Scale kFrequencyUnits[] = {{"Hz", 1.0}, {"kHz", 1e3}, {"rpm", 1.0 / 60.0}};
 
 const char* expected_units(Dim dim) {
@@ -45,6 +44,14 @@ const char* expected_units(Dim dim) {
     case Dim::kTime: return "a time like '10 ms' (s, ms, us, min, h)";
     case Dim::kFrequency: return "a frequency like '1 kHz' (Hz, kHz, rpm)";
     case Dim::kNumber: return "a number (or '<n> %')";
+    case Dim::kMassFlow:
+      return "a mass flow like '2 g/s' (kg/s, g/s, kg/min, g/min, kg/h, Nl/min, Nm3/h; l/min, m3/h of a liquid)";
+    case Dim::kMass: return "a mass like '5 g' (kg, g)";
+    case Dim::kPower: return "a power like '200 W' (W, kW, mW)";
+    case Dim::kVolume: return "a volume like '2 l' (m3, l, dm3, ml, cm3)";
+    case Dim::kArea: return "an area like '3 mm2' (m2, cm2, mm2)";
+    case Dim::kLength: return "a length like '2 mm' (m, cm, mm)";
+    case Dim::kDensity: return "a density like '870 kg/m3' (kg/m3, g/l)";
   }
   return "a quantity";
 }
@@ -59,7 +66,19 @@ bool scaled(const Scale* table, std::size_t n, const std::string& unit, double v
   return false;
 }
 
-bool convert_quantity(double v, const std::string& unit, Dim dim, double& out) {
+QuantityKind plant_kind(Dim dim) {
+  switch (dim) {
+    case Dim::kMassFlow: return QuantityKind::kMassFlow;
+    case Dim::kMass: return QuantityKind::kMass;
+    case Dim::kPower: return QuantityKind::kPower;
+    case Dim::kVolume: return QuantityKind::kVolume;
+    case Dim::kArea: return QuantityKind::kArea;
+    case Dim::kLength: return QuantityKind::kLength;
+    default: return QuantityKind::kDensity;
+  }
+}
+
+bool convert_quantity(double v, const std::string& unit, Dim dim, double& out, const Medium* medium = nullptr) {
   if (unit.empty()) {  // bare number: SI
     out = v;
     return true;
@@ -79,6 +98,12 @@ bool convert_quantity(double v, const std::string& unit, Dim dim, double& out) {
     case Dim::kNumber:
       if (unit == "%") return out = v / 100.0, true;
       return false;
+    default: {
+      static const Medium kAir;
+      const std::optional<Unit> u = find_unit(unit, medium ? *medium : kAir);
+      if (!u || u->kind != plant_kind(dim)) return false;
+      return out = from_unit(v, *u), true;
+    }
   }
   return false;
 }
@@ -89,10 +114,11 @@ bool convert_quantity(double v, const std::string& unit, Dim dim, double& out) {
 struct ChannelDims {
   Dim level;
   Dim delta;
+  const Medium* medium = nullptr;
 };
 
-double q(const Where& w, const YAML::Node& map, const char* key, Dim dim, double def) {
-  return map[key] ? get_quantity(w.child(key), map[key], dim) : def;
+double q(const Where& w, const YAML::Node& map, const char* key, Dim dim, double def, const Medium* medium = nullptr) {
+  return map[key] ? get_quantity(w.child(key), map[key], dim, medium) : def;
 }
 double num(const Where& w, const YAML::Node& map, const char* key, double def) {
   return q(w, map, key, Dim::kNumber, def);
@@ -112,7 +138,8 @@ TableSpec parse_table(const Where& w, const YAML::Node& m, Dim value_dim, const 
     for (std::size_t i = 0; i < pts.size(); ++i) {
       Where wi = w.child("points").item(i);
       if (!pts[i].IsSequence() || pts[i].size() != 2) fail(wi, pts[i], "expected a [time, value] pair");
-      t.points.push_back({get_quantity(wi.item(0), pts[i][0], Dim::kTime), get_quantity(wi.item(1), pts[i][1], value_dim)});
+      t.points.push_back(
+          {get_quantity(wi.item(0), pts[i][0], Dim::kTime), get_quantity(wi.item(1), pts[i][1], value_dim)});
     }
   } else if (m["csv"]) {
     std::string path = get_string(w.child("csv"), m["csv"]);
@@ -123,7 +150,8 @@ TableSpec parse_table(const Where& w, const YAML::Node& m, Dim value_dim, const 
     double time_scale = 1.0, value_scale = 1.0, value_offset = 0.0;
     if (m["time_unit"]) {
       std::string u = get_string(w.child("time_unit"), m["time_unit"]);
-      if (!scaled(kTimeUnits, std::size(kTimeUnits), u, 1.0, time_scale)) fail(w.child("time_unit"), m["time_unit"], expected_units(Dim::kTime));
+      if (!scaled(kTimeUnits, std::size(kTimeUnits), u, 1.0, time_scale))
+        fail(w.child("time_unit"), m["time_unit"], expected_units(Dim::kTime));
     }
     if (m["value_unit"]) {
       std::string u = get_string(w.child("value_unit"), m["value_unit"]);
@@ -132,6 +160,13 @@ TableSpec parse_table(const Where& w, const YAML::Node& m, Dim value_dim, const 
         fail(w.child("value_unit"), m["value_unit"], expected_units(value_dim));
       value_scale = one - zero;
       value_offset = zero;
+    }
+    if (const std::vector<std::string>* folders = ConfinedFiles::current(); folders && !inside_any(path, *folders)) {
+      std::string dirs;
+      for (const auto& d : *folders) dirs += (dirs.empty() ? "" : ", ") + d;
+      fail(w.child("csv"), m["csv"],
+           "cannot load table: expected a file in the profile folders (" + (dirs.empty() ? std::string("none") : dirs) +
+               ")");
     }
     std::string error, text;
     try {
@@ -153,7 +188,8 @@ TableSpec parse_table(const Where& w, const YAML::Node& m, Dim value_dim, const 
   if (m["loop"]) t.loop = get_bool(w.child("loop"), m["loop"]);
   t.period_s = q(w, m, "period", Dim::kTime, 0.0);
   for (std::size_t i = 1; i < t.points.size(); ++i)
-    if (t.points[i].t_s < t.points[i - 1].t_s) fail(w.child("points").item(i), m["points"] ? m["points"][i] : m, "expected non-decreasing times");
+    if (t.points[i].t_s < t.points[i - 1].t_s)
+      fail(w.child("points").item(i), m["points"] ? m["points"][i] : m, "expected non-decreasing times");
   return t;
 }
 
@@ -177,7 +213,7 @@ struct TermArgs {
     if (!m.IsMap()) fail(w, m, "expected a mapping of " + kind + " parameters");
     check_keys(w, m, keys);
   }
-  double q(const char* key, Dim dim, double def) const { return config::q(w, m, key, dim, def); }
+  double q(const char* key, Dim dim, double def) const { return config::q(w, m, key, dim, def, d.medium); }
   TableSpec setpoint() const {
     if (!m["setpoint"]) fail(w.child("setpoint"), m, "missing required key 'setpoint'");
     return parse_setpoint(w.child("setpoint"), m["setpoint"], d.level, file);
@@ -185,7 +221,7 @@ struct TermArgs {
 };
 
 TermSpec constant_term(const TermArgs& a) {
-  if (a.m.IsScalar()) return ConstantSpec{get_quantity(a.w, a.m, a.d.level)};
+  if (a.m.IsScalar()) return ConstantSpec{get_quantity(a.w, a.m, a.d.level, a.d.medium)};
   a.need_map({"value"});
   return ConstantSpec{a.q("value", a.d.level, 0.0)};
 }
@@ -217,9 +253,8 @@ TermSpec sine_term(const TermArgs& a) {
 
 TermSpec pulse_term(const TermArgs& a) {
   a.need_map({"low", "high", "period", "duty", "delay", "rise", "fall"});
-  return PulseSpec{a.q("low", a.d.level, 0.0),       a.q("high", a.d.level, 0.0),
-                   a.q("period", Dim::kTime, 1.0), num(a.w, a.m, "duty", 0.5),
-                   a.q("delay", Dim::kTime, 0.0),  a.q("rise", Dim::kTime, 0.0),
+  return PulseSpec{a.q("low", a.d.level, 0.0),  a.q("high", a.d.level, 0.0),   a.q("period", Dim::kTime, 1.0),
+                   num(a.w, a.m, "duty", 0.5),  a.q("delay", Dim::kTime, 0.0), a.q("rise", Dim::kTime, 0.0),
                    a.q("fall", Dim::kTime, 0.0)};
 }
 
@@ -235,7 +270,8 @@ TermSpec pulsation_term(const TermArgs& a) {
     for (std::size_t i = 0; i < hs.size(); ++i) {
       Where wi = w.child("harmonics").item(i);
       check_keys(wi, hs[i], {"order", "amplitude", "phase"});
-      p.harmonics.push_back({num(wi, hs[i], "order", 1.0), q(wi, hs[i], "amplitude", a.d.delta, 0.0), num(wi, hs[i], "phase", 0.0)});
+      p.harmonics.push_back(
+          {num(wi, hs[i], "order", 1.0), q(wi, hs[i], "amplitude", a.d.delta, 0.0), num(wi, hs[i], "phase", 0.0)});
     }
     return p;
   }
@@ -286,19 +322,36 @@ TermSpec gas_law_term(const TermArgs& a) {
                     a.q("reference_temperature", Dim::kTemperature, 293.15)};
 }
 
-TermSpec parse_term(const Where& w, const std::string& kind, const YAML::Node& m, const ChannelDims& d,
-                    bool pressure, const std::string& file) {
-  static const std::pair<const char*, TermSpec (*)(const TermArgs&)> kTerms[] = {
-      {"constant", constant_term},       {"ramp", ramp_term},         {"table", table_term},
-      {"sine", sine_term},               {"pulse", pulse_term},       {"pulsation", pulsation_term},
-      {"first_order", first_order_term}, {"second_order", second_order_term},
-      {"random_walk", random_walk_term}, {"ou", ou_term},             {"drift", ou_term},
-      {"gas_law", gas_law_term}};
+// {plant: PLANT.VARIABLE}: the sensor reads a plant (docs/plants.md).
+TermSpec plant_term(const TermArgs& a) {
+  const std::string ref = get_string(a.w, a.m);
+  const auto dot = ref.find('.');
+  if (dot == std::string::npos || dot == 0 || dot + 1 == ref.size())
+    fail(a.w, a.m, "expected PLANT.VARIABLE, e.g. vessel.pressure");
+  return PlantTermSpec{ref, origin_of(a.w, a.m)};
+}
+
+TermSpec parse_term(const Where& w, const std::string& kind, const YAML::Node& m, const ChannelDims& d, bool pressure,
+                    const std::string& file) {
+  static const std::pair<const char*, TermSpec (*)(const TermArgs&)> kTerms[] = {{"plant", plant_term},
+                                                                                 {"constant", constant_term},
+                                                                                 {"ramp", ramp_term},
+                                                                                 {"table", table_term},
+                                                                                 {"sine", sine_term},
+                                                                                 {"pulse", pulse_term},
+                                                                                 {"pulsation", pulsation_term},
+                                                                                 {"first_order", first_order_term},
+                                                                                 {"second_order", second_order_term},
+                                                                                 {"random_walk", random_walk_term},
+                                                                                 {"ou", ou_term},
+                                                                                 {"drift", ou_term},
+                                                                                 {"gas_law", gas_law_term}};
   for (const auto& [name, parse] : kTerms)
     if (kind == name) return parse(TermArgs{w, kind, m, d, pressure, file});
-  fail(w, m, "unknown process term '" + kind +
-                 "' (expected constant, ramp, table, sine, pulse, pulsation, first_order, second_order, "
-                 "random_walk, ou, gas_law)");
+  fail(w, m,
+       "unknown process term '" + kind +
+           "' (expected constant, ramp, table, sine, pulse, pulsation, first_order, second_order, "
+           "random_walk, ou, gas_law, plant)");
 }
 
 YAML::Node sequence_of(const YAML::Node& item) {
@@ -307,13 +360,13 @@ YAML::Node sequence_of(const YAML::Node& item) {
   return seq;
 }
 
-void parse_channel_terms(const Where& w, const YAML::Node& n, bool pressure, std::vector<TermSpec>& out,
-                         const std::string& file) {
-  const Dim abs_dim = pressure ? Dim::kPressure : Dim::kTemperature;
-  const Dim delta_dim = pressure ? Dim::kPressure : Dim::kTemperatureDelta;
+// A term list (or one term, or a constant) of levels in `level`, later terms
+// in `delta`. `pressure`: a pressure channel (gas_law is allowed).
+void parse_term_list(const Where& w, const YAML::Node& n, const ChannelDims& dims, bool pressure,
+                     std::vector<TermSpec>& out, const std::string& file) {
   out.clear();
   if (n.IsScalar()) {  // "5 bar": a constant
-    out.push_back(ConstantSpec{get_quantity(w, n, abs_dim)});
+    out.push_back(ConstantSpec{get_quantity(w, n, dims.level, dims.medium)});
     return;
   }
   // Not assigned after construction: yaml-cpp's operator= would overwrite the aliased `n`.
@@ -325,9 +378,16 @@ void parse_channel_terms(const Where& w, const YAML::Node& n, bool pressure, std
     if (!item.IsMap() || item.size() != 1) fail(wi, item, "expected one term like '{constant: 5 bar}'");
     auto kv = *item.begin();
     std::string kind = kv.first.Scalar();
-    ChannelDims d{out.empty() ? abs_dim : delta_dim, delta_dim};
+    ChannelDims d{out.empty() ? dims.level : dims.delta, dims.delta, dims.medium};
     out.push_back(parse_term(wi.child(kind), kind, kv.second, d, pressure, file));
   }
+}
+
+void parse_channel_terms(const Where& w, const YAML::Node& n, bool pressure, std::vector<TermSpec>& out,
+                         const std::string& file) {
+  const ChannelDims dims{pressure ? Dim::kPressure : Dim::kTemperature,
+                         pressure ? Dim::kPressure : Dim::kTemperatureDelta};
+  parse_term_list(w, n, dims, pressure, out, file);
 }
 
 // ---------------------------------------------------------------- sensor
@@ -369,8 +429,10 @@ void parse_adc(const Where& w, const YAML::Node& m, ChannelSpec& c) {
     c.adc = AdcSpec::unsigned_bits(unsigned(get_int(w, m, 1, 30)));
     return;
   }
-  check_keys(w, m, {"bits", "headroom", "field_full_scale", "code_at_range_min", "code_at_range_max", "code_min", "code_max"});
-  if (m["bits"]) c.adc = AdcSpec::unsigned_bits(unsigned(get_int(w.child("bits"), m["bits"], 1, 30)), num(w, m, "headroom", 0.0));
+  check_keys(
+      w, m, {"bits", "headroom", "field_full_scale", "code_at_range_min", "code_at_range_max", "code_min", "code_max"});
+  if (m["bits"])
+    c.adc = AdcSpec::unsigned_bits(unsigned(get_int(w.child("bits"), m["bits"], 1, 30)), num(w, m, "headroom", 0.0));
   if (m["field_full_scale"]) c.adc = AdcSpec::int16_field(num(w, m, "field_full_scale", 20000.0));
   c.adc.code_at_range_min = num(w, m, "code_at_range_min", c.adc.code_at_range_min);
   c.adc.code_at_range_max = num(w, m, "code_at_range_max", c.adc.code_at_range_max);
@@ -380,10 +442,12 @@ void parse_adc(const Where& w, const YAML::Node& m, ChannelSpec& c) {
 }
 
 void parse_channel_sensor(const Where& w, const YAML::Node& m, bool pressure, ChannelSpec& c) {
-  check_keys(w, m, {"enabled", "range", "sample_rate", "adc", "output_steps", "noise", "response_time", "filter",
-                    "zero_offset", "span_error", "nonlinearity", "hysteresis", "thermal_zero", "thermal_span",
-                    "reference_temperature", "total_error_band", "compensated_range", "overload",
-                    "overload_safe", "invalid_output", "catch_up_samples"});
+  check_keys(w, m, {"enabled",           "range",        "sample_rate",           "adc",
+                    "output_steps",      "noise",        "response_time",         "filter",
+                    "zero_offset",       "span_error",   "nonlinearity",          "hysteresis",
+                    "thermal_zero",      "thermal_span", "reference_temperature", "total_error_band",
+                    "compensated_range", "overload",     "overload_safe",         "invalid_output",
+                    "catch_up_samples"});
   const Dim abs_dim = pressure ? Dim::kPressure : Dim::kTemperature;
   const Dim delta_dim = pressure ? Dim::kPressure : Dim::kTemperatureDelta;
   if (m["enabled"]) c.enabled = get_bool(w.child("enabled"), m["enabled"]);
@@ -391,7 +455,8 @@ void parse_channel_sensor(const Where& w, const YAML::Node& m, bool pressure, Ch
   c.sample_rate_hz = q(w, m, "sample_rate", Dim::kFrequency, c.sample_rate_hz);
   positive(w.child("sample_rate"), m["sample_rate"], c.sample_rate_hz, "a sample rate");
   if (m["adc"]) parse_adc(w.child("adc"), m["adc"], c);
-  if (m["output_steps"]) c.output_steps = std::uint32_t(get_int(w.child("output_steps"), m["output_steps"], 0, 1 << 30));
+  if (m["output_steps"])
+    c.output_steps = std::uint32_t(get_int(w.child("output_steps"), m["output_steps"], 0, 1 << 30));
   c.noise_rms = q(w, m, "noise", delta_dim, c.noise_rms);
   if (c.noise_rms < 0) fail(w.child("noise"), m["noise"], "expected noise >= 0");
   c.response_time_constant_s = q(w, m, "response_time", Dim::kTime, c.response_time_constant_s);
@@ -402,11 +467,12 @@ void parse_channel_sensor(const Where& w, const YAML::Node& m, bool pressure, Ch
   e.nonlinearity = q(w, m, "nonlinearity", delta_dim, e.nonlinearity);
   e.hysteresis = q(w, m, "hysteresis", delta_dim, e.hysteresis);
   e.thermal_zero_per_k = q(w, m, "thermal_zero", delta_dim, e.thermal_zero_per_k);  // per K
-  e.thermal_span_per_k = num(w, m, "thermal_span", e.thermal_span_per_k);          // per K
+  e.thermal_span_per_k = num(w, m, "thermal_span", e.thermal_span_per_k);           // per K
   e.reference_temperature_k = q(w, m, "reference_temperature", Dim::kTemperature, e.reference_temperature_k);
   e.total_error_band = q(w, m, "total_error_band", delta_dim, e.total_error_band);
   if (m["compensated_range"])
-    parse_range(w.child("compensated_range"), m["compensated_range"], Dim::kTemperature, e.compensated_min_k, e.compensated_max_k);
+    parse_range(w.child("compensated_range"), m["compensated_range"], Dim::kTemperature, e.compensated_min_k,
+                e.compensated_max_k);
   if (m["overload"]) {
     Where wo = w.child("overload");
     const YAML::Node& o = m["overload"];
@@ -431,26 +497,241 @@ void parse_channel_sensor(const Where& w, const YAML::Node& m, bool pressure, Ch
     else if (s == "pass") c.invalid_output = InvalidOutput::PassThrough;
     else fail(w.child("invalid_output"), m["invalid_output"], "expected hold or pass");
   }
-  if (m["catch_up_samples"]) c.catch_up_samples = std::uint32_t(get_int(w.child("catch_up_samples"), m["catch_up_samples"], 0, 1 << 24));
+  if (m["catch_up_samples"])
+    c.catch_up_samples = std::uint32_t(get_int(w.child("catch_up_samples"), m["catch_up_samples"], 0, 1 << 24));
 }
 
 // ---------------------------------------------------------------- faults
 
 // The keys of a `faults:` entry.
 void check_fault_key(const Where& w, const YAML::Node& key) {
-  check_key(w, key, {"kind", "channel", "at", "after", "duration", "period", "count", "value", "drift", "amplitude",
-                     "rate", "noise", "over_temperature", "sdo_delay", "drop_every", "drop_probability", "id"});
+  check_key(w, key,
+            {"kind",
+             "channel",
+             "at",
+             "after",
+             "duration",
+             "period",
+             "count",
+             "value",
+             "drift",
+             "amplitude",
+             "rate",
+             "noise",
+             "over_temperature",
+             "sdo_delay",
+             "drop_every",
+             "drop_probability",
+             "id",
+             "service",
+             "cob_id",
+             "probability",
+             "delay",
+             "jitter",
+             "bytes",
+             "dlc",
+             "duty",
+             "index",
+             "sub",
+             "code",
+             "ppm",
+             "class"});
+}
+
+// ---------------------------------------------------------------- network faults
+
+using physics::ErrorClass;
+using physics::FrameService;
+using physics::NetFaultParams;
+
+// The network keys each network fault kind takes (`period` of error_frames
+// is the error frames' period; of the others the occurrences' repeat).
+struct NetKeys {
+  FaultKind kind;
+  std::initializer_list<const char*> keys;
+};
+const NetKeys kNetKeys[] = {
+    {FaultKind::FrameDrop, {"service", "cob_id", "probability"}},
+    {FaultKind::FrameDelay, {"service", "cob_id", "probability", "delay", "jitter"}},
+    {FaultKind::FrameFreeze, {"service", "cob_id", "probability"}},
+    {FaultKind::FrameCorrupt, {"service", "cob_id", "probability", "bytes", "value"}},
+    {FaultKind::FrameDlc, {"service", "cob_id", "probability", "dlc"}},
+    {FaultKind::FrameDuplicate, {"service", "cob_id", "probability"}},
+    {FaultKind::NodeIdCollision, {}},
+    {FaultKind::Babbling, {"cob_id", "rate", "duty"}},
+    {FaultKind::SdoAbort, {"index", "sub", "code"}},
+    {FaultKind::SdoSilent, {"index", "sub"}},
+    {FaultKind::SdoToggleError, {"probability"}},
+    {FaultKind::ClockDrift, {"ppm"}},
+    {FaultKind::ErrorFrames, {"class", "period"}},
+};
+// Keys no other kind reads with this meaning: refused where they do not belong.
+constexpr const char* kNetOnlyKeys[] = {"service", "cob_id", "probability", "delay", "jitter", "bytes", "dlc",
+                                        "duty",    "index",  "sub",         "code",  "ppm",    "class"};
+
+const NetKeys* net_keys(FaultKind k) {
+  for (const NetKeys& n : kNetKeys)
+    if (n.kind == k) return &n;
+  return nullptr;
+}
+
+bool takes(const NetKeys* n, std::string_view key) {
+  if (!n) return false;
+  for (const char* k : n->keys)
+    if (key == k) return true;
+  return false;
+}
+
+// tpdo1..tpdo512, heartbeat, emcy, sdo, bootup, lss.
+void parse_service(const Where& w, const YAML::Node& n, NetFaultParams& p) {
+  const std::string s = get_string(w, n);
+  static constexpr std::pair<const char*, FrameService> kNames[] = {{"heartbeat", FrameService::Heartbeat},
+                                                                    {"emcy", FrameService::Emcy},
+                                                                    {"sdo", FrameService::Sdo},
+                                                                    {"bootup", FrameService::BootUp},
+                                                                    {"lss", FrameService::Lss}};
+  for (const auto& [name, service] : kNames)
+    if (s == name) {
+      p.service = service;
+      return;
+    }
+  if (s.rfind("tpdo", 0) == 0 && s.size() > 4 && s.size() <= 7 && s[4] != '0' &&
+      s.find_first_not_of("0123456789", 4) == std::string::npos && std::stoi(s.substr(4)) <= 512) {
+    p.service = FrameService::Tpdo;
+    p.tpdo = std::uint16_t(std::stoi(s.substr(4)));
+    return;
+  }
+  fail(w, n, "expected tpdo1..tpdo512, heartbeat, emcy, sdo, bootup or lss");
+}
+
+// Byte positions 0..7: one, or a list.
+std::uint8_t parse_bytes(const Where& w, const YAML::Node& n) {
+  std::uint8_t mask = 0;
+  if (n.IsSequence()) {
+    if (n.size() == 0) fail(w, n, "expected byte positions 0..7");
+    for (std::size_t i = 0; i < n.size(); ++i) mask |= std::uint8_t(1u << get_int(w.item(i), n[i], 0, 7));
+    return mask;
+  }
+  return std::uint8_t(1u << get_int(w, n, 0, 7));
+}
+
+ErrorClass parse_error_class(const Where& w, const YAML::Node& n) {
+  const std::string s = get_string(w, n);
+  static constexpr std::pair<const char*, ErrorClass> kNames[] = {
+      {"warning", ErrorClass::Warning}, {"passive", ErrorClass::Passive},
+      {"bus_off", ErrorClass::BusOff},  {"restarted", ErrorClass::Restarted},
+      {"stuff", ErrorClass::Stuff},     {"form", ErrorClass::Form},
+      {"ack", ErrorClass::Ack}};
+  for (const auto& [name, c] : kNames)
+    if (s == name) return c;
+  fail(w, n, "expected warning, passive, bus_off, restarted, stuff, form or ack");
+}
+
+void require(const Where& w, const YAML::Node& m, const char* key, FaultKind kind) {
+  if (!m[key])
+    fail(w.child(key), m, std::string("missing required key '") + key + "' of " + std::string(to_string(kind)));
+}
+
+// The network keys of `m` for its kind; refuses those of other kinds.
+void parse_net_params(const Where& w, const YAML::Node& m, FaultKind kind, NetFaultParams& p) {
+  const NetKeys* allowed = net_keys(kind);
+  for (const char* key : kNetOnlyKeys)
+    if (m[key] && !takes(allowed, key))
+      fail(w.child(key), m[key], "not a parameter of " + std::string(to_string(kind)));
+  if (!allowed) return;
+  const bool frames = physics::is_frame_fault(kind);
+  if (m["service"] && m["cob_id"]) fail(w.child("cob_id"), m["cob_id"], "expected service or cob_id, not both");
+  if (m["service"]) parse_service(w.child("service"), m["service"], p);
+  if (m["cob_id"]) {
+    p.service = FrameService::CobId;
+    p.cob_id = std::uint32_t(get_int(w.child("cob_id"), m["cob_id"], 0, 0x1FFFFFFF));
+  }
+  if (frames && p.service == FrameService::None)
+    fail(w, m,
+         "missing 'service' (tpdo1..tpdo512, heartbeat, emcy, sdo, bootup, lss) or 'cob_id' of " +
+             std::string(to_string(kind)));
+  if (m["probability"]) {
+    p.probability = get_double(w.child("probability"), m["probability"]);
+    if (!(p.probability > 0 && p.probability <= 1))
+      fail(w.child("probability"), m["probability"], "expected a probability > 0 and <= 1");
+  }
+  switch (kind) {
+    case FaultKind::FrameDelay:
+      require(w, m, "delay", kind);
+      p.delay_us = seconds_to_us(get_quantity(w.child("delay"), m["delay"], Dim::kTime));
+      p.jitter_us = seconds_to_us(q(w, m, "jitter", Dim::kTime, 0.0));
+      if (p.delay_us < 0 || p.jitter_us < 0 || p.delay_us + p.jitter_us == 0)
+        fail(w.child("delay"), m["delay"], "expected delay and jitter >= 0, not both 0");
+      break;
+    case FaultKind::FrameCorrupt:
+      if (m["bytes"]) p.bytes = parse_bytes(w.child("bytes"), m["bytes"]);
+      if (m["value"]) p.value = int(get_int(w.child("value"), m["value"], 0, 255));
+      break;
+    case FaultKind::FrameDlc:
+      require(w, m, "dlc", kind);
+      p.dlc = std::uint8_t(get_int(w.child("dlc"), m["dlc"], 0, 8));
+      break;
+    case FaultKind::Babbling:
+      require(w, m, "cob_id", kind);
+      if (bool(m["rate"]) == bool(m["duty"]))
+        fail(w, m, "expected rate (frames per second) or duty (0..1) of babbling");
+      if (m["rate"]) {
+        p.rate_hz = get_quantity(w.child("rate"), m["rate"], Dim::kFrequency);
+        if (!(p.rate_hz > 0 && p.rate_hz <= 1e6))
+          fail(w.child("rate"), m["rate"], "expected a rate of 1e-6..1e6 frames per second");
+      } else {
+        p.duty = get_double(w.child("duty"), m["duty"]);
+        if (!(p.duty > 0 && p.duty <= 1)) fail(w.child("duty"), m["duty"], "expected a duty cycle > 0 and <= 1");
+      }
+      break;
+    case FaultKind::SdoAbort:
+      require(w, m, "index", kind);
+      require(w, m, "code", kind);
+      p.code = std::uint32_t(get_int(w.child("code"), m["code"], 1, 0xFFFFFFFF));
+      [[fallthrough]];
+    case FaultKind::SdoSilent:
+      if (m["index"]) p.index = std::uint16_t(get_int(w.child("index"), m["index"], 1, 0xFFFF));
+      if (m["sub"] && !m["index"]) fail(w.child("sub"), m["sub"], "a sub-index needs an index");
+      if (m["sub"]) p.sub = int(get_int(w.child("sub"), m["sub"], 0, 255));
+      break;
+    case FaultKind::ClockDrift:
+      require(w, m, "ppm", kind);
+      p.ppm = get_double(w.child("ppm"), m["ppm"]);
+      if (!(p.ppm != 0 && p.ppm > -1e5 && p.ppm < 1e5))
+        fail(w.child("ppm"), m["ppm"], "expected ppm in -1e5..1e5, not 0");
+      break;
+    case FaultKind::ErrorFrames:
+      require(w, m, "class", kind);
+      p.error_class = parse_error_class(w.child("class"), m["class"]);
+      p.error_period_us = seconds_to_us(q(w, m, "period", Dim::kTime, 0.0));
+      if (p.error_period_us < 0 || (m["period"] && p.error_period_us == 0))
+        fail(w.child("period"), m["period"], "expected a period > 0 (omit it: one error frame at the start)");
+      break;
+    default: break;
+  }
 }
 
 FaultChannel parse_fault_channel(const Where& w, const YAML::Node& n) {
-  std::string s = get_string(w, n);
-  if (s == "pressure") return FaultChannel::Pressure;
-  if (s == "temperature") return FaultChannel::Temperature;
-  if (s == "both") return FaultChannel::Both;
+  if (const std::optional<FaultChannel> c = physics::parse_fault_channel(get_string(w, n))) return *c;
   fail(w, n, "expected pressure, temperature or both");
 }
 
 }  // namespace
+
+void parse_fault_timing(const Where& w, const YAML::Node& m, FaultSpec& f) {
+  if (m["at"]) f.timing.at_us = seconds_to_us(get_quantity(w.child("at"), m["at"], Dim::kTime));
+  f.timing.after_us = seconds_to_us(q(w, m, "after", Dim::kTime, 0.0));
+  f.timing.duration_us =
+      m["duration"] ? seconds_to_us(get_quantity(w.child("duration"), m["duration"], Dim::kTime)) : -1;
+  // error_frames' `period` is the error frames' (parse_net_params).
+  if (f.kind != FaultKind::ErrorFrames) f.timing.period_us = seconds_to_us(q(w, m, "period", Dim::kTime, 0.0));
+  if (m["count"]) f.timing.count = std::uint32_t(get_int(w.child("count"), m["count"], 0, UINT32_MAX));
+  if (f.timing.after_us < 0 || f.timing.period_us < 0) fail(w, m, "expected non-negative 'after' and 'period'");
+  // A zero duration is an instant: only a power cycle (an immediate reboot) acts in one.
+  if (f.timing.duration_us == 0 && f.kind != FaultKind::PowerCycle)
+    fail(w.child("duration"), m["duration"], "expected a duration > 0 (omit it: until the end)");
+  if (f.timing.duration_us < -1) fail(w.child("duration"), m["duration"], "expected a duration >= 0");
+}
 
 FaultSpec parse_fault(const Where& w, const YAML::Node& m) {
   if (!m.IsMap()) fail(w, m, "expected a mapping");
@@ -458,27 +739,24 @@ FaultSpec parse_fault(const Where& w, const YAML::Node& m) {
   FaultSpec f;
   if (!m["kind"]) fail(w.child("kind"), m, "missing required key 'kind'");
   auto kind = parse_fault_kind(get_string(w.child("kind"), m["kind"]));
+  if (kind && is_plant_fault(*kind))
+    fail(w.child("kind"), m["kind"],
+         "expected a node fault (leak, blocked, valve_stuck and input_lost are plant faults: under plants: NAME: "
+         "faults:, or armed on the plant)");
   if (!kind)
     fail(w.child("kind"), m["kind"],
          "expected open, short, stuck, drift, spikes, noise_burst, over_temperature, eeprom_error, silent, "
-         "power_cycle, bus_off, heartbeat_stop, slow_sdo or sdo_block_drop");
+         "power_cycle, bus_off, heartbeat_stop, slow_sdo, sdo_block_drop, frame_drop, frame_delay, frame_freeze, "
+         "frame_corrupt, frame_dlc, frame_duplicate, node_id_collision, babbling, sdo_abort, sdo_silent, "
+         "sdo_toggle_error, clock_drift or error_frames");
   f.kind = *kind;
   if (m["channel"]) f.channel = parse_fault_channel(w.child("channel"), m["channel"]);
   const bool temperature = f.channel == FaultChannel::Temperature;
   const Dim abs_dim = temperature ? Dim::kTemperature : Dim::kPressure;
   const Dim delta_dim = temperature ? Dim::kTemperatureDelta : Dim::kPressure;
-  if (m["at"]) f.timing.at_us = seconds_to_us(get_quantity(w.child("at"), m["at"], Dim::kTime));
-  f.timing.after_us = seconds_to_us(q(w, m, "after", Dim::kTime, 0.0));
-  f.timing.duration_us = m["duration"] ? seconds_to_us(get_quantity(w.child("duration"), m["duration"], Dim::kTime)) : -1;
-  f.timing.period_us = seconds_to_us(q(w, m, "period", Dim::kTime, 0.0));
-  if (m["count"]) f.timing.count = std::uint32_t(get_int(w.child("count"), m["count"], 0, UINT32_MAX));
-  if (f.timing.after_us < 0 || f.timing.period_us < 0)
-    fail(w, m, "expected non-negative 'after' and 'period'");
-  // A zero duration is an instant: only a power cycle (an immediate reboot) acts in one.
-  if (f.timing.duration_us == 0 && f.kind != FaultKind::PowerCycle)
-    fail(w.child("duration"), m["duration"], "expected a duration > 0 (omit it: until the end)");
-  if (f.timing.duration_us < -1) fail(w.child("duration"), m["duration"], "expected a duration >= 0");
-  if (m["value"]) f.stuck_value = get_quantity(w.child("value"), m["value"], abs_dim);
+  parse_fault_timing(w, m, f);
+  if (m["value"] && f.kind != FaultKind::FrameCorrupt)
+    f.stuck_value = get_quantity(w.child("value"), m["value"], abs_dim);
   f.drift_per_s = q(w, m, "drift", delta_dim, 0.0);  // per second
   f.spike_amplitude = q(w, m, "amplitude", delta_dim, 0.0);
   f.spike_rate_hz = q(w, m, "rate", Dim::kFrequency, 0.0);
@@ -490,14 +768,28 @@ FaultSpec parse_fault(const Where& w, const YAML::Node& m) {
   if (f.drop_probability < 0 || f.drop_probability > 1)
     fail(w.child("drop_probability"), m["drop_probability"], "expected a probability 0..1");
   if (m["id"]) f.id = std::uint32_t(get_int(w.child("id"), m["id"], 0, UINT32_MAX));
+  parse_net_params(w, m, f.kind, f.net);
   return f;
 }
 
-double get_quantity(const Where& w, const YAML::Node& n, Dim dim) {
+std::vector<TermSpec> parse_terms(const Where& w, const YAML::Node& n, Dim level, Dim delta, const Medium* medium) {
+  std::vector<TermSpec> out;
+  parse_term_list(w, n, ChannelDims{level, delta, medium}, false, out, w.file);
+  return out;
+}
+
+std::string origin_of(const Where& w, const YAML::Node& n) {
+  std::string out = w.file;
+  if (n.IsDefined() && n.Mark().line >= 0)
+    out += ":" + std::to_string(n.Mark().line + 1) + ":" + std::to_string(n.Mark().column + 1);
+  return out + ": " + (w.path.empty() ? "(top level)" : w.path);
+}
+
+double get_quantity(const Where& w, const YAML::Node& n, Dim dim, const Medium* medium) {
   if (!n.IsScalar()) fail(w, n, std::string("expected ") + expected_units(dim));
   double v = 0, out = 0;
   std::string unit;
-  if (!split_number(n.Scalar(), v, unit) || !convert_quantity(v, unit, dim, out) || !std::isfinite(out))
+  if (!split_number(n.Scalar(), v, unit) || !convert_quantity(v, unit, dim, out, medium) || !std::isfinite(out))
     fail(w, n, std::string("expected ") + expected_units(dim));
   // Times become µs in 64 bits: a bound keeps `at: 1e20 s` from wrapping to "now".
   if (dim == Dim::kTime && std::abs(out) > limits::kMaxSeconds)
@@ -540,7 +832,8 @@ ProcessSpec parse_process(const Where& w, const YAML::Node& n) {
     Where wg = w.child("gas_volume");
     const YAML::Node& g = n["gas_volume"];
     check_keys(wg, g, {"pressure", "temperature", "ambient", "time_constant"});
-    if (n["pressure"] || n["temperature"]) fail(wg, g, "gas_volume defines both channels; remove 'pressure' and 'temperature'");
+    if (n["pressure"] || n["temperature"])
+      fail(wg, g, "gas_volume defines both channels; remove 'pressure' and 'temperature'");
     GasVolumeSpec gv;
     gv.initial_pressure_pa = q(wg, g, "pressure", Dim::kPressure, gv.initial_pressure_pa);
     gv.initial_temperature_k = q(wg, g, "temperature", Dim::kTemperature, gv.initial_temperature_k);

@@ -11,6 +11,7 @@
 #include "config/profile.hpp"
 #include "config/yaml_util.hpp"
 #include "physics/fault.hpp"
+#include "physics/plant_units.hpp"
 #include "physics/process.hpp"
 #include "physics/sensor.hpp"
 
@@ -18,16 +19,24 @@ namespace cansim::config {
 
 // What a YAML quantity measures; decides the accepted units.
 enum class Dim : std::uint8_t {
-  kPressure,         // Pa, bar, psi, ...
-  kTemperature,      // absolute: degC, degF, K
-  kTemperatureDelta, // difference: K, degC (= K), degF (= 5/9 K)
-  kTime,             // s, ms, us, min, h
-  kFrequency,        // Hz, kHz, rpm
-  kNumber,           // plain number, or "<n> %" (= n / 100)
+  kPressure,          // Pa, bar, psi, ...
+  kTemperature,       // absolute: degC, degF, K
+  kTemperatureDelta,  // difference: K, degC (= K), degF (= 5/9 K)
+  kTime,              // s, ms, us, min, h
+  kFrequency,         // Hz, kHz, rpm
+  kNumber,            // plain number, or "<n> %" (= n / 100)
+  // plant quantities (physics/plant_units.hpp; volumetric flows in the plant's medium)
+  kMassFlow,  // kg/s, g/s, kg/h, Nl/min (gas), l/min (liquid), ...
+  kMass,      // kg, g
+  kPower,     // W, kW
+  kVolume,    // m3, l, ml, cm3
+  kArea,      // m2, cm2, mm2
+  kLength,    // m, cm, mm
+  kDensity,   // kg/m3, g/l
 };
 
-// Parses one quantity into SI.
-double get_quantity(const Where& w, const YAML::Node& n, Dim dim);
+// Parses one quantity into SI. `medium` (null: air) converts volumetric flows.
+double get_quantity(const Where& w, const YAML::Node& n, Dim dim, const physics::Medium* medium = nullptr);
 
 using model::PhysicsConfig;
 
@@ -44,8 +53,19 @@ std::vector<physics::TermSpec> parse_channel_model(const Where& w, const YAML::N
 // `base` supplies every value a channel map does not set.
 physics::SensorSpec parse_sensor(const Where& w, const YAML::Node& sensor, const physics::SensorSpec& base);
 std::vector<physics::FaultSpec> parse_faults(const Where& w, const YAML::Node& faults);
-// One entry of `faults:` (a mapping with `kind` and its keys).
+// One entry of `faults:` (a mapping with `kind` and its keys). Plant kinds
+// (leak, blocked, valve_stuck, input_lost) are refused: they go on a plant.
 physics::FaultSpec parse_fault(const Where& w, const YAML::Node& fault);
+// The scheduling keys of a fault entry (at, after, duration, period, count)
+// into `f.timing` (f.kind set: a zero duration is only a power cycle's).
+void parse_fault_timing(const Where& w, const YAML::Node& m, physics::FaultSpec& f);
+// A list of process terms as a channel's `physics:` takes it, in `level`
+// (first term) and `delta` (the others) with `medium` for flows: a plant's
+// time input (docs/plants.md).
+std::vector<physics::TermSpec> parse_terms(const Where& w, const YAML::Node& n, Dim level, Dim delta,
+                                           const physics::Medium* medium);
+// "file:line:column: key.path" of a node, as errors begin.
+std::string origin_of(const Where& w, const YAML::Node& n);
 
 // The same parsers on text, for the control API: a channel model as YAML
 // text, and a fault from its kind and its keys' values (each a YAML

@@ -46,8 +46,7 @@ bool parse_node_id_expr(const std::string& text, std::int64_t& value, bool& plus
   return true;
 }
 
-void parse_value(const Where& w, const YAML::Node& n, OdEntry& e, std::vector<std::uint8_t>& out,
-                 bool* plus_node_id) {
+void parse_value(const Where& w, const YAML::Node& n, OdEntry& e, std::vector<std::uint8_t>& out, bool* plus_node_id) {
   if (is_variable_size(e.type)) {
     std::string s = n.IsScalar() ? n.Scalar() : "";
     if (e.type == DataType::kOctetString || e.type == DataType::kDomain) {
@@ -94,8 +93,7 @@ void parse_value(const Where& w, const YAML::Node& n, OdEntry& e, std::vector<st
 std::uint8_t parse_persist(const Where& w, const YAML::Node& n, std::uint16_t index) {
   std::string s = get_string(w, n);
   if (s == "no" || s == "false" || s == "none" || s == "unknown") return kPersistNone;
-  if (s == "yes" || s == "true")
-    return index >= 0x1000 && index < 0x2000 ? kPersistCommunication : kPersistApplication;
+  if (s == "yes" || s == "true") return index >= 0x1000 && index < 0x2000 ? kPersistCommunication : kPersistApplication;
   if (s == "communication") return kPersistCommunication;
   if (s == "application") return kPersistApplication;
   std::int64_t v = 0;
@@ -122,8 +120,8 @@ void parse_sub_range(const Where& w, const YAML::Node& n, int& first, int& last)
     first = last = int(a);
     return;
   }
-  if (!parse_int_literal(s.substr(0, dots), a) || !parse_int_literal(s.substr(dots + 2), b) || a < 0 ||
-      b > 255 || a > b)
+  if (!parse_int_literal(s.substr(0, dots), a) || !parse_int_literal(s.substr(dots + 2), b) || a < 0 || b > 255 ||
+      a > b)
     fail(w, n, "expected a sub-index 0..255 or a range 'a..b'");
   first = int(a);
   last = int(b);
@@ -158,8 +156,8 @@ void parse_objects(const Where& w, const YAML::Node& list, OdLayout& out) {
     Where wi = w.item(i);
     const YAML::Node& row = list[i];
     check_keys(wi, row,
-               {"index", "sub", "name", "kind", "type", "access", "default", "pdo_mappable", "persistent",
-                "low", "high", "max_length", "hook", "notes"});
+               {"index", "sub", "name", "kind", "type", "access", "default", "pdo_mappable", "persistent", "low",
+                "high", "max_length", "hook", "notes"});
     auto need = [&](const char* key) {
       if (!row[key]) fail(wi.child(key), row, std::string("missing required key '") + key + "'");
       return row[key];
@@ -171,9 +169,11 @@ void parse_objects(const Where& w, const YAML::Node& list, OdLayout& out) {
     e.name = row["name"] ? get_string(wi.child("name"), row["name"]) : "";
     std::string type = get_string(wi.child("type"), need("type"));
     if (!parse_type(type, e.type))
-      fail(wi.child("type"), row["type"], "expected a CiA 301 type name (UNSIGNED8, INTEGER32, REAL32, VISIBLE_STRING, DOMAIN, ...)");
+      fail(wi.child("type"), row["type"],
+           "expected a CiA 301 type name (UNSIGNED8, INTEGER32, REAL32, VISIBLE_STRING, DOMAIN, ...)");
     std::string access = get_string(wi.child("access"), need("access"));
-    if (!parse_access(access, e.access)) fail(wi.child("access"), row["access"], "expected one of ro, wo, rw, rwr, rww, const");
+    if (!parse_access(access, e.access))
+      fail(wi.child("access"), row["access"], "expected one of ro, wo, rw, rwr, rww, const");
     if (row["kind"]) {
       std::string k = get_string(wi.child("kind"), row["kind"]);
       if (k == "var") e.kind = ObjectKind::kVar;
@@ -257,14 +257,14 @@ void parse_options(const Where& w, const YAML::Node& map, NodeOptions& out) {
     std::string key = kv.first.Scalar();
     Where wk = w.child(key);
     bool known = false;
-#define CANSIM_PARSE_OPTION(kind, name, def, strict, help) \
-  if (key == #name) {                                 \
+#define CANSIM_PARSE_OPTION(kind, name, def, strict, help)            \
+  if (key == #name) {                                                 \
     parse_option(wk, kv.second, CANSIM_OPTION_KIND_##kind, out.name); \
-    known = true;                                     \
+    known = true;                                                     \
   }
     CANSIM_NODE_OPTIONS(CANSIM_PARSE_OPTION)
 #undef CANSIM_PARSE_OPTION
-    if (!known) fail(wk, kv.first, "unknown option (see README, 'Profile options')");
+    if (!known) fail(wk, kv.first, "unknown option (see docs/profiles.md, 'Profile options')");
   }
 }
 
@@ -285,8 +285,8 @@ Profile parse_profile(const YAML::Node& root, const std::string& file, bool stri
   Where w{file, ""};
   if (!root.IsMap()) fail(w, root, "expected a profile mapping");
   check_keys(w, root,
-             {"name", "description", "personality", "node_id", "bit_rate", "options", "objects", "vendor",
-              "physics", "sensor", "faults", "strict", "quirks", "strict_objects", "emcy"});
+             {"name", "description", "personality", "node_id", "bit_rate", "options", "objects", "vendor", "physics",
+              "sensor", "faults", "strict", "quirks", "strict_objects", "emcy"});
   Profile p;
   p.file = file;
   if (root["name"]) p.name = get_string(w.child("name"), root["name"]);
@@ -294,13 +294,15 @@ Profile parse_profile(const YAML::Node& root, const std::string& file, bool stri
   if (root["personality"]) p.personality = get_string(w.child("personality"), root["personality"]);
   if (root["node_id"]) {
     std::int64_t id = get_int(w.child("node_id"), root["node_id"], 1, 255);
-    if (id > 127 && id != 255) fail(w.child("node_id"), root["node_id"], "expected a node-ID 1..127 or 255 (LSS-unconfigured)");
+    if (id > 127 && id != 255)
+      fail(w.child("node_id"), root["node_id"], "expected a node-ID 1..127 or 255 (LSS-unconfigured)");
     p.node_id = std::uint8_t(id);
   }
   if (root["bit_rate"]) {
     p.bit_rate_kbit = std::uint32_t(get_int(w.child("bit_rate"), root["bit_rate"], 1, 1000));
     if (bit_rate_index(p.bit_rate_kbit) < 0)
-      fail(w.child("bit_rate"), root["bit_rate"], "expected a CiA bit rate in kbit/s: 1000, 800, 500, 250, 125, 50, 20 or 10");
+      fail(w.child("bit_rate"), root["bit_rate"],
+           "expected a CiA bit rate in kbit/s: 1000, 800, 500, 250, 125, 50, 20 or 10");
   }
   p.options = std::make_shared<NodeOptions>();
   parse_options(w.child("options"), root["options"], *p.options);
@@ -325,16 +327,29 @@ void check_requirements(const Profile& p, const YAML::Node& root, const personal
   for (const personalities::RequiredObject& o : needs.objects)
     for (unsigned sub = o.first_sub; sub <= o.last_sub; ++sub) {
       const OdEntry* e = p.layout->find(o.index, std::uint8_t(sub));
+      if (e && !is_variable_size(e->type) && (e->hooks & o.hooks) != o.hooks) {
+        char id[16];
+        std::snprintf(id, sizeof id, "0x%04X:%02X", o.index, sub);
+        const bool both = (o.hooks & kHookRead) && (o.hooks & kHookWrite);
+        fail_objects(p, root,
+                     std::string("object ") + id + " with hook: " +
+                         (both                  ? "both"
+                          : o.hooks & kHookRead ? "read"
+                                                : "write") +
+                         " (personality " + p.personality + " needs it for " + o.purpose + ")");
+      }
       if (e && !is_variable_size(e->type)) continue;
       char id[16];
       std::snprintf(id, sizeof id, "0x%04X:%02X", o.index, sub);
-      fail_objects(p, root, std::string("a numeric object ") + id + " (personality " + p.personality + " needs it for " +
-                                o.purpose + ")" + (e ? ", not a string or domain" : ""));
+      fail_objects(p, root,
+                   std::string("a numeric object ") + id + " (personality " + p.personality + " needs it for " +
+                       o.purpose + ")" + (e ? ", not a string or domain" : ""));
     }
   if (p.cia404->channels.size() < needs.channels)
-    fail_objects(p, root, "at least " + std::to_string(needs.channels) +
-                              " CiA 404 channel(s) (0x6130:01.. with their vendor.cia404 channels; personality " +
-                              p.personality + " needs them for " + needs.channels_purpose + ")");
+    fail_objects(p, root,
+                 "at least " + std::to_string(needs.channels) +
+                     " CiA 404 channel(s) (0x6130:01.. with their vendor.cia404 channels; personality " +
+                     p.personality + " needs them for " + needs.channels_purpose + ")");
 }
 
 }  // namespace

@@ -1,7 +1,7 @@
 // The YAML profile loader (profiles/*.yaml): one file -> one typed, checked
 // model::Profile (identity, bit rate, options, objects, the CiA 404 chain,
 // the personality's settings, physics). Nothing above this layer sees YAML.
-// See README "Profiles".
+// See docs/profiles.md.
 #pragma once
 
 #include <yaml-cpp/yaml.h>

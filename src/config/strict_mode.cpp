@@ -16,9 +16,7 @@ std::string object_key(std::uint16_t index, std::uint8_t sub) {
   return buf;
 }
 
-bool is_setting_key(const std::string& name) {
-  return name.rfind("cia404.", 0) == 0 || name.rfind("vendor.", 0) == 0;
-}
+bool is_setting_key(const std::string& name) { return name.rfind("cia404.", 0) == 0 || name.rfind("vendor.", 0) == 0; }
 
 std::string describe(const OdEntry* e) {
   if (!e) return "absent";
@@ -68,7 +66,8 @@ void check_quirks(const Where& w, const YAML::Node& map, const Profile& p) {
       continue;
     }
     const OptionInfo* info = find_option(name);
-    if (!info) fail(w.child(name), at, "unknown option (quirks name options, 'object 0xIIII:SS', cia404.* or vendor.*)");
+    if (!info)
+      fail(w.child(name), at, "unknown option (quirks name options, 'object 0xIIII:SS', cia404.* or vendor.*)");
     if (!info->deviation) fail(w.child(name), at, "a setting, not a deviation (node_options.hpp kind SETTING)");
     if (std::find(deviating.begin(), deviating.end(), name) == deviating.end())
       fail(w.child(name), at, "the profile keeps the CiA value of this option: nothing to document");
@@ -122,8 +121,8 @@ void apply_mode(Profile& p, const Where& w, const YAML::Node& overrides) {
   if (p.strict) make_strict(*options);
   if (overrides && !overrides.IsNull()) parse_options(w, overrides, *options);
   p.options = options;
-  p.layout = p.strict ? patched_layout(*p.faithful_layout, p.strict_objects)
-                      : std::make_shared<OdLayout>(*p.faithful_layout);
+  p.layout =
+      p.strict ? patched_layout(*p.faithful_layout, p.strict_objects) : std::make_shared<OdLayout>(*p.faithful_layout);
 }
 
 namespace {
@@ -137,6 +136,7 @@ void device_strictness(model::GenericSettings&, bool, std::vector<Quirk>&) {}
 void device_strictness(model::P92cSettings&, bool, std::vector<Quirk>&) {}
 void device_strictness(model::GemsSettings&, bool, std::vector<Quirk>&) {}
 void device_strictness(model::CmpSettings&, bool, std::vector<Quirk>&) {}
+void device_strictness(model::AnalogOutputSettings&, bool, std::vector<Quirk>&) {}  // a stand-in: CiA 401 as written
 
 }  // namespace
 

@@ -1,4 +1,4 @@
-// Strict mode and the quirk inventory of a profile (README "Strict mode and
+// Strict mode and the quirk inventory of a profile (docs/profiles.md "Strict mode and
 // quirks"). A profile's `options:` and `objects:` are its faithful mode;
 // strict mode sets every option node_options.hpp marks CIA(v) to v and
 // applies the profile's `strict_objects:` (OD entries that are the manual's

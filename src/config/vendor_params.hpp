@@ -29,8 +29,8 @@ namespace cansim::config {
 // it gives are reported where the entry writes them (fleet file, line,
 // column, nodes[i].vendor.<key>).
 struct VendorLayer {
-  Where where;          // {fleet file, "nodes[i].vendor"}
-  YAML::Node section;   // the entry's `vendor:` mapping, with its marks
+  Where where;         // {fleet file, "nodes[i].vendor"}
+  YAML::Node section;  // the entry's `vendor:` mapping, with its marks
 };
 
 class VendorParams {

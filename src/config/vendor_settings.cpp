@@ -54,7 +54,8 @@ void check_mapping_entry(const Where& w, const YAML::Node& n, const OdLayout& la
   const PdoMapEntry m = PdoMapEntry::decode(raw);
   const OdEntry* e = layout.find(m.index, m.sub);
   if (!e || !e->pdo_mappable) fail(w, n, "expected a PDO-mappable object of this profile");
-  if (!ok(check_pdo_map_entry(layout, raw, true, false))) fail(w, n, "the length in bits does not fit the object's type");
+  if (!ok(check_pdo_map_entry(layout, raw, true, false)))
+    fail(w, n, "the length in bits does not fit the object's type");
   bits += m.bits;
 }
 
@@ -89,6 +90,15 @@ void parse(const VendorParams& v, CmpSettings& s, const model::Profile& p) {
   v.time_us("start_indication_delay", s.start_indication_delay, 0.0, VendorParams::kForever, "a time >= 0");
   v.integer("start_indication_node_id", s.start_indication_node_id, 0, 127);
   s.timer_repeats_beyond_limits = !p.options->tpdo_event_timer_types.has(254);
+}
+
+void parse(const VendorParams& v, model::AnalogOutputSettings& s, const model::Profile& p) {
+  unsigned channels = 0;
+  while (channels < model::AnalogOutputSettings::kMaxChannels && p.layout->find(0x6411, std::uint8_t(channels + 1)) &&
+         p.layout->find(0x6401, std::uint8_t(channels + 1)))
+    ++channels;
+  s.channels = channels;
+  v.time_us("response_time", s.response_time_us, 1e-3, 3600.0, "1 ms .. 1 h");
 }
 
 }  // namespace

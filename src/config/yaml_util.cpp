@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <sstream>
 #include <vector>
 
@@ -205,6 +206,32 @@ void check_yaml_size(std::string_view text, const std::string& source, std::size
                    " YAML aliases (*name); expected at most " + std::to_string(limits::kYamlAliases));
 }
 
+bool inside_any(const std::string& file, const std::vector<std::string>& dirs) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path real = fs::canonical(file, ec);
+  if (ec) return false;
+  for (const auto& d : dirs) {
+    const fs::path root = fs::canonical(d, ec);
+    if (ec) continue;
+    const fs::path rel = real.lexically_relative(root);
+    if (!rel.empty() && *rel.begin() != ".." && rel != ".") return true;
+  }
+  return false;
+}
+
+namespace {
+thread_local const ConfinedFiles* confined_files = nullptr;
+}
+
+ConfinedFiles::ConfinedFiles(std::vector<std::string> folders) : folders_(std::move(folders)), outer_(confined_files) {
+  confined_files = this;
+}
+ConfinedFiles::~ConfinedFiles() { confined_files = outer_; }
+const std::vector<std::string>* ConfinedFiles::current() {
+  return confined_files ? &confined_files->folders_ : nullptr;
+}
+
 std::string read_regular_file(const std::string& path, std::size_t max_bytes) {
   const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
   if (fd < 0) throw ConfigError(path + ": cannot open file: " + std::strerror(errno));
@@ -212,7 +239,7 @@ std::string read_regular_file(const std::string& path, std::size_t max_bytes) {
     int fd;
     ~Closer() { ::close(fd); }
   } closer{fd};
-  struct stat st{};
+  struct stat st {};
   if (::fstat(fd, &st) != 0) throw ConfigError(path + ": cannot open file: " + std::strerror(errno));
   if (!S_ISREG(st.st_mode)) throw ConfigError(path + ": not a regular file");
   if (std::size_t(st.st_size) > max_bytes)
@@ -311,6 +338,10 @@ void check_keys(const Where& w, const YAML::Node& map, std::initializer_list<con
 }
 
 void check_key(const Where& w, const YAML::Node& key, std::initializer_list<const char*> known) {
+  check_key(w, key, std::span<const char* const>(known.begin(), known.size()));
+}
+
+void check_key(const Where& w, const YAML::Node& key, std::span<const char* const> known) {
   const std::string k = key.Scalar();
   if (std::any_of(known.begin(), known.end(), [&](const char* x) { return k == x; })) return;
   std::string list;

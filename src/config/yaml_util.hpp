@@ -7,8 +7,10 @@
 
 #include <cstdint>
 #include <stdexcept>
+#include <span>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace cansim::config {
 
@@ -59,6 +61,29 @@ YamlScan scan_yaml(std::string_view text, int stop_above);
 // grows with the nesting) sees it. (Files are checked for their nesting.)
 void check_yaml_size(std::string_view text, const std::string& source, std::size_t max_bytes);
 
+// True when `file` (symbolic links resolved) lies in one of `dirs`; false
+// for a file that does not exist (the answer says nothing of existence).
+bool inside_any(const std::string& file, const std::vector<std::string>& dirs);
+
+// While one lives, a file a YAML text names to be read (a `csv:` table) must
+// lie in one of `folders` (inside_any) or it is refused by its name alone,
+// unopened: what a client sends (AddNodes, SetModel) reads nothing outside
+// the profile folders and learns nothing of a file there (its size, its
+// existence). Scopes nest (the inner one counts); the loader is one thread.
+class ConfinedFiles {
+ public:
+  explicit ConfinedFiles(std::vector<std::string> folders);
+  ~ConfinedFiles();
+  ConfinedFiles(const ConfinedFiles&) = delete;
+  ConfinedFiles& operator=(const ConfinedFiles&) = delete;
+  // The folders in force, or nullptr when files are not confined.
+  static const std::vector<std::string>* current();
+
+ private:
+  std::vector<std::string> folders_;
+  const ConfinedFiles* outer_;
+};
+
 // A file's bytes, read without blocking the loop: opened O_NONBLOCK, refused
 // unless a regular file (a FIFO or device would block or never end), at most
 // `max_bytes` (TooLarge above). Other errors throw ConfigError naming `path`.
@@ -78,5 +103,6 @@ bool parse_int_literal(const std::string& text, std::int64_t& out);
 void check_keys(const Where& w, const YAML::Node& map, std::initializer_list<const char*> known);
 // The same for one key of the map at `w`.
 void check_key(const Where& w, const YAML::Node& key, std::initializer_list<const char*> known);
+void check_key(const Where& w, const YAML::Node& key, std::span<const char* const> known);
 
 }  // namespace cansim::config

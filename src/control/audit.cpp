@@ -76,7 +76,8 @@ std::string describe_map(sd_bus_message* m) {
   std::string out;
   if (sd_bus_message_enter_container(m, 'a', "{ss}") <= 0) return "?";
   const char *key = nullptr, *value = nullptr;
-  while (sd_bus_message_read(m, "{ss}", &key, &value) > 0) out += (out.empty() ? "" : ", ") + std::string(key) + "=" + value;
+  while (sd_bus_message_read(m, "{ss}", &key, &value) > 0)
+    out += (out.empty() ? "" : ", ") + std::string(key) + "=" + value;
   sd_bus_message_exit_container(m);
   return "{" + one_line(out) + "}";
 }
@@ -110,15 +111,17 @@ ActionLimiter::Admission ActionLimiter::admit(Clock::time_point now) {
     in_window_ = 0;
   }
   a.log = in_window_ < burst_;
-  if (a.log) ++in_window_; else ++suppressed_;
+  if (a.log) ++in_window_;
+  else ++suppressed_;
   return a;
 }
 
 std::optional<ActionRecord> ActionLimiter::suppressed_line() {
   if (suppressed_ == 0) return std::nullopt;
   const auto seconds = std::chrono::duration_cast<std::chrono::seconds>(window_).count();
-  ActionRecord r{"", "", "control: " + std::to_string(suppressed_) + " action line(s) suppressed (more than " +
-                             std::to_string(burst_) + " in " + std::to_string(seconds) + " s)"};
+  ActionRecord r{"", "",
+                 "control: " + std::to_string(suppressed_) + " action line(s) suppressed (more than " +
+                     std::to_string(burst_) + " in " + std::to_string(seconds) + " s)"};
   suppressed_ = 0;
   return r;
 }
@@ -140,6 +143,7 @@ std::string describe_arguments(sd_bus_message* m) {
 }
 
 std::optional<uid_t> CallerIds::of(sd_bus_message* m) {
+  if (auto peer = by_bus_.find(sd_bus_message_get_bus(m)); peer != by_bus_.end()) return peer->second;
   const char* sender = sd_bus_message_get_sender(m);
   if (sender) {
     auto it = by_sender_.find(sender);

@@ -27,9 +27,9 @@
 namespace cansim::control {
 
 struct ActionRecord {
-  std::string node;       // fleet key; "" for a fleet action
-  std::string interface;  // the node's interface; "" for a fleet action
-  std::string text;       // "control: vcan0/generic/0: Step pressure 5 bar by uid 1000: done"
+  std::string node;            // fleet key; "" for a fleet action
+  std::string interface;       // the node's interface; "" for a fleet action
+  std::string text;            // "control: vcan0/generic/0: Step pressure 5 bar by uid 1000: done"
   std::optional<uid_t> uid{};  // the caller's, when known (journal field CANSIM_CALLER_UID=)
 };
 
@@ -40,7 +40,7 @@ class ActionLimiter {
       : burst_(burst), window_(window) {}
 
   struct Admission {
-    bool log = false;  // the line may be logged (false: it is counted)
+    bool log = false;                          // the line may be logged (false: it is counted)
     std::optional<ActionRecord> suppressed{};  // first: the count of the window that ended
   };
   // Asked before a line is built, so a flood costs a count, not a line.
@@ -64,14 +64,18 @@ class ActionLimiter {
 // strings cut with "...". Reads `m` from its start.
 std::string describe_arguments(sd_bus_message* m);
 
-// The caller's effective uid: the peer's on the private socket, the
-// sender's on a bus (asked once per sender name, then cached).
+// The caller's effective uid: the peer's on the private socket (as the
+// endpoints read it from the socket when they accepted it, else sd-bus's),
+// the sender's on a bus (asked once per sender name, then cached).
 class CallerIds {
  public:
   std::optional<uid_t> of(sd_bus_message* m);
+  void set_peer(sd_bus* bus, uid_t uid) { by_bus_[bus] = uid; }
+  void forget(sd_bus* bus) { by_bus_.erase(bus); }
 
  private:
   std::unordered_map<std::string, uid_t> by_sender_;
+  std::unordered_map<sd_bus*, uid_t> by_bus_;
 };
 
 // "by uid 1000: done" / "by uid 0: refused (OutOfRange: value outside ...)".

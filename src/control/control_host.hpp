@@ -9,8 +9,10 @@
 #include <string>
 #include <vector>
 
+#include "config/plant_config.hpp"
 #include "core/application.hpp"
 #include "io/loop_core.hpp"
+#include "physics/plant.hpp"
 
 namespace cansim::control {
 
@@ -37,12 +39,24 @@ struct BusStatistics {
   std::uint64_t frames_in = 0;
   std::uint64_t frames_out = 0;
   std::uint64_t drops = 0;
-  std::uint64_t offline = 0;  // frames not sent: interface down or missing
-  double offered_load = 0;   // fraction of the bit rate, from the configuration
-  double measured_load = 0;  // fraction of the bit rate, over the last status period
+  std::uint64_t offline = 0;    // frames not sent: interface down or missing
+  double offered_load = 0;      // fraction of the bit rate, from the configuration
+  double measured_load = 0;     // fraction of the bit rate carried over the last 10 s (= BusLoad's, at most 1)
   std::string model = "ideal";  // "timed", "ideal", or "controller" (a real CAN interface)
   CanState state = CanState::kErrorActive;  // its controller's (vcan: always error-active)
-  io::BusLoad load;          // what the bus carried (io::LoopCore::bus_load)
+  io::BusLoad load;                         // what the bus carried (io::LoopCore::bus_load)
+  // `transport: socketcand` (docs/socketcand.md): where it listens (port 0
+  // while it does not) and its clients now; "socketcan" otherwise.
+  std::string transport = "socketcan";
+  std::string listen_host;
+  std::uint16_t listen_port = 0;
+  std::size_t clients = 0;
+};
+
+// A frame to put on a bus at simulated time `at` (Fleet1.QueueFrames).
+struct ScheduledFrame {
+  TimeUs at = 0;
+  CanFrame frame;
 };
 
 class ControlHost {
@@ -60,6 +74,10 @@ class ControlHost {
   virtual void remove_node(const std::string& key) = 0;
   // Re-reads the configuration; throws config::ConfigError, changing nothing.
   virtual void reload() = 0;
+  // Back to power-on as configured (Fleet1.Reset): the configuration's nodes
+  // (as last loaded; nodes added at run time gone, removed ones back), each
+  // rebuilt and powered on with its stored parameters erased.
+  virtual void reset() = 0;
   virtual std::vector<BusStatistics> bus_statistics() const = 0;
   // The same without offered_load (the estimate from every node's OD): what
   // the bus properties need, cheap enough for any call.
@@ -67,9 +85,30 @@ class ControlHost {
   // The node's interface exists and is open (a node on a missing one is off the bus).
   virtual bool interface_up(const std::string& /*name*/) const { return true; }
   virtual std::string config_file() const = 0;
+  // The folders a file a client names must lie in (AddNodes' profiles, a
+  // `csv:` table of SetModel or AddNodes): none by default.
+  virtual std::vector<std::string> profile_folders() const { return {}; }
+  // The longest pass of the loop (µs: from a wake-up to the next wait, all it
+  // did in between) over the last 10 s, and the most CPU time a pass used
+  // (what the loop itself spent: the other counts time other processes
+  // had the CPU); 0 when not measured.
+  virtual TimeUs longest_loop_pass() const { return 0; }
+  virtual TimeUs longest_loop_pass_cpu() const { return 0; }
+  // Frames an outside participant (a replay) puts on bus `interface`, each
+  // at its time, through the bus (arbitrated with the nodes' frames on a
+  // timed bus). Returns how many it took: those that fit in the bus's queue
+  // (limits::kQueuedFramesPerBus), the first ones. Throws std::out_of_range
+  // naming an unknown interface; the default takes none.
+  virtual std::size_t queue_frames(const std::string& /*interface*/, const std::vector<ScheduledFrame>& /*frames*/) {
+    return 0;
+  }
   // One control action's journal line (control/audit.hpp): the daemon logs it
   // with the node's CANSIM_NODE= / CANSIM_IFACE=; the default logs the text.
   virtual void log_action(const ActionRecord& r);
+  // The fleet's plants (docs/plants.md) and their configuration (the
+  // bindings of their inputs); null: none.
+  virtual physics::PlantSet* plants() { return nullptr; }
+  virtual const config::PlantsConfig* plant_config() const { return nullptr; }
 };
 
 }  // namespace cansim::control

@@ -18,12 +18,19 @@
 namespace cansim::control {
 
 namespace {
-constexpr int kMessagesPerPass = 32;     // per connection and loop pass
+constexpr int kMessagesPerPass = 32;  // per connection and loop pass
 constexpr int kAcceptsPerPass = 64;
 // A pass serves connections (and accepts new ones) for at most this long,
 // then the nodes run: a client whose calls are cheap gets many per pass, one
 // whose calls are costly (AddNodes loads a profile) one per pass.
 constexpr TimeUs kPassBudgetUs = 2'000;
+// Of which accepting new connections takes at most this much: a connect
+// flood (64 threads reconnecting as fast as they are closed) took every pass
+// and starved the connections already there, a handshake until its time ran out.
+constexpr TimeUs kAcceptBudgetUs = kPassBudgetUs / 4;
+// Refused clients of one uid waiting for their answer at once; more are
+// closed at once (a flood of one user's does not take every refusal's place).
+constexpr std::size_t kRefusingPerUid = 2;
 // Calls wake the loop at most once per this period; between such wake-ups a
 // call waits for the loop's next pass, at most this long. A busy fleet thus
 // serves a stream of calls with the passes it makes anyway; a single call
@@ -38,6 +45,13 @@ bool exists(const char* path) { return path && access(path, F_OK) == 0; }
 
 // A client that went away before its connection was set up is no news.
 bool client_gone(int err) { return err == ECONNRESET || err == EPIPE || err == ENOTCONN; }
+
+// The socket's peer's uid; -1 when unknown.
+uid_t peer_uid(int fd) {
+  ucred cred{};
+  socklen_t len = sizeof cred;
+  return ::getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &cred, &len) == 0 ? cred.uid : uid_t(-1);
+}
 
 // "client pid 4242 uid 1000" (the socket's peer credentials), for the journal.
 std::string describe_client(int fd) {
@@ -93,11 +107,15 @@ struct ControlEndpoints::Connection : io::FdHandler {
   bool peer = false;
   int fd = -1;
   std::uint32_t mask = 0;
-  bool ready = true;  // epoll reported the fd (or it is new): process() reads it
-  TimeUs since = 0;   // accepted (CLOCK_MONOTONIC µs)
+  bool ready = true;      // epoll reported the fd (or it is new): process() reads it
+  TimeUs since = 0;       // accepted (CLOCK_MONOTONIC µs)
+  uid_t uid = uid_t(-1);  // the peer's (SO_PEERCRED)
+  bool called = false;    // it has made a method call
   bool refusing = false;  // over --max-clients: answers why, then goes
   bool answered = false;  // refusing: the first call has its answer
-  const std::string* refusal = nullptr;
+  std::string refusal;
+  std::unique_ptr<MessageGate> gate;  // a peer's input (nullptr on a bus)
+  std::uint64_t oversized_seen = 0;   // the gate's oversized messages already logged
   void on_events(std::uint32_t) override { ready = true; }
 };
 
@@ -108,15 +126,20 @@ struct ControlEndpoints::Listener : io::FdHandler {
   int fd = -1;
 };
 
-ControlEndpoints::ControlEndpoints(io::EventLoop& loop, ControlService& service, std::size_t max_clients)
+ControlEndpoints::ControlEndpoints(io::EventLoop& loop, ControlService& service, std::size_t max_clients,
+                                   TimeUs first_call_us)
     : loop_(loop),
       service_(service),
       max_clients_(max_clients),
+      per_uid_(max_clients - max_clients / limits::kOtherUsersShare),
+      first_call_us_(first_call_us),
       refusal_("cansimd serves at most " + std::to_string(max_clients) +
                " control clients at once (cansimd --max-clients); try again when one has disconnected"),
       warn_refused_(std::make_unique<Throttle>()),
       warn_slow_(std::make_unique<Throttle>()),
       warn_handshake_(std::make_unique<Throttle>()),
+      warn_idle_(std::make_unique<Throttle>()),
+      warn_large_(std::make_unique<Throttle>()),
       warn_failed_(std::make_unique<Throttle>()) {}
 
 ControlEndpoints::~ControlEndpoints() {
@@ -154,21 +177,26 @@ void ControlEndpoints::listen(const std::string& path) {
   }
   // Run as group cansim (the systemd units), the socket is the group's
   // already: no chown, which their system call filter refuses.
-  struct stat st{};
+  struct stat st {};
   if (const group* g = ::getgrnam("cansim"); g && (::stat(path.c_str(), &st) != 0 || st.st_gid != g->gr_gid)) {
     if (::chown(path.c_str(), uid_t(-1), g->gr_gid) < 0)
       spdlog::warn("{}: cannot give the control socket to group cansim: {}", path, std::strerror(errno));
   }
   listener_ = std::make_unique<Listener>(*this);
   listener_->fd = fd;
-  loop_.add_deferred(fd, EPOLLIN, listener_.get());
+  if (!loop_.add_deferred(fd, EPOLLIN, listener_.get())) {
+    ::close(fd);
+    listener_.reset();
+    throw std::runtime_error(path + ": " + loop_.error());
+  }
   socket_path_ = path;
 }
 
 // A bounded number per pass: a connect flood must not hold the loop (the
 // rest wait in the listen backlog for the next passes).
 void ControlEndpoints::accept_clients() {
-  for (int accepted = 0; accepted < kAcceptsPerPass && io::monotonic_now() < pass_end_; ++accepted) {
+  const TimeUs until = std::min(pass_end_, io::monotonic_now() + kAcceptBudgetUs);
+  for (int accepted = 0; accepted < kAcceptsPerPass && io::monotonic_now() < until; ++accepted) {
     int fd = ::accept4(listener_->fd, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
     if (fd < 0) {
       if (errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR)
@@ -179,55 +207,82 @@ void ControlEndpoints::accept_clients() {
       ::close(fd);
       continue;
     }
-    const std::size_t peers = std::count_if(connections_.begin(), connections_.end(),
-                                            [](const auto& c) { return c->peer && !c->refusing; });
+    const uid_t uid = peer_uid(fd);
+    std::size_t peers = 0, mine = 0;
+    for (const auto& c : connections_) {
+      if (!c->peer || c->refusing) continue;
+      ++peers;
+      mine += c->uid == uid;
+    }
     if (peers >= max_clients_) {
-      refuse(fd, peers);
+      warn_refused_->warn(io::monotonic_now(), "control socket: " + std::to_string(peers) +
+                                                   " clients connected already (--max-clients " +
+                                                   std::to_string(max_clients_) + "): refusing another");
+      refuse(fd, refusal_);
       continue;
     }
-    if (sd_bus* bus = serve_fd(fd)) add_connection(bus, true);
+    if (uid != 0 && mine >= per_uid_) {
+      const std::string share = "uid " + std::to_string(uid) + " holds " + std::to_string(mine) + " of the " +
+                                std::to_string(max_clients_) + " control client slots, all one user may (the other " +
+                                std::to_string(max_clients_ - per_uid_) + " are kept for other users and root)";
+      warn_refused_->warn(io::monotonic_now(), "control socket: " + share + ": refusing another");
+      refuse(fd, "cansimd: " + share + "; try again when one of them has disconnected");
+      continue;
+    }
+    serve_fd(fd, uid, false);
   }
 }
 
-// A peer-to-peer server connection on an accepted socket, or nullptr (closed).
-sd_bus* ControlEndpoints::serve_fd(int fd) {
+// A peer-to-peer server connection on an accepted socket, its input read
+// through a MessageGate; nullptr (the socket closed) when it cannot be set
+// up. sd-bus reads a pipe, not the socket, so it cannot see the peer's
+// credentials: the peer was identified by its socket (SO_PEERCRED, `uid`)
+// when it was accepted, and sd-bus takes its handshake as said.
+ControlEndpoints::Connection* ControlEndpoints::serve_fd(int fd, uid_t uid, bool refusing) {
+  auto gate = std::make_unique<MessageGate>(fd, limits::kMessageBytes);
   sd_bus* bus = nullptr;
+  bool owned = false;  // sd-bus closes the socket
   sd_id128_t id;
   sd_id128_randomize(&id);
-  int r = sd_bus_new(&bus);
-  if (r >= 0) r = sd_bus_set_fd(bus, fd, fd);
-  if (r >= 0) r = sd_bus_set_server(bus, 1, id);
-  if (r >= 0) r = sd_bus_set_anonymous(bus, 0);
-  if (r >= 0) r = sd_bus_negotiate_creds(bus, 1, SD_BUS_CREDS_PID | SD_BUS_CREDS_UID | SD_BUS_CREDS_EUID);
+  int r = gate->valid() ? sd_bus_new(&bus) : -EMFILE;
+  if (r >= 0) r = sd_bus_set_fd(bus, gate->input_fd(), fd);
+  if (r >= 0) {
+    owned = true;
+    gate->input_taken();
+    r = sd_bus_set_server(bus, 1, id);
+  }
+  if (r >= 0) r = sd_bus_set_anonymous(bus, 1);
+  if (r >= 0) r = sd_bus_negotiate_fds(bus, 0);
   if (r >= 0) r = sd_bus_start(bus);
   if (r >= 0) {
     // sd-bus asks for 8 MiB of kernel send buffer (and gets it as root):
     // what a client does not read stays within limits::kSocketBufferBytes.
     const int bytes = int(limits::kSocketBufferBytes);
     ::setsockopt(fd, SOL_SOCKET, SO_SNDBUF, &bytes, sizeof bytes);
-    return bus;
+    return add_connection(bus, fd, std::move(gate), uid, refusing);
   }
   const std::string line = std::string("control socket: cannot serve a client: ") + std::strerror(-r);
   if (client_gone(-r)) spdlog::debug("{}", line);
   else warn_failed_->warn(io::monotonic_now(), line);
   if (bus) sd_bus_close_unref(bus);
-  else ::close(fd);
+  if (!owned) ::close(fd);
   return nullptr;
 }
 
 // One client too many: it is told why (its first call's answer) and closed;
 // beyond limits::kRefusing such at once, it is closed at once.
-void ControlEndpoints::refuse(int fd, std::size_t peers) {
-  warn_refused_->warn(io::monotonic_now(), "control socket: " + std::to_string(peers) +
-                                               " clients connected already (--max-clients " +
-                                               std::to_string(max_clients_) + "): refusing another");
-  const std::size_t refusing =
-      std::count_if(connections_.begin(), connections_.end(), [](const auto& c) { return c->refusing; });
-  if (refusing >= limits::kRefusing) {
+void ControlEndpoints::refuse(int fd, std::string why) {
+  const uid_t uid = peer_uid(fd);
+  std::size_t refusing = 0, theirs = 0;
+  for (const auto& c : connections_) {
+    refusing += c->refusing;
+    theirs += c->refusing && c->uid == uid;
+  }
+  if (refusing >= limits::kRefusing || theirs >= kRefusingPerUid) {
     ::close(fd);
     return;
   }
-  if (sd_bus* bus = serve_fd(fd)) add_connection(bus, true, true);
+  if (Connection* c = serve_fd(fd, uid, true)) c->refusal = std::move(why);
 }
 
 std::string ControlEndpoints::connect_bus(BusChoice choice) {
@@ -250,35 +305,57 @@ std::string ControlEndpoints::connect_bus(BusChoice choice) {
     if (bus) sd_bus_flush_close_unref(bus);
     throw std::runtime_error(std::string(what) + ": cannot serve " + kBusName + ": " + std::strerror(-r));
   }
-  add_connection(bus, false);
+  add_connection(bus, sd_bus_get_fd(bus), nullptr, uid_t(-1), false);
   return what;
 }
 
-ControlEndpoints::Connection* ControlEndpoints::add_connection(sd_bus* bus, bool peer, bool refusing) {
+ControlEndpoints::Connection* ControlEndpoints::add_connection(sd_bus* bus, int fd, std::unique_ptr<MessageGate> gate,
+                                                               uid_t uid, bool refusing) {
   auto c = std::make_unique<Connection>();
   c->bus = bus;
-  c->peer = peer;
-  c->fd = sd_bus_get_fd(bus);
+  c->peer = gate != nullptr;
+  c->fd = fd;
+  c->uid = uid;
+  c->gate = std::move(gate);
   c->since = io::monotonic_now();
   c->refusing = refusing;
-  c->refusal = &refusal_;
+  const bool peer = c->peer;
   int r = 0;
   if (!refusing) {
-    r = service_.attach(bus, peer);
+    r = service_.attach(bus, peer, peer ? std::optional<uid_t>(uid) : std::nullopt);
+    // Sees every message first: a method call makes the connection a client.
+    if (r >= 0 && peer)
+      r = sd_bus_add_filter(
+          bus, nullptr,
+          [](sd_bus_message* m, void* userdata, sd_bus_error*) -> int {
+            if (sd_bus_message_is_method_call(m, nullptr, nullptr) > 0)
+              static_cast<Connection*>(userdata)->called = true;
+            return 0;
+          },
+          c.get());
+    if (r >= 0 && peer) r = answer_oversized(bus, *c->gate);
   } else {  // every call answered with why, nothing served
-    r = sd_bus_add_filter(bus, nullptr, [](sd_bus_message* m, void* userdata, sd_bus_error*) -> int {
-      auto& self = *static_cast<Connection*>(userdata);
-      if (sd_bus_message_is_method_call(m, nullptr, nullptr) <= 0) return 0;
-      self.answered = true;
-      return sd_bus_reply_method_errorf(m, SD_BUS_ERROR_LIMITS_EXCEEDED, "%s", self.refusal->c_str());
-    }, c.get());
+    r = sd_bus_add_filter(
+        bus, nullptr,
+        [](sd_bus_message* m, void* userdata, sd_bus_error*) -> int {
+          auto& self = *static_cast<Connection*>(userdata);
+          if (sd_bus_message_is_method_call(m, nullptr, nullptr) <= 0) return 0;
+          self.answered = true;
+          return sd_bus_reply_method_errorf(m, SD_BUS_ERROR_LIMITS_EXCEEDED, "%s", self.refusal.c_str());
+        },
+        c.get());
   }
   if (r < 0 || c->fd < 0) {
     spdlog::warn("control: cannot serve a connection: {}", std::strerror(r < 0 ? -r : EBADF));
     sd_bus_close_unref(bus);
     return nullptr;
   }
-  loop_.add_deferred(c->fd, 0, c.get());
+  if (!loop_.add_deferred(c->fd, 0, c.get())) {
+    spdlog::warn("control: cannot serve a connection: {}", loop_.error());
+    if (!refusing) service_.detach(bus);
+    sd_bus_close_unref(bus);
+    return nullptr;
+  }
   connections_.push_back(std::move(c));
   return connections_.back().get();
 }
@@ -291,6 +368,10 @@ const char* ControlEndpoints::must_go(const Connection& c, TimeUs now, Throttle*
   if (sd_bus_is_ready(c.bus) <= 0 && now - c.since >= limits::kAuthTimeoutUs) {
     *warning = warn_handshake_.get();
     return "did not finish the D-Bus handshake in time";
+  }
+  if (!c.called && now - c.since >= first_call_us_) {
+    *warning = warn_idle_.get();
+    return "made no call in time (an idle connection holds a slot others may need)";
   }
   if (queued(c.bus) >= limits::kQueuedMessages) {
     *warning = warn_slow_.get();
@@ -307,17 +388,31 @@ void ControlEndpoints::drop(Connection& c) {
   std::erase_if(connections_, [&](const auto& p) { return p.get() == &c; });
 }
 
+// The socket's interest: input when sd-bus wants some (through the gate,
+// when it has room), output when sd-bus has some.
+void ControlEndpoints::note_oversized(Connection& c, TimeUs now) {
+  const std::uint64_t n = c.gate->oversized_count();
+  if (n == c.oversized_seen) return;
+  c.oversized_seen = n;
+  // A call, answered TooLarge by its own filter (which runs before the one
+  // that marks calls): else a client still sending its 100 MiB after 10 s
+  // would be dropped as one that made no call.
+  c.called = true;
+  warn_large_->warn(now, "control: " + describe_client(c.fd) + " sent a message of " +
+                             std::to_string(c.gate->last_oversized_bytes()) + " bytes (at most " +
+                             std::to_string(limits::kMessageBytes) + "): answered TooLarge, unread");
+}
+
 void ControlEndpoints::rearm(Connection& c) {
   int events = sd_bus_get_events(c.bus);
   std::uint32_t mask = 0;
   if (events > 0) {
-    if (events & POLLIN) mask |= EPOLLIN;
+    if ((events & POLLIN) && (!c.gate || c.gate->wants_read())) mask |= EPOLLIN;
     if (events & POLLOUT) mask |= EPOLLOUT;
   }
-  if (mask != c.mask) {
-    loop_.modify_deferred(c.fd, mask, &c);
-    c.mask = mask;
-  }
+  if (mask == c.mask) return;
+  if (loop_.modify_deferred(c.fd, mask, &c)) c.mask = mask;
+  else warn_failed_->warn(io::monotonic_now(), "control: " + loop_.error() + " (retried at the next pass)");
 }
 
 // Every connection is looked at after every pass, but read only when epoll
@@ -326,7 +421,8 @@ void ControlEndpoints::rearm(Connection& c) {
 TimeUs ControlEndpoints::process() {
   const TimeUs now = io::monotonic_now();
   pass_end_ = now + kPassBudgetUs;
-  loop_.poll_deferred();  // marks the connections with input, accepts new clients
+  // Marks the connections with input, accepts new clients.
+  if (loop_.poll_deferred() < 0) warn_failed_->warn(now, "control: " + loop_.error());
   TimeUs next = kNever;
   const Connection* spent = nullptr;  // the connection being served when the pass's time ran out
   for (std::size_t i = 0; i < connections_.size();) {
@@ -341,13 +437,24 @@ TimeUs ControlEndpoints::process() {
       last_served_ = now;
       int r = 0;
       int n = 0;
-      while (n < kMessagesPerPass && io::monotonic_now() < pass_end_ && (r = sd_bus_process(c.bus, nullptr)) > 0) ++n;
+      // A peer's input comes through its gate, a slice at a time, each
+      // followed by sd-bus reading it (and whatever it could read already).
+      while (n < kMessagesPerPass && io::monotonic_now() < pass_end_) {
+        const bool moved = c.gate && c.gate->pump() != MessageGate::Pump::kNothing;
+        if ((r = sd_bus_process(c.bus, nullptr)) < 0 || (r == 0 && !moved)) break;
+        ++n;
+      }
+      if (c.gate) note_oversized(c, now);
       if (r < 0 || !sd_bus_is_open(c.bus)) {
         if (!c.peer) spdlog::warn("control: lost the D-Bus connection: {}", std::strerror(r < 0 ? -r : ECONNRESET));
+        else if (c.gate->why())
+          warn_failed_->warn(now, "control: " + describe_client(c.fd) + " dropped: " + c.gate->why());
         drop(c);  // erases connections_[i]
         continue;
       }
-      if (n == kMessagesPerPass || (r > 0 && io::monotonic_now() >= pass_end_)) {  // more: after the nodes ran
+      const bool held_back = c.gate && !c.gate->wants_read() && c.gate->why() == nullptr;
+      if (n == kMessagesPerPass || held_back ||
+          (r > 0 && io::monotonic_now() >= pass_end_)) {  // more: after the nodes ran
         c.ready = true;
         next = 0;
         if (!spent && io::monotonic_now() >= pass_end_) spent = &c;
@@ -367,6 +474,7 @@ TimeUs ControlEndpoints::process() {
     if (timeout != UINT64_MAX) next = std::min(next, TimeUs(timeout));
     if (c.refusing) next = std::min(next, c.since + limits::kRefusalLingerUs);
     else if (c.peer && sd_bus_is_ready(c.bus) <= 0) next = std::min(next, c.since + limits::kAuthTimeoutUs);
+    else if (c.peer && !c.called) next = std::min(next, c.since + first_call_us_);
     ++i;
   }
   // Round robin: the next pass starts with the connections after the one the time ran out on.
@@ -379,8 +487,9 @@ TimeUs ControlEndpoints::process() {
 
 void ControlEndpoints::before_sleep(TimeUs next_pass) {
   const TimeUs now = io::monotonic_now();
-  loop_.allow_deferred_wakeup(next_pass == kNever || next_pass - now > kCallWaitUs ||
-                              now - last_served_ >= kCallWaitUs);
+  if (!loop_.allow_deferred_wakeup(next_pass == kNever || next_pass - now > kCallWaitUs ||
+                                   now - last_served_ >= kCallWaitUs))
+    warn_failed_->warn(now, "control: " + loop_.error());
 }
 
 }  // namespace cansim::control

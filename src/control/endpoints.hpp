@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "config/limits.hpp"
+#include "control/message_gate.hpp"
 #include "control/service.hpp"
 #include "io/event_loop.hpp"
 
@@ -26,16 +27,22 @@ enum class BusChoice { kAuto, kSystem, kUser, kNone };
 // as root, else /tmp/cansimd-$UID/control.
 std::string default_control_socket();
 
-// Bounds (config/limits.hpp, README "Limits"): at most `max_clients` peer
-// connections are served; one more gets org.freedesktop.DBus.Error.
+// Bounds (config/limits.hpp, docs/limits.md): at most `max_clients` peer
+// connections are served, and one uid other than root holds at most
+// max_clients - max_clients / limits::kOtherUsersShare of them (the rest is
+// kept for other users and root); one more gets org.freedesktop.DBus.Error.
 // LimitsExceeded saying why to its first call, and is closed. A connection
-// that has not finished the D-Bus handshake within limits::kAuthTimeoutUs, or
-// lets more than limits::kQueuedMessages answers and signals pile up unread,
-// is dropped with a journal line. Warnings about clients are rate-limited.
+// that has not finished the D-Bus handshake within limits::kAuthTimeoutUs,
+// has made no method call within limits::kFirstCallTimeoutUs, or lets more
+// than limits::kQueuedMessages answers and signals pile up unread, is
+// dropped with a journal line. A peer's messages reach sd-bus through a
+// MessageGate: one over limits::kMessageBytes is answered TooLarge unread.
+// Warnings about clients are rate-limited.
 class ControlEndpoints {
  public:
-  ControlEndpoints(io::EventLoop& loop, ControlService& service,
-                   std::size_t max_clients = limits::kDefaultMaxClients);
+  // `first_call_us`: limits::kFirstCallTimeoutUs (tests shorten it).
+  ControlEndpoints(io::EventLoop& loop, ControlService& service, std::size_t max_clients = limits::kDefaultMaxClients,
+                   TimeUs first_call_us = limits::kFirstCallTimeoutUs);
   ~ControlEndpoints();
 
   // Listens on a fresh socket at `path` (a stale one is replaced): mode
@@ -68,9 +75,10 @@ class ControlEndpoints {
   struct Listener;
   struct Throttle;
   void accept_clients();
-  sd_bus* serve_fd(int fd);
-  Connection* add_connection(sd_bus* bus, bool peer, bool refusing = false);
-  void refuse(int fd, std::size_t peers);
+  Connection* serve_fd(int fd, uid_t uid, bool refusing);
+  Connection* add_connection(sd_bus* bus, int fd, std::unique_ptr<MessageGate> gate, uid_t uid, bool refusing);
+  void note_oversized(Connection& c, TimeUs now);
+  void refuse(int fd, std::string why);
   // Why `c` must go (nullptr when it may stay), and which warning says so (nullptr: none).
   const char* must_go(const Connection& c, TimeUs now, Throttle** warning) const;
   void drop(Connection& c);
@@ -79,9 +87,11 @@ class ControlEndpoints {
   io::EventLoop& loop_;
   ControlService& service_;
   std::size_t max_clients_;
-  std::string refusal_;  // what a refused client is told
+  std::size_t per_uid_;  // slots one uid other than root may hold
+  TimeUs first_call_us_;
+  std::string refusal_;  // what a client refused for want of a slot is told
   // One per kind of warning, each at most one line per limits::kWarningPeriodUs.
-  std::unique_ptr<Throttle> warn_refused_, warn_slow_, warn_handshake_, warn_failed_;
+  std::unique_ptr<Throttle> warn_refused_, warn_slow_, warn_handshake_, warn_idle_, warn_large_, warn_failed_;
   std::unique_ptr<Listener> listener_;
   std::vector<std::unique_ptr<Connection>> connections_;
   std::string socket_path_;

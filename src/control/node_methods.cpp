@@ -65,7 +65,8 @@ int get_last_emcy(sd_bus*, const char*, const char*, const char*, sd_bus_message
                   sd_bus_error*) {
   const Emcy::Sent& last = NodeContext::of(userdata).node().emcy().last_emcy();
   int r = sd_bus_message_open_container(reply, 'r', "xqyay");
-  if (r >= 0) r = sd_bus_message_append(reply, "xqy", std::int64_t(last.time == kNever ? -1 : last.time), last.code, last.reg);
+  if (r >= 0)
+    r = sd_bus_message_append(reply, "xqy", std::int64_t(last.time == kNever ? -1 : last.time), last.code, last.reg);
   if (r >= 0) r = sd_bus_message_append_array(reply, 'y', last.vendor, 5);
   return r < 0 ? r : sd_bus_message_close_container(reply);
 }
@@ -77,34 +78,42 @@ int power_cycle(sd_bus_message* m, void* userdata, sd_bus_error* e) {
   double off = 0;
   int r = sd_bus_message_read(m, "d", &off);
   if (r < 0) return r;
-  if (!std::isfinite(off) || off < 0 || off > 1e9)
-    return fail(e, kErrorOutOfRange, "expected an off time >= 0 s");
+  if (!std::isfinite(off) || off < 0 || off > 1e9) return fail(e, kErrorOutOfRange, "expected an off time >= 0 s");
   TimeUs t = n.act_now();
   n.node().power_cycle(t, TimeUs(std::llround(off * 1e6)));
   n.service->touched(n);
   return sd_bus_reply_method_return(m, "");
 }
 
+// The command specifier of a local NMT command (CiA 301 §7.2.8.3.1).
+std::uint8_t command_specifier(NmtCommand c) {
+  switch (c) {
+    case NmtCommand::kStart: return kNmtStart;
+    case NmtCommand::kStop: return kNmtStop;
+    case NmtCommand::kPreOperational: return kNmtEnterPreOperational;
+    case NmtCommand::kResetNode: return kNmtResetNode;
+    case NmtCommand::kResetCommunication: return kNmtResetCommunication;
+  }
+  return 0;
+}
+
 int nmt(sd_bus_message* m, void* userdata, sd_bus_error* e) {
   NodeContext& n = NodeContext::of(userdata);
-  const char* command = nullptr;
-  int r = sd_bus_message_read(m, "s", &command);
+  const char* word = nullptr;
+  int r = sd_bus_message_read(m, "s", &word);
   if (r < 0) return r;
-  static constexpr struct { const char* name; std::uint8_t cs; } kCommands[] = {
-      {"start", kNmtStart}, {"stop", kNmtStop}, {"preop", kNmtEnterPreOperational},
-      {"reset", kNmtResetNode}, {"reset-comm", kNmtResetCommunication}};
-  for (const auto& c : kCommands) {
-    if (std::string_view(command) != c.name) continue;
-    TimeUs t = n.act_now();
-    const bool done = n.node().nmt_local(c.cs, t);
-    n.service->touched(n);
-    if (!done)
-      return fail(e, kErrorRefused, n.node().powered() ? "the node has not booted (INITIALISING, e.g. LSS-unconfigured)"
-                                                       : "the node is powered off");
-    return sd_bus_reply_method_return(m, "");
-  }
-  return fail(e, kErrorInvalidArgument,
-              "unknown NMT command '" + std::string(command) + "': expected start, stop, preop, reset or reset-comm");
+  const std::optional<NmtCommand> command = parse_nmt_command(word);
+  if (!command)
+    return fail(e, kErrorInvalidArgument,
+                "unknown NMT command '" + std::string(word) + "': expected " + kNmtCommandsText);
+  TimeUs t = n.act_now();
+  const bool done = n.node().nmt_local(command_specifier(*command), t);
+  n.service->touched(n);
+  if (!done)
+    return fail(e, kErrorRefused,
+                n.node().powered() ? "the node has not booted (INITIALISING, e.g. LSS-unconfigured)"
+                                   : "the node is powered off");
+  return sd_bus_reply_method_return(m, "");
 }
 
 // As if the master wrote "save" to 0x1010:sub or "load" to 0x1011:sub.
@@ -227,6 +236,8 @@ const sd_bus_vtable kNodeVtable[] = {
     SD_BUS_PROPERTY("OnBus", "b", get_on_bus, 0, 0),
     SD_BUS_PROPERTY("Pressure", "(ddsy)", node_get_channel, 0, 0),
     SD_BUS_PROPERTY("Temperature", "(ddsy)", node_get_channel, 0, 0),
+    SD_BUS_PROPERTY("PressureCounts", "d", node_get_channel_counts, 0, 0),
+    SD_BUS_PROPERTY("TemperatureCounts", "d", node_get_channel_counts, 0, 0),
     SD_BUS_PROPERTY("Overrides", "a(sds)", node_get_overrides, 0, 0),
     SD_BUS_PROPERTY("Faults", "a(usb)", node_get_faults, 0, kEmits),
     SD_BUS_PROPERTY("EmcyCount", "u", get_emcy_count, 0, 0),
@@ -239,11 +250,13 @@ const sd_bus_vtable kNodeVtable[] = {
     SD_BUS_METHOD_WITH_NAMES("Ramp", "sdsd",
                              SD_BUS_PARAM(channel) SD_BUS_PARAM(value) SD_BUS_PARAM(unit) SD_BUS_PARAM(seconds), "", ,
                              audited_node<node_ramp>, kCall),
-    SD_BUS_METHOD_WITH_NAMES("SetModel", "ss", SD_BUS_PARAM(channel) SD_BUS_PARAM(yaml), "", , audited_node<node_set_model>, kCall),
+    SD_BUS_METHOD_WITH_NAMES("SetModel", "ss", SD_BUS_PARAM(channel) SD_BUS_PARAM(yaml), "", ,
+                             audited_node<node_set_model>, kCall),
     SD_BUS_METHOD_WITH_NAMES("RestoreModel", "s", SD_BUS_PARAM(channel), "", , audited_node<node_restore_model>, kCall),
     SD_BUS_METHOD_WITH_NAMES("Override", "sds", SD_BUS_PARAM(channel) SD_BUS_PARAM(value) SD_BUS_PARAM(unit), "", ,
                              audited_node<node_override>, kCall),
-    SD_BUS_METHOD_WITH_NAMES("ClearOverride", "s", SD_BUS_PARAM(channel), "", , audited_node<node_clear_override>, kCall),
+    SD_BUS_METHOD_WITH_NAMES("ClearOverride", "s", SD_BUS_PARAM(channel), "", , audited_node<node_clear_override>,
+                             kCall),
     SD_BUS_METHOD_WITH_NAMES("ArmFault", "sa{ss}", SD_BUS_PARAM(kind) SD_BUS_PARAM(params), "u", SD_BUS_PARAM(id),
                              audited_node<node_arm_fault>, kCall),
     SD_BUS_METHOD_WITH_NAMES("CancelFault", "u", SD_BUS_PARAM(id), "", , audited_node<node_cancel_fault>, kCall),
@@ -252,8 +265,8 @@ const sd_bus_vtable kNodeVtable[] = {
     SD_BUS_METHOD_WITH_NAMES("Nmt", "s", SD_BUS_PARAM(command), "", , audited_node<nmt>, kCall),
     SD_BUS_METHOD_WITH_NAMES("Store", "y", SD_BUS_PARAM(sub), "", , audited_node<store>, kCall),
     SD_BUS_METHOD_WITH_NAMES("Restore", "y", SD_BUS_PARAM(sub), "", , audited_node<restore>, kCall),
-    SD_BUS_METHOD_WITH_NAMES("Read", "qy", SD_BUS_PARAM(index) SD_BUS_PARAM(sub), "v", SD_BUS_PARAM(value),
-                             read_object, kCall),
+    SD_BUS_METHOD_WITH_NAMES("Read", "qy", SD_BUS_PARAM(index) SD_BUS_PARAM(sub), "v", SD_BUS_PARAM(value), read_object,
+                             kCall),
     SD_BUS_METHOD_WITH_NAMES("Write", "qyv", SD_BUS_PARAM(index) SD_BUS_PARAM(sub) SD_BUS_PARAM(value), "", ,
                              audited_node<write_object>, kCall),
     SD_BUS_METHOD_WITH_NAMES("GetDcf", "", , "s", SD_BUS_PARAM(dcf), get_dcf, kCall),
@@ -261,14 +274,18 @@ const sd_bus_vtable kNodeVtable[] = {
     SD_BUS_METHOD_WITH_NAMES("GetPdoMapping", "", , "a(subya(qyyssds))", SD_BUS_PARAM(pdos), node_get_pdo_mapping,
                              kCall),
     SD_BUS_METHOD_WITH_NAMES("ListEmcyCodes", "", , "a(qs)", SD_BUS_PARAM(codes), node_list_emcy_codes, kCall),
-    SD_BUS_METHOD_WITH_NAMES("StartRecording", "s", SD_BUS_PARAM(path), "", , audited_node<node_start_recording>, kCall),
+    SD_BUS_METHOD_WITH_NAMES("ListCountScaling", "", , "a(qydds)", SD_BUS_PARAM(objects), node_list_count_scaling,
+                             kCall),
+    SD_BUS_METHOD_WITH_NAMES("StartRecording", "s", SD_BUS_PARAM(path), "", , audited_node<node_start_recording>,
+                             kCall),
     SD_BUS_METHOD("StopRecording", "", "", audited_node<node_stop_recording>, kCall),
     SD_BUS_SIGNAL_WITH_NAMES("NmtStateChanged", "xss", SD_BUS_PARAM(t) SD_BUS_PARAM(old) SD_BUS_PARAM(new), 0),
     SD_BUS_SIGNAL_WITH_NAMES("BootUp", "xy", SD_BUS_PARAM(t) SD_BUS_PARAM(node_id), 0),
     SD_BUS_SIGNAL_WITH_NAMES("EmcySent", "xqyay",
                              SD_BUS_PARAM(t) SD_BUS_PARAM(code) SD_BUS_PARAM(register) SD_BUS_PARAM(vendor), 0),
-    SD_BUS_SIGNAL_WITH_NAMES("ObjectWritten", "xqyvs",
-                             SD_BUS_PARAM(t) SD_BUS_PARAM(index) SD_BUS_PARAM(sub) SD_BUS_PARAM(value) SD_BUS_PARAM(via), 0),
+    SD_BUS_SIGNAL_WITH_NAMES(
+        "ObjectWritten", "xqyvs",
+        SD_BUS_PARAM(t) SD_BUS_PARAM(index) SD_BUS_PARAM(sub) SD_BUS_PARAM(value) SD_BUS_PARAM(via), 0),
     SD_BUS_SIGNAL_WITH_NAMES("FaultStarted", "xus", SD_BUS_PARAM(t) SD_BUS_PARAM(id) SD_BUS_PARAM(kind), 0),
     SD_BUS_SIGNAL_WITH_NAMES("FaultEnded", "xus", SD_BUS_PARAM(t) SD_BUS_PARAM(id) SD_BUS_PARAM(kind), 0),
     SD_BUS_SIGNAL_WITH_NAMES("PdoMappingChanged", "x", SD_BUS_PARAM(t), 0),

@@ -25,7 +25,8 @@ const NodeHandle* unique(ControlHost& host, const std::string& spec, Match match
     if (n++ < 5) all += (all.empty() ? "" : ", ") + h->key;
   }
   if (n == 1) return found;
-  if (n > 1 && why) *why = "'" + spec + "' names " + std::to_string(n) + " nodes (" + all + (n > 5 ? ", ..." : "") + ")";
+  if (n > 1 && why)
+    *why = "'" + spec + "' names " + std::to_string(n) + " nodes (" + all + (n > 5 ? ", ..." : "") + ")";
   return nullptr;
 }
 
@@ -41,15 +42,18 @@ const NodeHandle* resolve_node(ControlHost& host, const std::string& spec, std::
   if (slash != std::string::npos && slash == last && parse_uint(spec.substr(slash + 1), number)) {
     const std::string iface = spec.substr(0, slash);
     // IFACE/ID first: "vcan0/5" is a node-ID; "generic/1" (no such interface) an index.
-    h = unique(host, spec, [&](const NodeHandle& n) {
-      return n.interface == iface && host.core().node(n.ref).node_id() == number;
-    }, why);
+    h = unique(
+        host, spec,
+        [&](const NodeHandle& n) { return n.interface == iface && host.core().node(n.ref).node_id() == number; }, why);
     if (h || (why && !why->empty())) return h;
-    h = unique(host, spec, [&](const NodeHandle& n) { return n.name == iface && n.index == number; }, why);
+    h = unique(
+        host, spec, [&](const NodeHandle& n) { return n.name == iface && n.index == number; }, why);
   } else if (slash != std::string::npos) {
-    h = unique(host, spec, [&](const NodeHandle& n) { return n.key.rfind(spec + "/", 0) == 0; }, why);
+    h = unique(
+        host, spec, [&](const NodeHandle& n) { return n.key.rfind(spec + "/", 0) == 0; }, why);
   } else {
-    h = unique(host, spec, [&](const NodeHandle& n) { return n.name == spec; }, why);
+    h = unique(
+        host, spec, [&](const NodeHandle& n) { return n.name == spec; }, why);
   }
   if (!h && why && why->empty()) *why = "no node '" + spec + "'";
   return h;

@@ -21,14 +21,15 @@ using physics::Channel;
 // The node's chain, or an error when it has none / not this channel.
 personalities::MeasurementControl* chain(NodeContext& n, const char* channel, Channel* ch, sd_bus_error* e, int* r) {
   const std::string_view name = channel;
-  if (name != "pressure" && name != "temperature") {
+  const std::optional<Channel> parsed = physics::parse_channel(name);
+  if (!parsed) {
     *r = fail(e, kErrorUnknownChannel, "unknown channel '" + std::string(name) + "': expected pressure or temperature");
     return nullptr;
   }
-  *ch = name == "pressure" ? Channel::Pressure : Channel::Temperature;
+  *ch = *parsed;
   if (!n.sensor) {
-    *r = fail(e, kErrorNotSupported, n.handle->key + " has no measurement channels (personality " +
-                                         n.handle->personality + ")");
+    *r = fail(e, kErrorNotSupported,
+              n.handle->key + " has no measurement channels (personality " + n.handle->personality + ")");
     return nullptr;
   }
   if (!n.sensor->has_channel(*ch)) {
@@ -51,13 +52,15 @@ bool to_si(Channel ch, double value, const char* unit, double& si, sd_bus_error*
       *r = fail(e, kErrorOutOfRange, "expected a pressure that is finite in Pa");
       return false;
     }
-    *r = fail(e, kErrorUnknownUnit, "unknown pressure unit '" + std::string(unit) + "': expected bar, mbar, psi, Pa, kPa or MPa");
+    *r = fail(e, kErrorUnknownUnit,
+              "unknown pressure unit '" + std::string(unit) + "': expected bar, mbar, psi, Pa, kPa or MPa");
     return false;
   }
   if (auto u = physics::parse_temperature_unit(unit)) {
     si = physics::to_kelvin(value, *u);
     if (si >= 0 && std::isfinite(si)) return true;
-    *r = fail(e, kErrorOutOfRange, si >= 0 ? "expected a temperature that is finite in K" : "temperature below absolute zero");
+    *r = fail(e, kErrorOutOfRange,
+              si >= 0 ? "expected a temperature that is finite in K" : "temperature below absolute zero");
     return false;
   }
   *r = fail(e, kErrorUnknownUnit, "unknown temperature unit '" + std::string(unit) + "': expected degC, degF or K");
@@ -99,7 +102,8 @@ int node_hold(sd_bus_message* m, void* userdata, sd_bus_error* e) {
   int r = sd_bus_message_read(m, "s", &channel);
   Channel ch;
   if (r < 0 || !chain(n, channel, &ch, e, &r)) return r;
-  return change_process(m, n, [&](TimeUs t) { return n.sensor->hold(n.node(), ch, t); }, e);
+  return change_process(
+      m, n, [&](TimeUs t) { return n.sensor->hold(n.node(), ch, t); }, e);
 }
 
 int node_step(sd_bus_message* m, void* userdata, sd_bus_error* e) {
@@ -107,7 +111,8 @@ int node_step(sd_bus_message* m, void* userdata, sd_bus_error* e) {
   ValueArgs a;
   int r = 0;
   if (!read_value_args(m, n, a, e, &r)) return r;
-  return change_process(m, n, [&](TimeUs t) { return n.sensor->step(n.node(), a.ch, a.si, t); }, e);
+  return change_process(
+      m, n, [&](TimeUs t) { return n.sensor->step(n.node(), a.ch, a.si, t); }, e);
 }
 
 int node_ramp(sd_bus_message* m, void* userdata, sd_bus_error* e) {
@@ -117,8 +122,10 @@ int node_ramp(sd_bus_message* m, void* userdata, sd_bus_error* e) {
   if (!read_value_args(m, n, a, e, &r)) return r;
   double seconds = 0;
   if ((r = sd_bus_message_read(m, "d", &seconds)) < 0) return r;
-  if (!std::isfinite(seconds) || seconds < 0 || seconds > 1e9) return fail(e, kErrorOutOfRange, "expected a ramp duration >= 0 s");
-  return change_process(m, n, [&](TimeUs t) { return n.sensor->ramp(n.node(), a.ch, a.si, seconds, t); }, e);
+  if (!std::isfinite(seconds) || seconds < 0 || seconds > 1e9)
+    return fail(e, kErrorOutOfRange, "expected a ramp duration >= 0 s");
+  return change_process(
+      m, n, [&](TimeUs t) { return n.sensor->ramp(n.node(), a.ch, a.si, seconds, t); }, e);
 }
 
 int node_set_model(sd_bus_message* m, void* userdata, sd_bus_error* e) {
@@ -130,13 +137,15 @@ int node_set_model(sd_bus_message* m, void* userdata, sd_bus_error* e) {
   std::vector<physics::TermSpec> terms;
   try {
     config::check_yaml_size(yaml, "<SetModel>", limits::kYamlTextBytes);
+    const config::ConfinedFiles tables(n.service->host().profile_folders());
     terms = config::parse_channel_model_text("<SetModel>", channel, yaml, ch);
   } catch (const config::TooLarge& ex) {
     return fail(e, kErrorTooLarge, ex.what());
   } catch (const std::exception& ex) {
     return fail(e, kErrorInvalidArgument, ex.what());
   }
-  return change_process(m, n, [&](TimeUs t) { return n.sensor->set_process(n.node(), ch, terms, t); }, e);
+  return change_process(
+      m, n, [&](TimeUs t) { return n.sensor->set_process(n.node(), ch, terms, t); }, e);
 }
 
 int node_restore_model(sd_bus_message* m, void* userdata, sd_bus_error* e) {
@@ -145,7 +154,8 @@ int node_restore_model(sd_bus_message* m, void* userdata, sd_bus_error* e) {
   int r = sd_bus_message_read(m, "s", &channel);
   Channel ch;
   if (r < 0 || !chain(n, channel, &ch, e, &r)) return r;
-  return change_process(m, n, [&](TimeUs t) { return n.sensor->restore_process(n.node(), ch, t); }, e);
+  return change_process(
+      m, n, [&](TimeUs t) { return n.sensor->restore_process(n.node(), ch, t); }, e);
 }
 
 int node_override(sd_bus_message* m, void* userdata, sd_bus_error* e) {
@@ -162,11 +172,35 @@ int node_clear_override(sd_bus_message* m, void* userdata, sd_bus_error* e) {
   NodeContext& n = NodeContext::of(userdata);
   const char* channel = nullptr;
   int r = sd_bus_message_read(m, "s", &channel);
-  Channel ch;
-  if (r < 0 || !chain(n, channel, &ch, e, &r)) return r;
-  n.sensor->set_override(n.node(), ch, std::nullopt, n.act_now());
+  if (r < 0) return r;
+  const TimeUs t = n.act_now();
+  if (!*channel) {  // every channel the node has
+    if (!n.sensor) return fail(e, kErrorNotSupported, n.handle->key + " has no measurement channels");
+    for (Channel ch : {Channel::Pressure, Channel::Temperature})
+      if (n.sensor->has_channel(ch)) n.sensor->set_override(n.node(), ch, std::nullopt, t);
+  } else {
+    Channel ch;
+    if (!chain(n, channel, &ch, e, &r)) return r;
+    n.sensor->set_override(n.node(), ch, std::nullopt, t);
+  }
   n.service->touched(n);
   return sd_bus_reply_method_return(m, "");
+}
+
+int read_fault_params(sd_bus_message* m, sd_bus_error* e, std::vector<std::pair<std::string, std::string>>& keys) {
+  int r = sd_bus_message_enter_container(m, 'a', "{ss}");
+  if (r < 0) return r;
+  const char *key = nullptr, *value = nullptr;
+  while ((r = sd_bus_message_read(m, "{ss}", &key, &value)) > 0) {
+    if (std::string_view(key) == "kind")
+      return fail(e, kErrorInvalidArgument, "'kind' is the first argument, not a parameter");
+    if (keys.size() == limits::kFaultParams)
+      return fail(e, kErrorTooLarge, "more than " + std::to_string(limits::kFaultParams) + " parameters");
+    if (std::strlen(key) > limits::kFaultValueBytes || std::strlen(value) > limits::kFaultValueBytes)
+      return fail(e, kErrorTooLarge, "a parameter longer than " + std::to_string(limits::kFaultValueBytes) + " bytes");
+    keys.emplace_back(key, value);
+  }
+  return r < 0 ? r : sd_bus_message_exit_container(m);
 }
 
 int node_arm_fault(sd_bus_message* m, void* userdata, sd_bus_error* e) {
@@ -176,17 +210,7 @@ int node_arm_fault(sd_bus_message* m, void* userdata, sd_bus_error* e) {
   if (r < 0) return r;
   // The same parser as a profile's `faults:` entry, the values as YAML scalars.
   std::vector<std::pair<std::string, std::string>> keys;
-  if ((r = sd_bus_message_enter_container(m, 'a', "{ss}")) < 0) return r;
-  const char *key = nullptr, *value = nullptr;
-  while ((r = sd_bus_message_read(m, "{ss}", &key, &value)) > 0) {
-    if (std::string_view(key) == "kind") return fail(e, kErrorInvalidArgument, "'kind' is the first argument, not a parameter");
-    if (keys.size() == limits::kFaultParams)
-      return fail(e, kErrorTooLarge, "more than " + std::to_string(limits::kFaultParams) + " parameters");
-    if (std::strlen(key) > limits::kFaultValueBytes || std::strlen(value) > limits::kFaultValueBytes)
-      return fail(e, kErrorTooLarge, "a parameter longer than " + std::to_string(limits::kFaultValueBytes) + " bytes");
-    keys.emplace_back(key, value);
-  }
-  if (r < 0 || (r = sd_bus_message_exit_container(m)) < 0) return r;
+  if ((r = read_fault_params(m, e, keys)) < 0) return r;
   physics::FaultSpec spec;
   try {
     spec = config::parse_fault_text("<ArmFault>", kind, keys);
@@ -232,8 +256,8 @@ int node_list_faults(sd_bus_message* m, void* userdata, sd_bus_error*) {
         if (r >= 0)
           r = sd_bus_message_append(reply, "(ussbxxxu)", f.handle, std::string(physics::to_string(f.kind)).c_str(),
                                     std::string(physics::to_string(f.channel)).c_str(), int(f.active),
-                                    std::int64_t(f.first_start), std::int64_t(f.duration_us),
-                                    std::int64_t(f.period_us), f.count);
+                                    std::int64_t(f.first_start), std::int64_t(f.duration_us), std::int64_t(f.period_us),
+                                    f.count);
     return r < 0 ? r : sd_bus_message_close_container(reply);
   });
 }
@@ -246,7 +270,8 @@ int node_start_recording(sd_bus_message* m, void* userdata, sd_bus_error* e) {
   if (!n.sensor) return fail(e, kErrorNotSupported, n.handle->key + " has no measurement channels");
   if (!*path) return fail(e, kErrorInvalidArgument, "expected a file path");
   std::string error;
-  if (!n.sensor->start_recording(path, &error)) return fail(e, kErrorRefused, error);
+  if (!n.sensor->start_recording(n.node(), path, &error, n.service->host().now())) return fail(e, kErrorRefused, error);
+  n.service->touched(n);
   return sd_bus_reply_method_return(m, "");
 }
 
@@ -268,6 +293,14 @@ int node_get_channel(sd_bus*, const char*, const char*, const char* property, sd
   return sd_bus_message_append(reply, "(ddsy)", v.true_value, v.reported, std::string(v.unit).c_str(), v.status);
 }
 
+int node_get_channel_counts(sd_bus*, const char*, const char*, const char* property, sd_bus_message* reply,
+                            void* userdata, sd_bus_error*) {
+  NodeContext& n = NodeContext::of(userdata);
+  const Channel ch = std::string_view(property) == "PressureCounts" ? Channel::Pressure : Channel::Temperature;
+  if (!n.sensor || !n.sensor->has_channel(ch)) return sd_bus_message_append(reply, "d", std::nan(""));
+  return sd_bus_message_append(reply, "d", n.sensor->view(n.node(), ch, n.service->host().now()).counts);
+}
+
 int node_get_overrides(sd_bus*, const char*, const char*, const char*, sd_bus_message* reply, void* userdata,
                        sd_bus_error*) {
   NodeContext& n = NodeContext::of(userdata);
@@ -275,7 +308,7 @@ int node_get_overrides(sd_bus*, const char*, const char*, const char*, sd_bus_me
   if (n.sensor)
     for (const auto& o : n.sensor->overrides())
       if (r >= 0)
-        r = sd_bus_message_append(reply, "(sds)", o.channel == Channel::Pressure ? "pressure" : "temperature", o.value,
+        r = sd_bus_message_append(reply, "(sds)", std::string(physics::channel_name(o.channel)).c_str(), o.value,
                                   std::string(o.unit).c_str());
   return r < 0 ? r : sd_bus_message_close_container(reply);
 }
@@ -287,7 +320,8 @@ int node_get_faults(sd_bus*, const char*, const char*, const char*, sd_bus_messa
   if (n.sensor)
     for (const physics::FaultInfo& f : n.sensor->faults(n.service->host().now()))
       if (r >= 0)
-        r = sd_bus_message_append(reply, "(usb)", f.handle, std::string(physics::to_string(f.kind)).c_str(), int(f.active));
+        r = sd_bus_message_append(reply, "(usb)", f.handle, std::string(physics::to_string(f.kind)).c_str(),
+                                  int(f.active));
   return r < 0 ? r : sd_bus_message_close_container(reply);
 }
 

@@ -3,13 +3,13 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <type_traits>
 
 #include "control/names.hpp"
 
 namespace cansim::control {
 
 namespace {
-
 
 // The value range of an integer type of `bytes` bytes.
 struct Range {
@@ -31,21 +31,34 @@ struct Number {
   long double as_long_double() const { return is_double ? d : is_unsigned ? (long double)u : (long double)i; }
 };
 
+// One D-Bus basic value of C++ type T into `n`.
+template <typename T>
+int read_as(sd_bus_message* m, char type, Number& n) {
+  T v{};
+  const int r = sd_bus_message_read_basic(m, type, &v);
+  if constexpr (std::is_same_v<T, double>) n.is_double = true, n.d = v;
+  else if constexpr (std::is_unsigned_v<T>) n.is_unsigned = true, n.u = v;
+  else n.i = v;
+  return r;
+}
+
 int read_number(sd_bus_message* m, char type, Number& n) {
-  int r = 0;
   switch (type) {
-    case 'y': { std::uint8_t v; r = sd_bus_message_read_basic(m, type, &v); n.is_unsigned = true; n.u = v; break; }
-    case 'q': { std::uint16_t v; r = sd_bus_message_read_basic(m, type, &v); n.is_unsigned = true; n.u = v; break; }
-    case 'u': { std::uint32_t v; r = sd_bus_message_read_basic(m, type, &v); n.is_unsigned = true; n.u = v; break; }
-    case 't': { std::uint64_t v; r = sd_bus_message_read_basic(m, type, &v); n.is_unsigned = true; n.u = v; break; }
-    case 'n': { std::int16_t v; r = sd_bus_message_read_basic(m, type, &v); n.i = v; break; }
-    case 'i': { std::int32_t v; r = sd_bus_message_read_basic(m, type, &v); n.i = v; break; }
-    case 'x': { std::int64_t v; r = sd_bus_message_read_basic(m, type, &v); n.i = v; break; }
-    case 'b': { int v; r = sd_bus_message_read_basic(m, type, &v); n.i = v ? 1 : 0; break; }
-    case 'd': { double v; r = sd_bus_message_read_basic(m, type, &v); n.is_double = true; n.d = v; break; }
+    case 'y': return read_as<std::uint8_t>(m, type, n);
+    case 'q': return read_as<std::uint16_t>(m, type, n);
+    case 'u': return read_as<std::uint32_t>(m, type, n);
+    case 't': return read_as<std::uint64_t>(m, type, n);
+    case 'n': return read_as<std::int16_t>(m, type, n);
+    case 'i': return read_as<std::int32_t>(m, type, n);
+    case 'x': return read_as<std::int64_t>(m, type, n);
+    case 'd': return read_as<double>(m, type, n);
+    case 'b': {  // a D-Bus boolean is an int that sd-bus gives as 0 or 1
+      const int r = read_as<int>(m, type, n);
+      n.i = n.i ? 1 : 0;
+      return r;
+    }
     default: return -EINVAL;
   }
-  return r;
 }
 
 // "123", "-5", "0x1F", "1.5": a number given as text.
@@ -55,10 +68,17 @@ bool parse_number_text(const std::string& s, Number& n) {
   errno = 0;
   if (s[0] == '-') {
     long long v = std::strtoll(s.c_str(), &end, 0);
-    if (errno == 0 && end && *end == 0) { n.i = v; return true; }
+    if (errno == 0 && end && *end == 0) {
+      n.i = v;
+      return true;
+    }
   } else {
     unsigned long long v = std::strtoull(s.c_str(), &end, 0);
-    if (errno == 0 && end && *end == 0) { n.is_unsigned = true; n.u = v; return true; }
+    if (errno == 0 && end && *end == 0) {
+      n.is_unsigned = true;
+      n.u = v;
+      return true;
+    }
   }
   errno = 0;
   double d = std::strtod(s.c_str(), &end);
@@ -87,7 +107,8 @@ bool encode_number(const OdEntry& e, const Number& n, std::vector<std::uint8_t>&
     message = "value out of the range of " + std::string(type_name(e.type));
     return false;
   }
-  if (is_signed(e.type)) encode_i(e.type, n.is_double ? std::int64_t(n.d) : n.is_unsigned ? std::int64_t(n.u) : n.i, out.data());
+  if (is_signed(e.type))
+    encode_i(e.type, n.is_double ? std::int64_t(n.d) : n.is_unsigned ? std::int64_t(n.u) : n.i, out.data());
   else encode_u(e.type, n.is_double ? std::uint64_t(n.d) : n.is_unsigned ? n.u : std::uint64_t(n.i), out.data());
   return true;
 }
@@ -129,15 +150,51 @@ int append_value(sd_bus_message* m, const OdEntry& e, std::span<const std::uint8
     std::uint8_t buf[8] = {};
     std::memcpy(buf, bytes.data(), std::min<std::size_t>(bytes.size(), 8));
     switch (sig[0]) {
-      case 'b': { int v = decode_u(e.type, buf) != 0; r = sd_bus_message_append_basic(m, 'b', &v); break; }
-      case 'y': { std::uint8_t v = std::uint8_t(decode_u(e.type, buf)); r = sd_bus_message_append_basic(m, 'y', &v); break; }
-      case 'n': { std::int16_t v = std::int16_t(decode_i(e.type, buf)); r = sd_bus_message_append_basic(m, 'n', &v); break; }
-      case 'q': { std::uint16_t v = std::uint16_t(decode_u(e.type, buf)); r = sd_bus_message_append_basic(m, 'q', &v); break; }
-      case 'i': { std::int32_t v = std::int32_t(decode_i(e.type, buf)); r = sd_bus_message_append_basic(m, 'i', &v); break; }
-      case 'u': { std::uint32_t v = std::uint32_t(decode_u(e.type, buf)); r = sd_bus_message_append_basic(m, 'u', &v); break; }
-      case 'x': { std::int64_t v = decode_i(e.type, buf); r = sd_bus_message_append_basic(m, 'x', &v); break; }
-      case 't': { std::uint64_t v = decode_u(e.type, buf); r = sd_bus_message_append_basic(m, 't', &v); break; }
-      case 'd': { double v = decode_f(e.type, buf); r = sd_bus_message_append_basic(m, 'd', &v); break; }
+      case 'b': {
+        int v = decode_u(e.type, buf) != 0;
+        r = sd_bus_message_append_basic(m, 'b', &v);
+        break;
+      }
+      case 'y': {
+        std::uint8_t v = std::uint8_t(decode_u(e.type, buf));
+        r = sd_bus_message_append_basic(m, 'y', &v);
+        break;
+      }
+      case 'n': {
+        std::int16_t v = std::int16_t(decode_i(e.type, buf));
+        r = sd_bus_message_append_basic(m, 'n', &v);
+        break;
+      }
+      case 'q': {
+        std::uint16_t v = std::uint16_t(decode_u(e.type, buf));
+        r = sd_bus_message_append_basic(m, 'q', &v);
+        break;
+      }
+      case 'i': {
+        std::int32_t v = std::int32_t(decode_i(e.type, buf));
+        r = sd_bus_message_append_basic(m, 'i', &v);
+        break;
+      }
+      case 'u': {
+        std::uint32_t v = std::uint32_t(decode_u(e.type, buf));
+        r = sd_bus_message_append_basic(m, 'u', &v);
+        break;
+      }
+      case 'x': {
+        std::int64_t v = decode_i(e.type, buf);
+        r = sd_bus_message_append_basic(m, 'x', &v);
+        break;
+      }
+      case 't': {
+        std::uint64_t v = decode_u(e.type, buf);
+        r = sd_bus_message_append_basic(m, 't', &v);
+        break;
+      }
+      case 'd': {
+        double v = decode_f(e.type, buf);
+        r = sd_bus_message_append_basic(m, 'd', &v);
+        break;
+      }
     }
   }
   if (r < 0) return r;
@@ -171,7 +228,8 @@ bool read_value(sd_bus_message* m, const OdEntry& e, std::vector<std::uint8_t>& 
     if (sd_bus_message_read_array(m, 'y', &p, &n) < 0) return bad("bytes");
     const auto* b = static_cast<const std::uint8_t*>(p);
     out.assign(b, b + n);
-    ok = is_variable_size(e.type) || n == type_size(e.type) || bad("exactly " + std::to_string(type_size(e.type)) + " bytes");
+    ok = is_variable_size(e.type) || n == type_size(e.type) ||
+         bad("exactly " + std::to_string(type_size(e.type)) + " bytes");
   } else if (sig == "s") {
     const char* s = nullptr;
     if (sd_bus_message_read_basic(m, 's', &s) < 0) return bad("a string");

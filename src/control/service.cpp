@@ -47,6 +47,28 @@ int find_node(sd_bus*, const char* path, const char*, void* userdata, void** fou
   return 1;
 }
 
+int find_plant(sd_bus*, const char* path, const char*, void* userdata, void** found, sd_bus_error*) {
+  auto* service = static_cast<ControlService*>(userdata);
+  char* name = nullptr;
+  if (sd_bus_path_decode_many(path, "/io/cansim/Cansimd1/plant/%", &name) <= 0) return 0;
+  ControlService::PlantContext* p = service->plant_context(name);
+  std::free(name);
+  if (!p) return 0;
+  *found = p;
+  return 1;
+}
+
+int enumerate_plants(sd_bus*, const char*, void* userdata, char*** nodes, sd_bus_error*) {
+  auto* service = static_cast<ControlService*>(userdata);
+  physics::PlantSet* set = service->host().plants();
+  const std::size_t n = set ? set->plants().size() : 0;
+  char** list = static_cast<char**>(std::calloc(n + 1, sizeof(char*)));
+  if (!list) return -ENOMEM;
+  for (std::size_t i = 0; i < n; ++i) list[i] = strdup(plant_path(set->plants()[i]->name()).c_str());
+  *nodes = list;
+  return 1;
+}
+
 int enumerate_nodes(sd_bus*, const char*, void* userdata, char*** nodes, sd_bus_error*) {
   auto* service = static_cast<ControlService*>(userdata);
   auto handles = service->host().nodes();
@@ -64,7 +86,8 @@ int enumerate_nodes(sd_bus*, const char*, void* userdata, char*** nodes, sd_bus_
 int fail(sd_bus_error* e, const char* name, const std::string& message) {
   if (message.size() <= limits::kErrorMessageBytes) return sd_bus_error_set(e, name, message.c_str());
   std::string cut = message.substr(0, limits::kErrorMessageBytes);
-  while (!cut.empty() && (static_cast<unsigned char>(cut.back()) & 0xC0) == 0x80) cut.pop_back();  // whole UTF-8 characters
+  while (!cut.empty() && (static_cast<unsigned char>(cut.back()) & 0xC0) == 0x80)
+    cut.pop_back();  // whole UTF-8 characters
   if (!cut.empty() && static_cast<unsigned char>(cut.back()) >= 0xC0) cut.pop_back();
   return sd_bus_error_set(e, name, (cut + "...").c_str());
 }
@@ -90,6 +113,14 @@ std::string node_path(const NodeHandle& h) {
   return path;
 }
 
+std::string plant_path(const std::string& name) {
+  char* out = nullptr;
+  if (sd_bus_path_encode_many(&out, "/io/cansim/Cansimd1/plant/%", name.c_str()) < 0) return {};
+  std::string path(out);
+  std::free(out);
+  return path;
+}
+
 ControlService::ControlService(ControlHost& host) : host_(host) {}
 
 ControlService::~ControlService() {
@@ -110,7 +141,8 @@ void ControlService::audit(sd_bus_message* m, const std::string& key, const std:
                     uid});
 }
 
-int ControlService::attach(sd_bus* bus, bool peer) {
+int ControlService::attach(sd_bus* bus, bool peer, std::optional<uid_t> peer_uid) {
+  if (peer_uid) callers_.set_peer(bus, *peer_uid);
   auto c = std::make_unique<Connection>();
   c->bus = bus;
   c->peer = peer;
@@ -124,15 +156,21 @@ int ControlService::attach(sd_bus* bus, bool peer) {
   add(sd_bus_add_object_vtable(bus, &slot, kRootPath, kFleetInterface, kFleetVtable, this));
   add(sd_bus_add_fallback_vtable(bus, &slot, kNodePrefix, kNodeInterface, kNodeVtable, find_node, this));
   add(sd_bus_add_node_enumerator(bus, &slot, kNodePrefix, enumerate_nodes, this));
+  add(sd_bus_add_fallback_vtable(bus, &slot, kPlantPrefix, kPlantInterface, kPlantVtable, find_plant, this));
+  add(sd_bus_add_node_enumerator(bus, &slot, kPlantPrefix, enumerate_plants, this));
   add(sd_bus_add_object_manager(bus, &slot, kRootPath));
-  if (peer) add(sd_bus_add_object_vtable(bus, &slot, "/org/freedesktop/DBus", "org.freedesktop.DBus", kPeerBusVtable, this));
-  else add(sd_bus_track_new(bus, &c->track, nullptr, nullptr));  // with a handler, an empty track is dispatched on every sd_bus_process()
+  if (peer)
+    add(sd_bus_add_object_vtable(bus, &slot, "/org/freedesktop/DBus", "org.freedesktop.DBus", kPeerBusVtable, this));
+  else
+    add(sd_bus_track_new(bus, &c->track, nullptr,
+                         nullptr));  // with a handler, an empty track is dispatched on every sd_bus_process()
   connections_.push_back(std::move(c));
   if (r < 0) detach(bus);
   return r;
 }
 
 void ControlService::detach(sd_bus* bus) {
+  callers_.forget(bus);
   auto it = std::find_if(connections_.begin(), connections_.end(), [&](const auto& c) { return c->bus == bus; });
   if (it == connections_.end()) return;
   for (sd_bus_slot* s : (*it)->slots) sd_bus_slot_unref(s);
@@ -163,6 +201,25 @@ ControlService::NodeContext* ControlService::context(io::NodeRef ref) {
   return ref < by_ref_.size() ? by_ref_[ref] : nullptr;
 }
 
+ControlService::PlantContext* ControlService::plant_context(const std::string& name) {
+  physics::PlantSet* set = host_.plants();
+  if (!set || !set->find(name)) return nullptr;
+  std::unique_ptr<PlantContext>& p = plants_[name];
+  if (!p) p = std::make_unique<PlantContext>(PlantContext{this, name, plant_path(name)});
+  return p.get();
+}
+
+void ControlService::plant_fault_edge(const std::string& plant, std::uint32_t id, std::uint8_t kind,
+                                      const std::string& target, bool started, TimeUs t) {
+  if (!has_subscribers()) return;
+  const std::string path = plant_path(plant);
+  const std::string name(physics::to_string(physics::FaultKind(kind)));
+  emit(path, kPlantInterface, started ? "FaultStarted" : "FaultEnded", [&](sd_bus_message* m) {
+    return sd_bus_message_append(m, "xuss", std::int64_t(t), id, name.c_str(), target.c_str());
+  });
+  emit_properties_changed(path, kPlantInterface, {"Faults"});
+}
+
 void ControlService::node_added(const NodeHandle& h) {
   auto n = std::make_unique<NodeContext>();
   n->service = this;
@@ -179,9 +236,8 @@ void ControlService::node_added(const NodeHandle& h) {
   by_ref_[h.ref] = n.get();
   const std::string path = n->path;
   by_key_[h.key] = std::move(n);
-  emit(kRootPath, kFleetInterface, "NodeAdded", [&](sd_bus_message* m) {
-    return sd_bus_message_append(m, "os", path.c_str(), h.key.c_str());
-  });
+  emit(kRootPath, kFleetInterface, "NodeAdded",
+       [&](sd_bus_message* m) { return sd_bus_message_append(m, "os", path.c_str(), h.key.c_str()); });
 }
 
 void ControlService::node_removed(const std::string& key) {
@@ -192,9 +248,8 @@ void ControlService::node_removed(const std::string& key) {
   if (it->second->sensor) it->second->sensor->set_fault_listener(nullptr);
   if (ref < by_ref_.size() && by_ref_[ref] == it->second.get()) by_ref_[ref] = nullptr;
   by_key_.erase(it);
-  emit(kRootPath, kFleetInterface, "NodeRemoved", [&](sd_bus_message* m) {
-    return sd_bus_message_append(m, "os", path.c_str(), key.c_str());
-  });
+  emit(kRootPath, kFleetInterface, "NodeRemoved",
+       [&](sd_bus_message* m) { return sd_bus_message_append(m, "os", path.c_str(), key.c_str()); });
 }
 
 void ControlService::bus_state_changed(const std::string& interface, CanState old, CanState now, TimeUs t) {
@@ -231,9 +286,8 @@ void ControlService::on_boot_up(io::NodeRef ref, TimeUs t) {
   NodeContext* n = context(ref);
   if (!n || !has_subscribers()) return;
   const std::uint8_t id = n->node().node_id();
-  emit(n->path, kNodeInterface, "BootUp", [&](sd_bus_message* m) {
-    return sd_bus_message_append(m, "xy", std::int64_t(t), id);
-  });
+  emit(n->path, kNodeInterface, "BootUp",
+       [&](sd_bus_message* m) { return sd_bus_message_append(m, "xy", std::int64_t(t), id); });
 }
 
 void ControlService::on_emcy(io::NodeRef ref, std::uint16_t code, std::uint8_t reg, const std::uint8_t vendor[5],
@@ -266,17 +320,15 @@ void ControlService::on_power(io::NodeRef ref, bool, TimeUs) {
 void ControlService::on_pdo_config(io::NodeRef ref, TimeUs t) {
   NodeContext* n = context(ref);
   if (!n || !has_subscribers()) return;
-  emit(n->path, kNodeInterface, "PdoMappingChanged", [&](sd_bus_message* m) {
-    return sd_bus_message_append(m, "x", std::int64_t(t));
-  });
+  emit(n->path, kNodeInterface, "PdoMappingChanged",
+       [&](sd_bus_message* m) { return sd_bus_message_append(m, "x", std::int64_t(t)); });
 }
 
 void ControlService::fault_edge(NodeContext& n, std::uint32_t id, std::uint8_t kind, bool started, TimeUs t) {
   if (!has_subscribers()) return;
   const std::string name(physics::to_string(physics::FaultKind(kind)));
-  emit(n.path, kNodeInterface, started ? "FaultStarted" : "FaultEnded", [&](sd_bus_message* m) {
-    return sd_bus_message_append(m, "xus", std::int64_t(t), id, name.c_str());
-  });
+  emit(n.path, kNodeInterface, started ? "FaultStarted" : "FaultEnded",
+       [&](sd_bus_message* m) { return sd_bus_message_append(m, "xus", std::int64_t(t), id, name.c_str()); });
   emit_properties_changed(n.path, kNodeInterface, {"Faults"});
 }
 

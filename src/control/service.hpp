@@ -25,6 +25,8 @@ namespace cansim::control {
 
 // The object path of a node: /io/cansim/Cansimd1/node/<interface>/<name>/<index>.
 std::string node_path(const NodeHandle& h);
+// The object path of a plant: /io/cansim/Cansimd1/plant/<name>.
+std::string plant_path(const std::string& name);
 
 class ControlService : public io::LoopObserver {
  public:
@@ -35,8 +37,9 @@ class ControlService : public io::LoopObserver {
 
   // Serves the object model on a connection. `peer`: a peer-to-peer
   // connection without a bus daemon (answers Hello / AddMatch itself).
-  // Returns a negative errno on failure.
-  int attach(sd_bus* bus, bool peer);
+  // `peer_uid`: the peer's uid, when its connection cannot tell sd-bus
+  // (ControlEndpoints reads the socket for it). Returns a negative errno on failure.
+  int attach(sd_bus* bus, bool peer, std::optional<uid_t> peer_uid = std::nullopt);
   void detach(sd_bus* bus);
 
   // The host tells the service about fleet changes (initial nodes included).
@@ -45,6 +48,11 @@ class ControlService : public io::LoopObserver {
   // A real interface's CAN controller changed state: signal BusStateChanged
   // and BusStates' PropertiesChanged to subscribers.
   void bus_state_changed(const std::string& interface, CanState old, CanState now, TimeUs t);
+
+  // A plant's fault began or ended (the daemon's plant wiring tells it):
+  // FaultStarted / FaultEnded and the Faults property to subscribers.
+  void plant_fault_edge(const std::string& plant, std::uint32_t id, std::uint8_t kind, const std::string& target,
+                        bool started, TimeUs t);
 
   // io::LoopObserver: core events become signals.
   void on_nmt_state(io::NodeRef ref, NmtState old, NmtState now, TimeUs t) override;
@@ -56,15 +64,19 @@ class ControlService : public io::LoopObserver {
 
   // Implementation detail shared by the handler files.
   struct NodeContext;
+  struct PlantContext;
   struct Connection;
   ControlHost& host() { return host_; }
   NodeContext* context(const std::string& key);
   NodeContext* context(io::NodeRef ref);
+  // A plant's context (made on first use; null when the fleet has no such plant).
+  PlantContext* plant_context(const std::string& name);
   bool has_subscribers() const;
   // Emits a signal on every connection with a subscriber; `build` appends the arguments.
   template <typename Build>
   void emit(const std::string& path, const char* interface, const char* member, Build&& build);
-  void emit_properties_changed(const std::string& path, const char* interface, std::initializer_list<const char*> names);
+  void emit_properties_changed(const std::string& path, const char* interface,
+                               std::initializer_list<const char*> names);
   void subscribe(sd_bus_message* m, bool on);
   // A method changed a node: its deadlines are re-read, its frames flushed.
   void touched(const NodeContext& n);
@@ -79,6 +91,7 @@ class ControlService : public io::LoopObserver {
   std::vector<std::unique_ptr<Connection>> connections_;
   std::unordered_map<std::string, std::unique_ptr<NodeContext>> by_key_;
   std::vector<NodeContext*> by_ref_;
+  std::unordered_map<std::string, std::unique_ptr<PlantContext>> plants_;
 };
 
 }  // namespace cansim::control

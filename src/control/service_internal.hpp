@@ -32,10 +32,23 @@ struct ControlService::NodeContext {
   static NodeContext& of(void* userdata) { return *static_cast<NodeContext*>(userdata); }
 };
 
+struct ControlService::PlantContext {
+  ControlService* service = nullptr;
+  std::string name;
+  std::string path;
+  // A method acts now: what was due before the call happens first.
+  TimeUs act_now() const {
+    io::LoopCore& core = service->host().core();
+    core.run_due(service->host().now());
+    return core.now();
+  }
+  static PlantContext& of(void* userdata) { return *static_cast<PlantContext*>(userdata); }
+};
+
 struct ControlService::Connection {
   sd_bus* bus = nullptr;
   bool peer = false;
-  bool peer_subscribed = false;  // peer-to-peer: messages carry no sender to track
+  bool peer_subscribed = false;   // peer-to-peer: messages carry no sender to track
   sd_bus_track* track = nullptr;  // bus: subscribed unique names
   std::vector<sd_bus_slot*> slots;
   bool subscribed() const { return peer ? peer_subscribed : (track && sd_bus_track_count(track) > 0); }
@@ -52,9 +65,16 @@ int fail(sd_bus_error* e, const char* name, const std::string& message);
 
 const char* nmt_state_name(NmtState s);
 
+// ArmFault's a{ss} (a node's or a plant's): the fault's parameters as key
+// and value texts, bounded by limits::kFaultParams and kFaultValueBytes
+// ("kind" is the method's first argument, not a parameter). >= 0, or a
+// negative errno with `e` filled (node_physics.cpp).
+int read_fault_params(sd_bus_message* m, sd_bus_error* e, std::vector<std::pair<std::string, std::string>>& keys);
+
 // The vtables, one per interface (defined in fleet_methods.cpp / node_methods.cpp).
 extern const sd_bus_vtable kFleetVtable[];
 extern const sd_bus_vtable kNodeVtable[];
+extern const sd_bus_vtable kPlantVtable[];  // plant_methods.cpp
 
 // Node1 handlers defined in node_physics.cpp (channels, overrides, faults, recording).
 int node_hold(sd_bus_message* m, void* userdata, sd_bus_error* e);
@@ -73,8 +93,13 @@ int node_stop_recording(sd_bus_message* m, void* userdata, sd_bus_error* e);
 int node_list_objects(sd_bus_message* m, void* userdata, sd_bus_error* e);
 int node_get_pdo_mapping(sd_bus_message* m, void* userdata, sd_bus_error* e);
 int node_list_emcy_codes(sd_bus_message* m, void* userdata, sd_bus_error* e);
+int node_list_count_scaling(sd_bus_message* m, void* userdata, sd_bus_error* e);
+// Fleet1 handler defined there too: the GetPdoMapping of every node of a bus at once.
+int fleet_get_pdo_mappings(sd_bus_message* m, void* userdata, sd_bus_error* e);
 int node_get_channel(sd_bus* bus, const char* path, const char* iface, const char* property, sd_bus_message* reply,
                      void* userdata, sd_bus_error* e);
+int node_get_channel_counts(sd_bus* bus, const char* path, const char* iface, const char* property,
+                            sd_bus_message* reply, void* userdata, sd_bus_error* e);
 int node_get_overrides(sd_bus* bus, const char* path, const char* iface, const char* property, sd_bus_message* reply,
                        void* userdata, sd_bus_error* e);
 int node_get_faults(sd_bus* bus, const char* path, const char* iface, const char* property, sd_bus_message* reply,
@@ -90,6 +115,17 @@ int audited_node(sd_bus_message* m, void* userdata, sd_bus_error* e) {
   const std::string key = n.handle->key, interface = n.handle->interface;
   const int r = handler(m, userdata, e);
   service->audit(m, key, interface, r, e);
+  return r;
+}
+
+// A plant's acting method, logged as "plant:NAME" (audit.hpp).
+template <sd_bus_message_handler_t handler>
+int audited_plant(sd_bus_message* m, void* userdata, sd_bus_error* e) {
+  const ControlService::PlantContext& p = ControlService::PlantContext::of(userdata);
+  ControlService* service = p.service;
+  const std::string key = "plant:" + p.name;
+  const int r = handler(m, userdata, e);
+  service->audit(m, key, "", r, e);
   return r;
 }
 

@@ -31,9 +31,7 @@ class Application {
   // bring the stored value up to date.
   virtual void refresh(Node&, const OdEntry&, TimeUs) {}
   // Before a remote write of a kHookWrite entry is stored: accept or abort.
-  virtual SdoAbort check_write(Node&, const OdEntry&, std::span<const std::uint8_t>, TimeUs) {
-    return SdoAbort::kNone;
-  }
+  virtual SdoAbort check_write(Node&, const OdEntry&, std::span<const std::uint8_t>, TimeUs) { return SdoAbort::kNone; }
   // After a remote write of a kHookWrite entry was stored.
   virtual void after_write(Node&, const OdEntry&, TimeUs) {}
   // A SYNC frame was consumed (counter 0 when the SYNC has no counter byte).

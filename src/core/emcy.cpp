@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cstring>
 
-#include "core/cob_id.hpp"
+#include "core/protocol.hpp"
 #include "core/node.hpp"
 
 namespace cansim {
@@ -159,7 +159,7 @@ SdoAbort Emcy::check_read(const OdEntry& e) const {
 
 void Emcy::emit(std::uint16_t code, std::uint8_t reg, const std::uint8_t* mfr, TimeUs now) {
   if (!valid_ || node_.state() == NmtState::kStopped) return;  // recorded only
-  if (queue_n_ == kQueueSize) return;                           // ring full: dropped
+  if (queue_n_ == kQueueSize) return;                          // ring full: dropped
   Pending& p = queue_[(queue_head_ + queue_n_++) % kQueueSize];
   put_u16(p.data, code);
   p.data[2] = reg;
@@ -170,7 +170,7 @@ void Emcy::emit(std::uint16_t code, std::uint8_t reg, const std::uint8_t* mfr, T
 
 bool Emcy::may_send_now(TimeUs now) const {
   if (!node_.allowed(Service::kEmcy)) return false;
-  return inhibit_us_ == 0 || last_sent_ == kNever || now >= last_sent_ + inhibit_us_;
+  return inhibit_us_ == 0 || last_sent_ == kNever || now >= last_sent_ + node_.local_duration(inhibit_us_);
 }
 
 void Emcy::send_front(TimeUs now) {
@@ -200,7 +200,7 @@ void Emcy::note_sent(const std::uint8_t data[8], TimeUs now) {
 
 void Emcy::update_deadline(TimeUs) {
   bool waiting = queue_n_ && node_.allowed(Service::kEmcy) && inhibit_us_ && last_sent_ != kNever;
-  next_ = waiting ? last_sent_ + inhibit_us_ : kNever;
+  next_ = waiting ? last_sent_ + node_.local_duration(inhibit_us_) : kNever;
 }
 
 void Emcy::process(TimeUs now) {
@@ -212,8 +212,7 @@ void Emcy::on_nmt_state(NmtState old, TimeUs now) {
   NmtState s = node_.state();
   if (s == NmtState::kStopped) {
     queue_n_ = 0;  // not sent in STOPPED
-  } else if (old == NmtState::kStopped && node_.allowed(Service::kEmcy) &&
-             node_.options().emcy_resend_after_stopped) {
+  } else if (old == NmtState::kStopped && node_.allowed(Service::kEmcy) && node_.options().emcy_resend_after_stopped) {
     for (std::size_t i = 0; i < active_n_; ++i) emit(active_[i].code, register_, kNoMfr, now);
   }
   while (queue_n_ && may_send_now(now)) send_front(now);  // e.g. raised before the boot-up
@@ -225,9 +224,7 @@ void Emcy::collect_rx_ids(std::vector<std::uint32_t>&) const {}
 
 // ---------------------------------------------------------------- OD writes
 
-bool Emcy::owns(std::uint16_t index) const {
-  return index == 0x1003 || index == 0x1014 || index == 0x1015;
-}
+bool Emcy::owns(std::uint16_t index) const { return index == 0x1003 || index == 0x1014 || index == 0x1015; }
 
 SdoAbort Emcy::write(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now) {
   std::uint64_t v = decode_u(e.type, data.data());
@@ -237,8 +234,7 @@ SdoAbort Emcy::write(const OdEntry& e, std::span<const std::uint8_t> data, TimeU
       if (v != 0) return SdoAbort(std::uint32_t(node_.options().emcy_history_bad_write_abort));
       clear_history();
       return SdoAbort::kNone;
-    case 0x1014:
-      return write_cob_id(e, std::uint32_t(v));
+    case 0x1014: return write_cob_id(e, std::uint32_t(v));
     default:  // 0x1015, changeable at any time (CiA 301 §7.5.2.18)
       node_.values().set_bytes(e, data);
       read_config();

@@ -44,9 +44,23 @@ class Emcy : private NodeService {
   void restore_active(std::uint16_t code, std::uint8_t reg_bits);
   void clear(std::uint16_t code, TimeUs now);
   void clear_all(TimeUs now);
+  // An error that follows a condition: raised when `active` and the error is
+  // not active, cleared when not `active` and it is. The active errors are
+  // the state (forgotten at a reset, as the node forgets its errors), so a
+  // caller keeps no record of what it reported.
+  void follow(std::uint16_t code, bool active, std::uint8_t reg_bits, const std::uint8_t mfr[5], TimeUs now) {
+    if (active == this->active(code)) return;
+    if (active) raise(code, reg_bits, mfr, now);
+    else clear(code, now);
+  }
+  void follow(std::uint16_t code, bool active, std::uint8_t reg_bits, TimeUs now) {
+    follow(code, active, reg_bits, nullptr, now);
+  }
   std::size_t active_count() const { return active_n_; }
   bool active(std::uint16_t code) const;
   std::uint8_t error_register() const { return register_; }
+  // The frame is this node's EMCY (its COB-ID now).
+  bool sends(const CanFrame& f) const { return valid_ && f.id == can_id_ && f.extended() == extended_; }
   // An EMCY frame that left (handed to the sink; time kNever: none yet).
   struct Sent {
     TimeUs time = kNever;

@@ -1,6 +1,6 @@
 #include "core/guarding.hpp"
 
-#include "core/cob_id.hpp"
+#include "core/protocol.hpp"
 #include "core/node.hpp"
 
 namespace cansim {
@@ -11,7 +11,7 @@ void NodeGuarding::reset(TimeUs) {
   supported_ = node_.od().find(0x100C, 0) != nullptr;
   toggle_ = false;  // CiA 301: the toggle starts at 0 after reset communication
   failed_ = false;
-  next_ = kNever;   // life guarding starts with the first RTR
+  next_ = kNever;  // life guarding starts with the first RTR
   read_life_time();
 }
 
@@ -31,10 +31,10 @@ bool NodeGuarding::answers() const {
 bool NodeGuarding::on_frame(const CanFrame& f, TimeUs now) {
   if (!f.rtr() || f.extended() || f.id != kErrorControlBase + node_.node_id()) return false;
   if (!answers()) return true;
-  std::uint8_t byte = std::uint8_t(std::uint8_t(node_.state()) | (toggle_ ? 0x80 : 0x00));
+  std::uint8_t byte = std::uint8_t(std::uint8_t(node_.state()) | (toggle_ ? kGuardingToggle : 0x00));
   toggle_ = !toggle_;
   node_.send(CanFrame::make(kErrorControlBase + node_.node_id(), {byte}));
-  next_ = life_time_ > 0 ? now + life_time_ : kNever;
+  next_ = life_time_ > 0 ? now + node_.local_duration(life_time_) : kNever;
   if (failed_) {
     failed_ = false;
     std::int64_t code = node_.options().heartbeat_consumer_emcy;

@@ -2,7 +2,7 @@
 
 #include <algorithm>
 
-#include "core/cob_id.hpp"
+#include "core/protocol.hpp"
 #include "core/node.hpp"
 
 namespace cansim {
@@ -33,7 +33,7 @@ void Heartbeat::reset(TimeUs) {
 }
 
 void Heartbeat::start(TimeUs now) {
-  next_beat_ = period_ms_ ? now + ms(period_ms_) : kNever;
+  next_beat_ = period_ms_ ? now + node_.local_duration(ms(period_ms_)) : kNever;
   update_deadline();
 }
 
@@ -48,8 +48,9 @@ void Heartbeat::process(TimeUs now) {
   if (next_beat_ <= now) {
     if (node_.state() != NmtState::kInitialising && !producer_stopped_)
       node_.send(CanFrame::make(kErrorControlBase + node_.node_id(), {std::uint8_t(node_.state())}));
-    // Absolute schedule: the next multiple of the period after now.
-    TimeUs period = ms(period_ms_);
+    // Absolute schedule: the next multiple of the period (on the node's
+    // own clock: clock_drift) after now.
+    TimeUs period = node_.local_duration(ms(period_ms_));
     next_beat_ += period * ((now - next_beat_) / period + 1);
   }
   for (Consumer& c : consumers_)
@@ -75,11 +76,10 @@ void Heartbeat::on_heartbeat(Consumer& c, std::uint8_t state, TimeUs now) {
     c.deadline = kNever;
   } else {
     c.watch = Watch::kActive;
-    c.deadline = now + ms(c.time_ms);
+    c.deadline = now + node_.local_duration(ms(c.time_ms));
   }
   if (recovered && --failed_count_ == 0 && !node_.guarding().life_guard_failed()) {
-    if (std::int64_t code = node_.options().heartbeat_consumer_emcy)
-      node_.emcy().clear(std::uint16_t(code), now);
+    if (std::int64_t code = node_.options().heartbeat_consumer_emcy) node_.emcy().clear(std::uint16_t(code), now);
   }
 }
 
@@ -91,7 +91,7 @@ bool Heartbeat::on_frame(const CanFrame& f, TimeUs now) {
   bool mine = false;
   for (Consumer& c : consumers_) {
     if (c.watch == Watch::kOff || c.node_id != producer) continue;
-    on_heartbeat(c, f.data[0] & 0x7F, now);
+    on_heartbeat(c, f.data[0] & kNmtStateBits, now);
     mine = true;
   }
   if (mine) update_deadline();
@@ -139,8 +139,7 @@ SdoAbort Heartbeat::write(const OdEntry& e, std::span<const std::uint8_t> data, 
   }
   Consumer& c = consumers_[e.sub - 1];
   if (c.watch == Watch::kTimedOut && --failed_count_ == 0 && !node_.guarding().life_guard_failed()) {
-    if (std::int64_t code = node_.options().heartbeat_consumer_emcy)
-      node_.emcy().clear(std::uint16_t(code), now);
+    if (std::int64_t code = node_.options().heartbeat_consumer_emcy) node_.emcy().clear(std::uint16_t(code), now);
   }
   node_.values().set_bytes(e, data);
   configure(c, value);

@@ -6,31 +6,7 @@ namespace cansim {
 
 namespace {
 
-// Command specifiers (CiA 305 v3.0.0, Figs. 31-46).
-enum : std::uint8_t {
-  kSwitchGlobal = 0x04,
-  kConfigureNodeId = 0x11,
-  kConfigureBitTiming = 0x13,
-  kActivateBitTiming = 0x15,
-  kStoreConfiguration = 0x17,
-  kSelectiveVendor = 0x40,
-  kSelectiveSerial = 0x43,
-  kSelectiveReply = 0x44,
-  kIdentifyVendor = 0x46,
-  kIdentifySerialHigh = 0x4B,
-  kIdentifyNonConfigured = 0x4C,
-  kIdentifySlaveReply = 0x4F,
-  kNonConfiguredReply = 0x50,
-  kFastscan = 0x51,
-  kInquireVendor = 0x5A,
-  kInquireSerial = 0x5D,
-  kInquireNodeId = 0x5E,
-};
-
-constexpr std::uint8_t kFastscanConfirm = 0x80;  // BitChecked: reset and confirm presence
-
-// Error codes of the configure / store replies.
-enum : std::uint8_t { kOk = 0, kOutOfRange = 1, kStoreFailed = 2, kManufacturer = 0xFF };
+using namespace lss;
 
 bool is_node_id(std::uint8_t id) { return id >= 1 && id <= 127; }
 
@@ -43,7 +19,8 @@ void LssSlave::prepare_reset(ResetKind kind, TimeUs) {
     // The pending node-ID becomes the active one (CiA 305: at NMT reset
     // communication, which reset node includes).
     if (pending_node_id_ != node_.node_id()) node_.set_node_id(pending_node_id_);
-    if (kind == ResetKind::kNode && node_.options().lss_reset_node_activates_bit_rate && node_.store().stored_lss().valid)
+    if (kind == ResetKind::kNode && node_.options().lss_reset_node_activates_bit_rate &&
+        node_.store().stored_lss().valid)
       node_.set_bit_rate_index(node_.store().stored_lss().bit_rate_index);
     return;
   }
@@ -91,7 +68,7 @@ bool LssSlave::accepts_requests() const {
 bool LssSlave::on_frame(const CanFrame& frame, TimeUs now) {
   const NodeOptions& o = node_.options();
   if (!o.lss_supported || frame.extended()) return false;
-  if (frame.id == 0x000 && o.lss_configuration_blocks_nmt && configuring()) return true;
+  if (frame.id == cob::kNmt && o.lss_configuration_blocks_nmt && configuring()) return true;
   if (frame.id != kRequestId) return false;
   if (frame.rtr() || frame.dlc != 8 || !accepts_requests()) return true;  // LSS frames: DLC 8
 
@@ -128,10 +105,10 @@ bool LssSlave::on_frame(const CanFrame& frame, TimeUs now) {
 // Fig. 31. No reply. Leaving configuration may activate a node-ID.
 void LssSlave::switch_state_global(const std::uint8_t* d, TimeUs now) {
   selective_next_ = 0;
-  if (d[1] == 1 && !configuring()) {
+  if (d[1] == kModeConfiguration && !configuring()) {
     state_ = State::kConfiguration;
     configured_since_store_ = false;
-  } else if (d[1] == 0 && configuring()) {
+  } else if (d[1] == kModeWaiting && configuring()) {
     enter_waiting(now);
   }
 }
@@ -154,7 +131,7 @@ void LssSlave::enter_waiting(TimeUs now) {
   }
   if (!reset_communication) return;
   node_.set_node_id(pending_node_id_);
-  node_.nmt().command(0x82, now);
+  node_.nmt().command(kNmtResetCommunication, now);
 }
 
 // Fig. 32: 0x40..0x43 in this order, all equal to 0x1018:01..04 -> 0x44.
@@ -163,8 +140,7 @@ void LssSlave::switch_state_selective(const std::uint8_t* d) {
   const std::uint32_t value = get_u32(d + 1);
   const auto which = LssNumber(cs - kSelectiveVendor);
   const bool in_sequence = cs == kSelectiveVendor || cs == selective_next_;
-  const bool wildcard =
-      which == kRevision && value == 0 && node_.options().lss_revision_zero_wildcard;
+  const bool wildcard = which == kRevision && value == 0 && node_.options().lss_revision_zero_wildcard;
   if (!in_sequence || (value != lss_number(which) && !wildcard)) {
     selective_next_ = 0;  // a mismatch restarts matching
     return;
@@ -236,8 +212,7 @@ void LssSlave::process(TimeUs now) {
       switch_phase_ = SwitchPhase::kIdle;
       next_ = kNever;
       node_.set_silent(false);
-      if (node_.options().lss_boot_up_after_bit_rate_switch)
-        node_.nmt().send_boot_up(now);
+      if (node_.options().lss_boot_up_after_bit_rate_switch) node_.nmt().send_boot_up(now);
     }
   }
 }
@@ -374,9 +349,7 @@ LssStored LssSlave::stored_config() const {
   return s;
 }
 
-bool LssSlave::unconfigured() const {
-  return node_.node_id() == kUnconfigured && pending_node_id_ == kUnconfigured;
-}
+bool LssSlave::unconfigured() const { return node_.node_id() == kUnconfigured && pending_node_id_ == kUnconfigured; }
 
 std::uint32_t LssSlave::lss_number(LssNumber which) const {
   const OdEntry* e = identity_[which];

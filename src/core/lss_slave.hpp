@@ -16,7 +16,7 @@
 
 #include "core/application.hpp"
 #include "core/can_frame.hpp"
-#include "core/cob_id.hpp"
+#include "core/protocol.hpp"
 #include "core/node_options.hpp"
 #include "core/node_service.hpp"
 #include "core/od.hpp"
@@ -30,7 +30,7 @@ class LssSlave : private NodeService {
  public:
   static constexpr std::uint32_t kRequestId = cob::kLssFromMaster;
   static constexpr std::uint32_t kReplyId = cob::kLssToMaster;
-  static constexpr std::uint8_t kUnconfigured = 0xFF;
+  static constexpr std::uint8_t kUnconfigured = lss::kUnconfiguredNodeId;
 
   enum class State : std::uint8_t { kWaiting = 0, kConfiguration = 1 };
 
@@ -94,7 +94,7 @@ class LssSlave : private NodeService {
   SwitchPhase switch_phase_ = SwitchPhase::kIdle;
   std::uint8_t switch_target_rate_ = 0;
   TimeUs switch_delay_ = 0;
-  const OdEntry* identity_[4] = {};      // 0x1018:01..04
+  const OdEntry* identity_[4] = {};  // 0x1018:01..04
 };
 
 }  // namespace cansim

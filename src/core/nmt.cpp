@@ -1,6 +1,6 @@
 #include "core/nmt.hpp"
 
-#include "core/cob_id.hpp"
+#include "core/protocol.hpp"
 #include "core/node.hpp"
 
 #include <algorithm>
@@ -9,7 +9,6 @@ namespace cansim {
 
 namespace {
 using cob::kErrorControlBase;
-constexpr std::uint8_t kUnconfigured = 0xFF;  // CiA 305 LSS node-ID
 }  // namespace
 
 void NmtSlave::power_on(TimeUs now) { restart(ResetKind::kPowerOn, now); }
@@ -26,7 +25,7 @@ void NmtSlave::restart(ResetKind kind, TimeUs now, bool reload) {
   }
   node_.reset_services(now);  // includes reset() below: builds plan_
   if (Application* app = node_.app()) app->on_reset(node_, kind, now);
-  if (node_.node_id() == kUnconfigured) return;  // waits for LSS (CiA 305)
+  if (node_.node_id() == lss::kUnconfiguredNodeId) return;  // waits for LSS (CiA 305)
   boot_at_ = now + plan_.boot_up_delay;
   update_deadline();
   if (boot_at_ <= now) process(now);
@@ -45,8 +44,7 @@ void NmtSlave::reset(TimeUs) {
     std::uint64_t mask = std::uint64_t(o.nmt_startup_self_start_mask);
     bool hit = (v & mask) != 0;
     if (o.nmt_startup_self_start_if_clear ? !hit : hit) plan_.self_start = true;
-    if ((v & std::uint64_t(o.nmt_startup_start_all_mask)) && plan_.start_all_delay < 0)
-      plan_.start_all_delay = 0;
+    if ((v & std::uint64_t(o.nmt_startup_start_all_mask)) && plan_.start_all_delay < 0) plan_.start_all_delay = 0;
   }
   boot_at_ = start_at_ = start_all_at_ = kNever;
   update_deadline();
@@ -89,18 +87,12 @@ void NmtSlave::update_deadline() { next_ = std::min({boot_at_, start_at_, start_
 
 void NmtSlave::command(std::uint8_t cs, TimeUs now) {
   switch (cs) {
-    case kNmtStart:
-      return set_state(NmtState::kOperational, now);
-    case kNmtStop:
-      return set_state(NmtState::kStopped, now);
-    case kNmtEnterPreOperational:
-      return set_state(NmtState::kPreOperational, now);
-    case kNmtResetNode:
-      return restart(ResetKind::kNode, now);
-    case kNmtResetCommunication:
-      return restart(ResetKind::kCommunication, now);
-    default:
-      return;
+    case kNmtStart: return set_state(NmtState::kOperational, now);
+    case kNmtStop: return set_state(NmtState::kStopped, now);
+    case kNmtEnterPreOperational: return set_state(NmtState::kPreOperational, now);
+    case kNmtResetNode: return restart(ResetKind::kNode, now);
+    case kNmtResetCommunication: return restart(ResetKind::kCommunication, now);
+    default: return;
   }
 }
 
@@ -129,8 +121,7 @@ void NmtSlave::react(std::int64_t reaction, TimeUs now) {
     case 0:  // pre-operational, only if currently operational
       if (state_ == NmtState::kOperational) set_state(NmtState::kPreOperational, now);
       return;
-    case 2:
-      return set_state(NmtState::kStopped, now);
+    case 2: return set_state(NmtState::kStopped, now);
     default:  // 1: no change; 3..255 reserved / manufacturer-specific
       return;
   }
@@ -157,8 +148,7 @@ bool NmtSlave::owns(std::uint16_t index) const { return index == 0x1F80 || index
 SdoAbort NmtSlave::write(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs) {
   std::uint64_t v = decode_u(e.type, data.data());
   if (e.index == 0x1029 && e.sub != 0 && v > 2 && v < 0x80) return SdoAbort::kInvalidValue;
-  if (e.index == 0x1F80 && !node_.options().nmt_startup_values.contains(v))
-    return SdoAbort::kInvalidValue;
+  if (e.index == 0x1F80 && !node_.options().nmt_startup_values.contains(v)) return SdoAbort::kInvalidValue;
   node_.values().set_bytes(e, data);
   return SdoAbort::kNone;
 }

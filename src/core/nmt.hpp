@@ -17,37 +17,21 @@
 #include "core/node_options.hpp"
 #include "core/node_service.hpp"
 #include "core/od.hpp"
+#include "core/protocol.hpp"
 
 namespace cansim {
 
 class Node;
 enum class ResetKind : std::uint8_t;
 
-// NMT states as the heartbeat byte encodes them (CiA 301 Table 58).
-enum class NmtState : std::uint8_t {
-  kInitialising = 0x00,
-  kStopped = 0x04,
-  kOperational = 0x05,
-  kPreOperational = 0x7F,
-};
-
-// NMT command specifiers (CiA 301 §7.2.8.3.1).
-enum : std::uint8_t {
-  kNmtStart = 0x01,
-  kNmtStop = 0x02,
-  kNmtEnterPreOperational = 0x80,
-  kNmtResetNode = 0x81,
-  kNmtResetCommunication = 0x82,
-};
-
 // What happens after a reset: derived from the options and 0x1F80 by reset(),
 // editable by Application::on_reset (vendor start-up quirks).
 struct BootPlan {
   bool send_boot_up = true;
-  bool self_start = false;         // enter OPERATIONAL by itself
-  TimeUs self_start_delay = 0;     // after the boot-up
-  TimeUs start_all_delay = -1;     // send NMT start-all this long after boot-up (< 0: never)
-  TimeUs boot_up_delay = 0;        // from the reset to the boot-up
+  bool self_start = false;      // enter OPERATIONAL by itself
+  TimeUs self_start_delay = 0;  // after the boot-up
+  TimeUs start_all_delay = -1;  // send NMT start-all this long after boot-up (< 0: never)
+  TimeUs boot_up_delay = 0;     // from the reset to the boot-up
 };
 
 class NmtSlave : private NodeService {

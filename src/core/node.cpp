@@ -1,6 +1,9 @@
 #include "core/node.hpp"
 
 #include <algorithm>
+#include <cmath>
+
+#include "core/protocol.hpp"
 
 namespace cansim {
 
@@ -41,6 +44,7 @@ void Node::for_each_service(Fn&& fn) const {
 // Power-on: what LSS "store configuration" saved overrides the configured
 // node-ID and bit rate (CiA 305).
 void Node::power_on(TimeUs now) {
+  note(now);
   const bool was_powered = powered_;
   powered_ = true;
   silent_ = false;
@@ -59,6 +63,8 @@ void Node::power_on(TimeUs now) {
 }
 
 void Node::power_off() {
+  if (powered_) withdraw_for(NmtState::kInitialising);
+  frame_faults_.drop_held();
   powered_ = false;
   nmt_.power_off();
   power_on_at_ = kNever;
@@ -77,11 +83,13 @@ void Node::power_off(TimeUs now) {
 }
 
 void Node::power_cycle(TimeUs now, TimeUs off_for) {
+  note(now);
   power_off(now);
   power_on_at_ = now + std::max<TimeUs>(off_for, 0);
 }
 
 void Node::set_bus_off(bool off, TimeUs now) {
+  note(now);
   if (off == bus_off_ || !powered_) return;
   const bool was_off = off_bus();
   bus_off_ = off;
@@ -104,6 +112,7 @@ void Node::bus_off_changed(bool was_off, TimeUs now) {
 // A restart after bus-off leaves the controller error active: the passive
 // error ends first, then the recovery EMCY.
 void Node::set_can_state(CanState state, TimeUs now) {
+  note(now);
   if (state == can_state_) return;
   const bool was_off = off_bus();
   can_state_ = state;
@@ -116,6 +125,7 @@ void Node::set_can_state(CanState state, TimeUs now) {
 }
 
 void Node::can_overrun(TimeUs now) {
+  note(now);
   const auto code = std::uint16_t(options().can_overrun_emcy);
   if (!code || !powered_) return;
   emcy_.raise(code, std::uint8_t(options().can_overrun_emcy_register), now);
@@ -126,25 +136,127 @@ bool Node::allowed(Service s) const { return allowed_in(state(), s); }
 
 bool Node::allowed_in(NmtState state, Service s) const {
   switch (state) {
-    case NmtState::kOperational:
-      return true;
-    case NmtState::kPreOperational:
-      return s != Service::kPdo;
-    case NmtState::kStopped:
-      return s == Service::kSdo && options().sdo_in_stopped;
-    default:
-      return false;
+    case NmtState::kOperational: return true;
+    case NmtState::kPreOperational: return s != Service::kPdo;
+    case NmtState::kStopped: return s == Service::kSdo && options().sdo_in_stopped;
+    default: return false;
   }
 }
 
 bool Node::send(const CanFrame& frame) {
   if (!on_bus()) return false;
-  sink_.send(frame);
   ++frames_sent_;
+  if (!frame_faults_.any_rule()) {
+    sink_.send(frame);
+    return true;
+  }
+  frame_faults_.send(*this, frame, now_, [&](const CanFrame& f) { sink_.send(f); });
   return true;
 }
 
-void Node::on_frame(const CanFrame& frame, TimeUs now) {
+bool Node::send_after(const CanFrame& frame, TimeUs delay) {
+  if (delay <= 0) return send(frame);
+  if (!on_bus()) return false;
+  ++frames_sent_;
+  frame_faults_.send_after(*this, frame, now_, delay);
+  return true;
+}
+
+void Node::run_faults(TimeUs now) {
+  frame_faults_.process(now, [&](const CanFrame& f, bool from_outside) {
+    if (from_outside) hear(f, now);
+    else if (on_bus()) sink_.send(f);
+  });
+  disturbance_.process(
+      now,
+      [&](const CanFrame& f) {
+        if (on_bus()) sink_.send_from(f, FrameSink::kBabbler);
+      },
+      [&](BusError e) { sink_.error(e); });
+}
+
+TimeUs Node::local_duration(TimeUs nominal) const {
+  if (drift_ppm_ == 0 || nominal <= 0 || nominal == kNever) return nominal;
+  return std::max<TimeUs>(1, std::llround(double(nominal) / (1.0 + drift_ppm_ * 1e-6)));
+}
+
+void Node::set_twin(bool on, TimeUs now) {
+  if (on == bool(twin_)) return;
+  if (!on) {
+    twin_->power_off();
+    twin_.reset();
+    rx_changed();
+    return;
+  }
+  NodeSetup s = setup_;
+  s.node_id = node_id_;
+  s.bit_rate_index = bit_rate_;
+  s.seed = setup_.seed ^ 0x7417;
+  if (const OdEntry* e = od().find(0x1018, 4)) s.serial_number = std::uint32_t(values_.get_u(*e) + 1);
+  twin_ = std::make_unique<Node>(std::move(s), twin_sink_);
+  twin_->set_bus_bit_rate(bus_bit_rate_);
+  twin_->power_on(now);
+  rx_changed();
+}
+
+TxSource Node::tx_source(const CanFrame& f) const {
+  if (f.extended()) {
+    // Only EMCY, SDO and PDOs may be given 29-bit COB-IDs.
+  } else if (f.id == cob::kNmt) {
+    return {TxService::kNmt};
+  } else if (f.id == cob::kLssToMaster) {
+    return {TxService::kLss};
+  } else if (f.id == cob::kErrorControlBase + node_id_) {
+    return {f.dlc == 1 && f.data[0] == 0x00 ? TxService::kBootUp : TxService::kHeartbeat};
+  }
+  if (emcy_.sends(f)) return {TxService::kEmcy};
+  if (sdo_.sends(f)) return {TxService::kSdo};
+  for (const Tpdo& t : pdo_.tpdos())
+    if (!(t.cfg.cobid & kPdoCobInvalid) && cob::frame_id(t.cfg.cobid) == (f.id | (f.extended() ? cob::kFrame29Bit : 0)))
+      return {TxService::kTpdo, std::uint16_t(t.cfg.comm_index - 0x1800 + 1)};
+  return {};
+}
+
+namespace {
+// CiA 301 Table 82: the frames a state no longer sends. A reset (and
+// power-off) clears the controller's transmit buffer; the boot-up follows.
+class NmtWithdrawal final : public FrameFilter {
+ public:
+  NmtWithdrawal(const Node& node, NmtState state) : node_(node), state_(state) {}
+  bool matches(const CanFrame& f) const override {
+    const TxService s = node_.tx_source(f).service;
+    switch (state_) {
+      case NmtState::kOperational: return false;
+      case NmtState::kPreOperational: return s == TxService::kTpdo;
+      case NmtState::kStopped:
+        return s != TxService::kHeartbeat && s != TxService::kLss &&
+               !(s == TxService::kSdo && node_.allowed_in(state_, Service::kSdo));
+      default: return true;
+    }
+  }
+
+ private:
+  const Node& node_;
+  NmtState state_;
+};
+}  // namespace
+
+void Node::withdraw_for(NmtState now) {
+  if (now == NmtState::kOperational) return;
+  const NmtWithdrawal filter(*this, now);
+  sink_.withdraw(filter);
+  frame_faults_.withdraw([&](const CanFrame& f) { return filter.matches(f); });
+}
+
+void Node::on_frame(const CanFrame& frame, TimeUs now, bool from_outside) {
+  note(now);
+  if (twin_) twin_->on_frame(frame, now, from_outside);
+  if (from_outside && frame_faults_.any_rule())
+    frame_faults_.receive(frame, now, [&](const CanFrame& f) { hear(f, now); });
+  else hear(frame, now);
+}
+
+void Node::hear(const CanFrame& frame, TimeUs now) {
   if (!powered_ || off_bus() || bit_rate_ != bus_bit_rate_) return;
   // Every service sees the frame until one claims it; the order puts the
   // broadcast services (LSS, NMT) first.
@@ -155,6 +267,8 @@ void Node::on_frame(const CanFrame& frame, TimeUs now) {
 }
 
 void Node::advance(TimeUs now) {
+  note(now);
+  if (twin_ && twin_->next_deadline() <= now) twin_->advance(now);
   if (!powered_) {
     if (power_on_at_ > now) return;
     power_on(now);
@@ -164,6 +278,7 @@ void Node::advance(TimeUs now) {
     env_next_ = app_->environment(*this, now);
     if (!powered_) return;
   }
+  if (std::min(frame_faults_.next_deadline(), disturbance_.next_deadline()) <= now) run_faults(now);
   for_each_service([&](auto& s) {
     if (s.next_deadline() <= now) s.process(now);
   });
@@ -171,13 +286,15 @@ void Node::advance(TimeUs now) {
 }
 
 TimeUs Node::next_deadline() const {
-  if (!powered_) return power_on_at_;
-  TimeUs t = std::min(app_next_, env_next_);
+  const TimeUs twin = twin_ ? twin_->next_deadline() : kNever;
+  if (!powered_) return std::min(power_on_at_, twin);
+  TimeUs t = std::min({app_next_, env_next_, twin, frame_faults_.next_deadline(), disturbance_.next_deadline()});
   for_each_service([&](const auto& s) { t = std::min(t, s.next_deadline()); });
   return t;
 }
 
 void Node::collect_rx_ids(std::vector<std::uint32_t>& out) const {
+  if (twin_) twin_->collect_rx_ids(out);
   if (!powered_) return;
   for_each_service([&](const auto& s) { s.collect_rx_ids(out); });
 }
@@ -188,6 +305,7 @@ SdoAbort Node::read(const OdEntry& e, TimeUs now, std::span<const std::uint8_t>&
 }
 
 SdoAbort Node::read_local(const OdEntry& e, TimeUs now, std::span<const std::uint8_t>& out) {
+  note(now);
   return read_value(e, now, out);
 }
 
@@ -204,8 +322,7 @@ SdoAbort Node::read_value(const OdEntry& e, TimeUs now, std::span<const std::uin
   return SdoAbort::kNone;
 }
 
-SdoAbort Node::read(std::uint16_t index, std::uint8_t sub, TimeUs now,
-                    std::span<const std::uint8_t>& out) {
+SdoAbort Node::read(std::uint16_t index, std::uint8_t sub, TimeUs now, std::span<const std::uint8_t>& out) {
   SdoAbort why = SdoAbort::kNone;
   const OdEntry* e = od().lookup(index, sub, why);
   return e ? read(*e, now, out) : why;
@@ -221,6 +338,7 @@ SdoAbort Node::write(const OdEntry& e, std::span<const std::uint8_t> data, TimeU
 }
 
 SdoAbort Node::write_local(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now) {
+  note(now);
   return write_value(e, data, now);
 }
 
@@ -243,8 +361,7 @@ SdoAbort Node::write_value(const OdEntry& e, std::span<const std::uint8_t> data,
   return SdoAbort::kNone;
 }
 
-SdoAbort Node::write(std::uint16_t index, std::uint8_t sub, std::span<const std::uint8_t> data,
-                     TimeUs now) {
+SdoAbort Node::write(std::uint16_t index, std::uint8_t sub, std::span<const std::uint8_t> data, TimeUs now) {
   SdoAbort why = SdoAbort::kNone;
   const OdEntry* e = od().lookup(index, sub, why);
   return e ? write(*e, data, now) : why;
@@ -273,18 +390,17 @@ SdoAbort Node::write_signature(std::uint16_t index, std::uint8_t sub, std::uint3
 // command does nothing before the boot-up (CiA 301 §7.3.2: INITIALISING
 // ends on its own); resets are always possible while powered.
 bool Node::nmt_local(std::uint8_t cs, TimeUs now) {
+  note(now);
   if (!powered_) return false;
   switch (cs) {
     case kNmtResetNode:
-    case kNmtResetCommunication:
-      break;
+    case kNmtResetCommunication: break;
     case kNmtStart:
     case kNmtStop:
     case kNmtEnterPreOperational:
       if (state() == NmtState::kInitialising) return false;
       break;
-    default:
-      return false;
+    default: return false;
   }
   nmt_.command(cs, now);
   return true;
@@ -297,6 +413,7 @@ void Node::prepare_reset(ResetKind kind, TimeUs now) {
 }
 
 void Node::nmt_state_changed(NmtState old, TimeUs now) {
+  withdraw_for(state());
   // The observer first, so it hears the change before its consequences
   // (e.g. EMCYs that waited for the boot-up).
   if (observer_) observer_->on_nmt_state(*this, old, state(), now);
@@ -356,6 +473,10 @@ NodeSnapshot::NodeSnapshot(const Node& node)
       env_next_(node.env_next_),
       power_on_at_(node.power_on_at_),
       app_next_(node.app_next_),
+      now_(node.now_),
+      drift_ppm_(node.drift_ppm_),
+      frame_faults_(node.frame_faults_),
+      disturbance_(node.disturbance_),
       nmt_(node.nmt_),
       lss_(node.lss_),
       sdo_(node.sdo_),
@@ -380,6 +501,11 @@ bool Node::restore(const NodeSnapshot& s) {
   env_next_ = s.env_next_;
   power_on_at_ = s.power_on_at_;
   app_next_ = s.app_next_;
+  now_ = s.now_;
+  drift_ppm_ = s.drift_ppm_;
+  frame_faults_ = s.frame_faults_;
+  disturbance_ = s.disturbance_;
+  twin_.reset();
   nmt_ = s.nmt_;
   lss_ = s.lss_;
   sdo_ = s.sdo_;

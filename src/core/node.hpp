@@ -12,7 +12,9 @@
 
 #include "core/application.hpp"
 #include "core/can_frame.hpp"
+#include "core/disturbance.hpp"
 #include "core/emcy.hpp"
+#include "core/frame_faults.hpp"
 #include "core/guarding.hpp"
 #include "core/heartbeat.hpp"
 #include "core/lss_slave.hpp"
@@ -28,19 +30,29 @@
 namespace cansim {
 
 struct NodeSetup {
-  std::shared_ptr<const OdLayout> layout;            // shared by all nodes of a profile
-  std::shared_ptr<const NodeOptions> options;        // shared by all nodes of a profile
-  std::uint8_t node_id = 1;                          // 1..127, 0xFF = LSS-unconfigured
-  std::uint8_t bit_rate_index = 3;                   // CiA 305 table index (3 = 250 kbit/s)
+  std::shared_ptr<const OdLayout> layout;      // shared by all nodes of a profile
+  std::shared_ptr<const NodeOptions> options;  // shared by all nodes of a profile
+  std::uint8_t node_id = 1;                    // 1..127, 0xFF = LSS-unconfigured
+  std::uint8_t bit_rate_index = 3;             // CiA 305 table index (3 = 250 kbit/s)
   // The node's 0x1018:04 default (a fleet entry's `serial:`, a profile's
   // `serial_number_base` + the node's index): applied wherever the profile's
   // defaults are, as $NODEID is, so the application's on_reset (vendor
   // copies of the serial) sees it. Unset: the profile's default.
   std::optional<std::uint32_t> serial_number;
+  // The node's own randomness (its response times' jitter); from the fleet
+  // seed and the node's key where the daemon builds it.
+  std::uint64_t seed = 1;
 };
 
 // Services gated by NMT state (CiA 301 Table 82).
 enum class Service : std::uint8_t { kSdo, kSync, kEmcy, kPdo, kTime };
+
+// Which of a node's services sent a frame (Node::tx_source).
+enum class TxService : std::uint8_t { kOther, kNmt, kEmcy, kTpdo, kSdo, kBootUp, kHeartbeat, kLss };
+struct TxSource {
+  TxService service = TxService::kOther;
+  std::uint16_t tpdo = 0;  // kTpdo: its number, 1..512
+};
 
 class Node;
 
@@ -58,7 +70,10 @@ class NodeSnapshot {
   std::uint8_t node_id_, bit_rate_, bus_bit_rate_;
   bool powered_, silent_, muted_, bus_off_;
   CanState can_state_;
-  TimeUs env_next_, power_on_at_, app_next_;
+  TimeUs env_next_, power_on_at_, app_next_, now_;
+  double drift_ppm_;
+  FrameFaults frame_faults_;
+  Disturbance disturbance_;
   NmtSlave nmt_;
   LssSlave lss_;
   SdoServer sdo_;
@@ -88,7 +103,9 @@ class Node {
   // at power-on (stored values kept, volatile ones lost). Safe to call from
   // inside advance() (e.g. by the application); the power-on is a deadline.
   void power_cycle(TimeUs now, TimeUs off_for);
-  void on_frame(const CanFrame& frame, TimeUs now);
+  // from_outside: a frame nobody local wrote (frame faults by COB-ID act
+  // on it, docs/faults.md).
+  void on_frame(const CanFrame& frame, TimeUs now, bool from_outside = false);
   void advance(TimeUs now);
   TimeUs next_deadline() const;
 
@@ -122,8 +139,36 @@ class Node {
 
   // Sends a frame if the node is on the bus; true when it was handed to the sink.
   bool send(const CanFrame& frame);
+  // Which service sends `frame`, from the configuration now: the error
+  // control COB-ID with 0x00 is the boot-up, with anything else a heartbeat
+  // or node guarding answer.
+  TxSource tx_source(const CanFrame& frame) const;
+  // The same, `delay` later (response times): held like a delayed frame.
+  bool send_after(const CanFrame& frame, TimeUs delay);
   // Frames handed to the sink since the node was built (the control API's FramesSent).
   std::uint64_t frames_sent() const { return frames_sent_; }
+
+  // ---- network fault injection (personalities/comm_faults drives
+  // these from the fault schedule at its edges)
+  FrameFaults& frame_faults() { return frame_faults_; }
+  const FrameFaults& frame_faults() const { return frame_faults_; }
+  Disturbance& disturbance() { return disturbance_; }
+  // node_id_collision: a second device of the node's profile at its node-ID
+  // (its own default values, the serial number + 1, no application) boots
+  // now and runs beside it until off: its boot-up, heartbeat, SDO answers
+  // and PDOs reach the wire from the controller FrameSink::kTwin. It hears
+  // what the node hears; neither hears the other.
+  void set_twin(bool on, TimeUs now);
+  const Node* twin() const { return twin_.get(); }
+  // clock_drift: the node's time base runs fast (ppm > 0) or slow: every
+  // duration it measures with its own clock (heartbeat producer and
+  // consumer, event timers, inhibit times, the SYNC window, node guarding)
+  // takes local_duration() in true time, from its next start on.
+  void set_clock_drift(double ppm) { drift_ppm_ = ppm; }
+  double clock_drift() const { return drift_ppm_; }
+  TimeUs local_duration(TimeUs nominal) const;
+  // error_frames: the master's controller reports `e` (never the local nodes).
+  void report_bus_error(BusError e) { sink_.error(e); }
 
   // ---- observation: one observer per node (null: none, zero cost)
   void set_observer(NodeObserver* observer) { observer_ = observer; }
@@ -150,9 +195,13 @@ class Node {
   const NodeOptions& options() const { return *setup_.options; }
   Application* app() { return app_; }
   // Makes Application::process run at `at` at the latest (NMT change, write).
-  void wake_app(TimeUs at) { if (app_ && at < app_next_) app_next_ = at; }
+  void wake_app(TimeUs at) {
+    if (app_ && at < app_next_) app_next_ = at;
+  }
   // Makes Application::environment run at `at` at the latest (fault armed).
-  void wake_environment(TimeUs at) { if (app_ && at < env_next_) env_next_ = at; }
+  void wake_environment(TimeUs at) {
+    if (app_ && at < env_next_) env_next_ = at;
+  }
   NodeStorage* storage() { return storage_; }
 
   // ---- OD access as a remote client (SDO, RPDO) sees it: access rights,
@@ -186,10 +235,10 @@ class Node {
   // First step of every reset: services that define
   // `void prepare_reset(ResetKind, TimeUs)` run it (LSS: apply a pending node-ID).
   void prepare_reset(ResetKind kind, TimeUs now);
-  void reset_values(ResetKind kind);    // defaults, then stored values
+  void reset_values(ResetKind kind);  // defaults, then stored values
   // The entry of a node_id_object / bit_rate_object option (null when 0 / absent).
   const OdEntry* config_object(std::int64_t index) const;
-  void reset_services(TimeUs now);      // services re-read their OD configuration
+  void reset_services(TimeUs now);  // services re-read their OD configuration
   // Called by NMT after every state change: services that define
   // `void on_nmt_state(NmtState old, TimeUs)` run it, then Application::on_nmt_state.
   void nmt_state_changed(NmtState old, TimeUs now);
@@ -197,7 +246,7 @@ class Node {
   // ---- dispatch support: the COB-IDs this node listens to. rx_epoch()
   // changes whenever that set may have changed.
   void collect_rx_ids(std::vector<std::uint32_t>& out) const;
-  std::uint32_t rx_epoch() const { return rx_epoch_; }
+  std::uint32_t rx_epoch() const { return rx_epoch_ + (twin_ ? twin_->rx_epoch() : 0); }
   void rx_changed() { ++rx_epoch_; }
 
   // ---- services
@@ -243,8 +292,24 @@ class Node {
   bool hears(const SdoServer&) const { return allowed(Service::kSdo); }
   bool hears(const PdoEngine&) const { return allowed(Service::kPdo); }
   template <typename S>
-  bool hears(const S&) const { return true; }
+  bool hears(const S&) const {
+    return true;
+  }
   bool off_bus() const { return bus_off_ || can_state_ == CanState::kBusOff; }
+  // What the NMT state `now` no longer sends leaves the transmit buffer.
+  void withdraw_for(NmtState now);
+  // Entry points note the time: frames sent later in the same call (held
+  // by a delay fault) count from it.
+  void note(TimeUs now) { now_ = std::max(now_, now); }
+  void hear(const CanFrame& frame, TimeUs now);
+  void run_faults(TimeUs now);
+  // The twin's frames, from its own controller.
+  struct TwinSink final : FrameSink {
+    explicit TwinSink(Node& n) : node(n) {}
+    void send(const CanFrame& f) override { node.sink_.send_from(f, kTwin); }
+    void withdraw(const FrameFilter& filter, std::uint8_t) override { node.sink_.withdraw(filter, kTwin); }
+    Node& node;
+  };
   // After bus_off_ or can_state_ changed: the reaction to going off the bus,
   // or the recovery EMCY.
   void bus_off_changed(bool was_off, TimeUs now);
@@ -272,6 +337,13 @@ class Node {
   TimeUs power_on_at_ = kNever;  // while unpowered: when power comes back
   std::uint32_t rx_epoch_ = 0;
   TimeUs app_next_ = kNever;
+  TimeUs now_ = 0;  // the last time an entry point was called with
+  double drift_ppm_ = 0;
+  FrameFaults frame_faults_;
+  Disturbance disturbance_;
+  // Not state: a snapshot has none (restore() ends it).
+  std::unique_ptr<Node> twin_;
+  TwinSink twin_sink_{*this};
 
   NmtSlave nmt_{*this};
   LssSlave lss_{*this};

@@ -15,8 +15,10 @@ struct CiaValue {
 };
 template <class T>
 CiaValue(T) -> CiaValue<T>;
-#define CANSIM_STRICT_SETTING SettingKind{}
-#define CANSIM_STRICT_CIA(v) CiaValue{v}
+#define CANSIM_STRICT_SETTING \
+  SettingKind {}
+#define CANSIM_STRICT_CIA(v) \
+  CiaValue { v }
 
 template <class Kind, class Field>
 void apply_strict(Kind, Field&, SettingKind) {}
@@ -76,10 +78,13 @@ bool read_range(const char*& p, const char* end, std::uint64_t max, std::uint64_
 void append_range(std::string& s, std::uint64_t lo, std::uint64_t hi, bool hex) {
   char buf[48];
   if (hex && lo == hi) std::snprintf(buf, sizeof buf, "0x%04llX", static_cast<unsigned long long>(lo));
-  else if (hex) std::snprintf(buf, sizeof buf, "0x%04llX-0x%04llX", static_cast<unsigned long long>(lo),
-                              static_cast<unsigned long long>(hi));
+  else if (hex)
+    std::snprintf(buf, sizeof buf, "0x%04llX-0x%04llX", static_cast<unsigned long long>(lo),
+                  static_cast<unsigned long long>(hi));
   else if (lo == hi) std::snprintf(buf, sizeof buf, "%llu", static_cast<unsigned long long>(lo));
-  else std::snprintf(buf, sizeof buf, "%llu-%llu", static_cast<unsigned long long>(lo), static_cast<unsigned long long>(hi));
+  else
+    std::snprintf(buf, sizeof buf, "%llu-%llu", static_cast<unsigned long long>(lo),
+                  static_cast<unsigned long long>(hi));
   if (!s.empty()) s += ',';
   s += buf;
 }

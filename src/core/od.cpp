@@ -5,6 +5,7 @@
 #include <bit>
 #include <cmath>
 #include <cstring>
+#include <limits>
 
 namespace cansim {
 
@@ -129,15 +130,26 @@ void encode_f(DataType t, double v, std::uint8_t* out) {
     encode_u(t, v <= 0 ? 0 : std::uint64_t(std::llround(v)), out);
   }
 }
+// A REAL read as an integer saturates at the integer's bounds (NaN reads 0):
+// never a cast out of range (UB), whatever a master wrote.
+namespace {
+template <typename I>
+I saturate(double x) {
+  if (!(x == x)) return 0;
+  if (x <= double(std::numeric_limits<I>::min())) return std::numeric_limits<I>::min();
+  if (x >= double(std::numeric_limits<I>::max())) return std::numeric_limits<I>::max();
+  return I(x);
+}
+}  // namespace
 std::uint64_t decode_u(DataType t, const std::uint8_t* p) {
-  if (is_real(t)) return std::uint64_t(std::max(0.0, decode_f(t, p)));
+  if (is_real(t)) return saturate<std::uint64_t>(decode_f(t, p));
   std::uint64_t v = 0;
   std::size_t n = type_size(t);
   for (std::size_t b = 0; b < n; ++b) v |= std::uint64_t(p[b]) << (8 * b);
   return v;
 }
 std::int64_t decode_i(DataType t, const std::uint8_t* p) {
-  if (is_real(t)) return std::int64_t(decode_f(t, p));
+  if (is_real(t)) return saturate<std::int64_t>(decode_f(t, p));
   std::uint64_t v = decode_u(t, p);
   std::size_t n = type_size(t);
   if (is_signed(t) && n < 8 && n > 0 && (v >> (8 * n - 1)) & 1) v |= ~0ULL << (8 * n);
@@ -168,9 +180,8 @@ OdEntry* OdLayout::edit(std::uint16_t index, std::uint8_t sub) {
 }
 
 void OdLayout::finalize() {
-  std::sort(entries_.begin(), entries_.end(), [](const OdEntry& a, const OdEntry& b) {
-    return key(a.index, a.sub) < key(b.index, b.sub);
-  });
+  std::sort(entries_.begin(), entries_.end(),
+            [](const OdEntry& a, const OdEntry& b) { return key(a.index, a.sub) < key(b.index, b.sub); });
   objects_.clear();
   by_key_.clear();
   by_index_.clear();

@@ -143,9 +143,7 @@ class OdLayout {
   OdEntry* edit(std::uint16_t index, std::uint8_t sub);
 
  private:
-  static std::uint32_t key(std::uint16_t index, std::uint8_t sub) {
-    return (std::uint32_t(index) << 8) | sub;
-  }
+  static std::uint32_t key(std::uint16_t index, std::uint8_t sub) { return (std::uint32_t(index) << 8) | sub; }
   void build_defaults();
   std::vector<OdEntry> entries_;
   std::vector<OdObject> objects_;
@@ -175,9 +173,7 @@ class OdValues {
   // Resets entries whose index lies in [first, last] to their defaults.
   void reset(std::uint8_t node_id, std::uint16_t first = 0x0000, std::uint16_t last = 0xFFFF);
 
-  std::span<const std::uint8_t> bytes(const OdEntry& e) const {
-    return {data_.data() + e.offset, sizes_[e.slot]};
-  }
+  std::span<const std::uint8_t> bytes(const OdEntry& e) const { return {data_.data() + e.offset, sizes_[e.slot]}; }
   // Stores raw bytes (no checks; truncated to capacity).
   void set_bytes(const OdEntry& e, std::span<const std::uint8_t> v);
 

@@ -11,7 +11,7 @@ namespace {
 
 constexpr std::uint16_t kRpdoComm = 0x1400, kRpdoMap = 0x1600;
 constexpr std::uint16_t kTpdoComm = 0x1800, kTpdoMap = 0x1A00;
-constexpr std::uint16_t kPdoRange = 0x200;  // up to 512 PDOs of each kind
+constexpr std::uint16_t kPdoRange = 0x200;                // up to 512 PDOs of each kind
 constexpr std::uint32_t kChangeLockedBits = 0x3FFFFFFFu;  // all but bits 31/30
 constexpr std::uint8_t kTypeAcyclicSync = 0;
 constexpr std::uint8_t kTypeLastCyclic = 240;
@@ -25,19 +25,8 @@ enum : std::uint8_t { kSubCobId = 1, kSubType = 2, kSubInhibit = 3, kSubEvent = 
 // TPDO sync phase (types 1..240), after CANopenNode's counter semantics.
 enum : std::uint8_t { kPhaseUnarmed = 0, kPhaseWaitStart = 255 };
 
-// EMCY codes (CiA 301 Table 21).
-enum : std::uint16_t { kEmcyPdoLength = 0x8210, kEmcyPdoLengthExceeded = 0x8220, kEmcyRpdoTimeout = 0x8250 };
-
 bool frame_matches(std::uint32_t cobid, const CanFrame& f) {
   return f.id == cob::can_id(cobid) && f.extended() == bool(cobid & kPdoCobFrame);
-}
-
-// CAN-IDs CiA 301 §7.3.5 (Table 3) reserves for other services.
-bool restricted_can_id(std::uint32_t id) {
-  return id == 0x000 || (id >= 0x001 && id <= 0x07F) || (id >= 0x101 && id <= 0x180) ||
-         (id >= 0x581 && id <= 0x5FF) || (id >= 0x601 && id <= 0x67F) ||
-         (id >= 0x6E0 && id <= 0x6FF) || (id >= 0x701 && id <= 0x77F) ||
-         (id >= 0x780 && id <= 0x7FF);
 }
 
 bool reserved_tpdo_type(std::uint32_t t) { return t > kTypeLastCyclic && t < kTypeRtrSync; }
@@ -82,7 +71,7 @@ void get_bits(std::uint8_t* dst, const std::uint8_t* src, unsigned at, unsigned 
 // Resolved at compile time so this file builds whatever state emcy.hpp is in.
 template <typename E>
 void raise_emcy(E& emcy, std::uint16_t code, TimeUs now) {
-  if constexpr (requires(E& e) { e.raise(code, kCommunicationErrorBit, {}, now); }) {
+  if constexpr (requires(E & e) { e.raise(code, kCommunicationErrorBit, {}, now); }) {
     emcy.raise(code, kCommunicationErrorBit, {}, now);
   } else {
     (void)emcy, (void)code, (void)now;  // no EMCY producer in this build
@@ -91,7 +80,7 @@ void raise_emcy(E& emcy, std::uint16_t code, TimeUs now) {
 
 template <typename E>
 void clear_emcy(E& emcy, std::uint16_t code, TimeUs now) {
-  if constexpr (requires(E& e) { e.clear(code, now); }) {
+  if constexpr (requires(E & e) { e.clear(code, now); }) {
     emcy.clear(code, now);
   } else {
     (void)emcy, (void)code, (void)now;
@@ -203,7 +192,7 @@ void PdoEngine::arm(Tpdo& t, TimeUs now) {
   if (node_.options().tpdo_send_on_start && t.cfg.item_count > 0) {
     send_event_driven(t, now, now);
   } else if (timer_sends(t.cfg)) {
-    t.event_due = now + ms(t.cfg.event_ms);
+    t.event_due = now + node_.local_duration(ms(t.cfg.event_ms));
   }
 }
 
@@ -294,9 +283,7 @@ void PdoEngine::load_mapping(PdoConfig& cfg, bool tx) {
 
 bool PdoEngine::owns(std::uint16_t index) const {
   auto has = [&](const auto& list, std::uint16_t comm) {
-    return std::any_of(list.begin(), list.end(), [&](const auto& p) {
-      return p.cfg.comm_index == comm;
-    });
+    return std::any_of(list.begin(), list.end(), [&](const auto& p) { return p.cfg.comm_index == comm; });
   };
   if (index >= kRpdoComm && index < kRpdoComm + kPdoRange) return has(rpdos_, index);
   if (index >= kRpdoMap && index < kRpdoMap + kPdoRange) return has(rpdos_, index - kRpdoMap + kRpdoComm);
@@ -311,9 +298,11 @@ SdoAbort PdoEngine::write(const OdEntry& e, std::span<const std::uint8_t> data, 
   const std::uint16_t comm = std::uint16_t(mapping ? e.index - (kTpdoMap - kTpdoComm) : e.index);
   PdoConfig* cfg = nullptr;
   if (tx) {
-    for (Tpdo& t : tpdos_) if (t.cfg.comm_index == comm) cfg = &t.cfg;
+    for (Tpdo& t : tpdos_)
+      if (t.cfg.comm_index == comm) cfg = &t.cfg;
   } else {
-    for (Rpdo& r : rpdos_) if (r.cfg.comm_index == comm) cfg = &r.cfg;
+    for (Rpdo& r : rpdos_)
+      if (r.cfg.comm_index == comm) cfg = &r.cfg;
   }
   if (!cfg) return SdoAbort::kNoObject;
 
@@ -346,8 +335,7 @@ SdoAbort PdoEngine::write(const OdEntry& e, std::span<const std::uint8_t> data, 
 SdoAbort PdoEngine::check_comm(const PdoConfig& cfg, bool tx, std::uint8_t sub, std::uint32_t& v) const {
   const NodeOptions& o = node_.options();
   switch (sub) {
-    case kSubCobId:
-      return check_cobid(cfg, tx, v);
+    case kSubCobId: return check_cobid(cfg, tx, v);
     case kSubType:
       if (v == cfg.type) return SdoAbort::kNone;
       if (!tx) return reserved_rpdo_type(v) ? SdoAbort::kInvalidValue : SdoAbort::kNone;
@@ -361,15 +349,13 @@ SdoAbort PdoEngine::check_comm(const PdoConfig& cfg, bool tx, std::uint8_t sub, 
       // CiA 301 §7.5.2.35: not changeable while the PDO exists.
       return tx && v != cfg.inhibit_100us && locked(cfg) ? SdoAbort::kInvalidValue : SdoAbort::kNone;
     case kSubEvent:
-      if (tx && v != 0 && v < std::uint64_t(o.tpdo_min_event_timer_ms))
-        return SdoAbort(o.tpdo_event_timer_low_abort);
+      if (tx && v != 0 && v < std::uint64_t(o.tpdo_min_event_timer_ms)) return SdoAbort(o.tpdo_event_timer_low_abort);
       return SdoAbort::kNone;
     case kSubSyncStart:
       if (!tx) return SdoAbort::kNone;
       if (v > kTypeLastCyclic) return SdoAbort::kInvalidValue;
       return v != cfg.sync_start && locked(cfg) ? SdoAbort::kInvalidValue : SdoAbort::kNone;
-    default:
-      return SdoAbort::kNone;  // sub 4 (reserved) and vendor subs: stored as is
+    default: return SdoAbort::kNone;  // sub 4 (reserved) and vendor subs: stored as is
   }
 }
 
@@ -379,14 +365,13 @@ SdoAbort PdoEngine::check_cobid(const PdoConfig& cfg, bool tx, std::uint32_t& v)
   if (tx && o.tpdo_cobid_no_rtr_forced) v |= kPdoCobNoRtr;
   if (v == cfg.cobid) return SdoAbort::kNone;
   // Bit 30 = 0 says "RTR allowed" (§7.5.2.35): refused by a node without RTR.
-  if (tx && !(v & kPdoCobNoRtr) && !o.tpdo_rtr_supported && !o.tpdo_rtr_bit_unchecked)
-    return SdoAbort::kInvalidValue;
+  if (tx && !(v & kPdoCobNoRtr) && !o.tpdo_rtr_supported && !o.tpdo_rtr_bit_unchecked) return SdoAbort::kInvalidValue;
   const bool will_exist = !(v & kPdoCobInvalid);
   if (locked(cfg) && will_exist && ((v ^ cfg.cobid) & kChangeLockedBits)) return SdoAbort::kInvalidValue;
   if (!cob::format_ok(v)) return SdoAbort::kInvalidValue;  // 11-bit CAN-ID with bits 11..28 set
   if (v & kPdoCobFrame) {
     if (!o.pdo_29bit_ids) return SdoAbort::kInvalidValue;
-  } else if ((will_exist || o.pdo_ignore_valid_bit) && restricted_can_id(cob::can_id(v))) {
+  } else if ((will_exist || o.pdo_ignore_valid_bit) && cob::restricted(cob::can_id(v))) {
     return SdoAbort::kInvalidValue;
   }
   return SdoAbort::kNone;
@@ -404,8 +389,7 @@ SdoAbort PdoEngine::check_map_count(const PdoConfig& cfg, bool tx, std::uint32_t
 
 SdoAbort PdoEngine::check_mapping(const PdoConfig& cfg, bool tx, std::uint32_t n) const {
   // More entries than the mapping record has sub-indices.
-  if (n > PdoConfig::kMaxItems || (n > 0 && !map_entry(cfg, std::uint8_t(n))))
-    return SdoAbort::kValueTooHigh;
+  if (n > PdoConfig::kMaxItems || (n > 0 && !map_entry(cfg, std::uint8_t(n)))) return SdoAbort::kValueTooHigh;
   unsigned bits = 0;
   for (unsigned i = 1; i <= n; ++i) {
     const OdEntry* e = map_entry(cfg, std::uint8_t(i));
@@ -456,12 +440,14 @@ SdoAbort PdoEngine::check_map_entry(std::uint32_t raw, bool tx, const OdEntry** 
 }
 
 Tpdo* PdoEngine::find_tpdo(const PdoConfig& cfg) {
-  for (Tpdo& t : tpdos_) if (&t.cfg == &cfg) return &t;
+  for (Tpdo& t : tpdos_)
+    if (&t.cfg == &cfg) return &t;
   return nullptr;
 }
 
 Rpdo* PdoEngine::find_rpdo(const PdoConfig& cfg) {
-  for (Rpdo& r : rpdos_) if (&r.cfg == &cfg) return &r;
+  for (Rpdo& r : rpdos_)
+    if (&r.cfg == &cfg) return &r;
   return nullptr;
 }
 
@@ -486,14 +472,17 @@ void PdoEngine::restart(PdoConfig& cfg, bool tx, std::uint8_t comm_sub, TimeUs n
   Tpdo& t = *find_tpdo(cfg);
   if (!running()) return;
   if (comm_sub == kSubEvent) {
-    t.event_due = valid(cfg) && event_driven(cfg.type) && timer_sends(cfg) ? now + ms(cfg.event_ms) : kNever;
+    t.event_due = valid(cfg) && event_driven(cfg.type) && timer_sends(cfg)
+                      ? now + node_.local_duration(ms(cfg.event_ms))
+                      : kNever;
   } else if (comm_sub == kSubCobId || comm_sub == kSubType || comm_sub == 0) {
     const TimeUs inhibit = t.inhibit_until;
     t.event_due = kNever;
     t.event_pending = false;
     t.sampled = false;
     t.sync_phase = kPhaseUnarmed;
-    if (valid(cfg) && event_driven(cfg.type) && timer_sends(cfg)) t.event_due = now + ms(cfg.event_ms);
+    if (valid(cfg) && event_driven(cfg.type) && timer_sends(cfg))
+      t.event_due = now + node_.local_duration(ms(cfg.event_ms));
     t.inhibit_until = std::max(inhibit, now);
   }
 }
@@ -541,7 +530,7 @@ void PdoEngine::on_sync_tpdo(Tpdo& t, std::uint8_t counter, TimeUs now) {
   if (type == kTypeAcyclicSync) {
     if (node_.options().tpdo_type0_paced_by_event_timer) {
       // Vendor meaning (GEMS 9000): every SYNC once the event timer elapsed.
-      if (t.cfg.event_ms == 0 || t.last_sent == kNever || now - t.last_sent >= ms(t.cfg.event_ms))
+      if (t.cfg.event_ms == 0 || t.last_sent == kNever || now - t.last_sent >= node_.local_duration(ms(t.cfg.event_ms)))
         transmit(t, now);
     } else if (t.event_pending) {
       t.event_pending = false;
@@ -591,7 +580,7 @@ void PdoEngine::process(TimeUs now) {
       if (r.timeout_due > now) continue;
       r.timeout_due = kNever;  // once per silence, re-armed by the next RPDO
       r.timed_out = true;
-      raise_emcy(node_.emcy(), kEmcyRpdoTimeout, now);
+      raise_emcy(node_.emcy(), emcy::kRpdoTimeout, now);
     }
   }
   update_deadline();
@@ -614,9 +603,9 @@ void PdoEngine::process_tpdo(Tpdo& t, TimeUs now) {
 void PdoEngine::send_event_driven(Tpdo& t, TimeUs now, TimeUs timer_base) {
   t.event_pending = false;
   transmit(t, now);
-  t.inhibit_until = now + TimeUs(t.cfg.inhibit_100us) * 100;
+  t.inhibit_until = now + node_.local_duration(TimeUs(t.cfg.inhibit_100us) * 100);
   // The event timer restarts with every event-driven transmission.
-  t.event_due = timer_sends(t.cfg) ? timer_base + ms(t.cfg.event_ms) : kNever;
+  t.event_due = timer_sends(t.cfg) ? timer_base + node_.local_duration(ms(t.cfg.event_ms)) : kNever;
 }
 
 void PdoEngine::raise_event(unsigned tpdo_number) {
@@ -685,19 +674,19 @@ void PdoEngine::on_rpdo(Rpdo& r, const CanFrame& frame, TimeUs now) {
   // CiA 301 §7.2.2.1: too short → not processed, EMCY 0x8210; longer → the
   // mapped part is used, EMCY 0x8220. One EMCY per error episode.
   if (frame.dlc < need) {
-    if (!r.short_reported) raise_emcy(node_.emcy(), kEmcyPdoLength, now);
+    if (!r.short_reported) raise_emcy(node_.emcy(), emcy::kPdoLength, now);
     r.short_reported = true;
     return;
   }
-  if (r.short_reported) clear_emcy(node_.emcy(), kEmcyPdoLength, now);
+  if (r.short_reported) clear_emcy(node_.emcy(), emcy::kPdoLength, now);
   r.short_reported = false;
   const bool too_long = frame.dlc > need && node_.options().rpdo_length_exceeded_emcy;
-  if (too_long && !r.long_reported) raise_emcy(node_.emcy(), kEmcyPdoLengthExceeded, now);
-  if (!too_long && r.long_reported) clear_emcy(node_.emcy(), kEmcyPdoLengthExceeded, now);
+  if (too_long && !r.long_reported) raise_emcy(node_.emcy(), emcy::kPdoLengthExceeded, now);
+  if (!too_long && r.long_reported) clear_emcy(node_.emcy(), emcy::kPdoLengthExceeded, now);
   r.long_reported = too_long;
-  if (r.timed_out) clear_emcy(node_.emcy(), kEmcyRpdoTimeout, now);
+  if (r.timed_out) clear_emcy(node_.emcy(), emcy::kRpdoTimeout, now);
   r.timed_out = false;
-  if (r.cfg.event_ms) r.timeout_due = now + ms(r.cfg.event_ms);
+  if (r.cfg.event_ms) r.timeout_due = now + node_.local_duration(ms(r.cfg.event_ms));
   r.buffer = frame;
   if (r.cfg.type <= kTypeLastCyclic) {
     r.buffered = true;  // actuated at the next SYNC

@@ -17,7 +17,7 @@
 #include <vector>
 
 #include "core/can_frame.hpp"
-#include "core/cob_id.hpp"
+#include "core/protocol.hpp"
 #include "core/node_options.hpp"
 #include "core/node_service.hpp"
 #include "core/od.hpp"
@@ -28,9 +28,9 @@ class Node;
 enum class NmtState : std::uint8_t;
 
 // COB-ID bits of 0x14xx:01 / 0x18xx:01 (CiA 301 Table 71 / 73).
-constexpr std::uint32_t kPdoCobInvalid = cob::kInvalid;     // bit 31: PDO does not exist
-constexpr std::uint32_t kPdoCobNoRtr = cob::kNoRtr;          // bit 30: no RTR allowed (TPDO)
-constexpr std::uint32_t kPdoCobFrame = cob::kFrame29Bit;      // bit 29: 29-bit CAN-ID
+constexpr std::uint32_t kPdoCobInvalid = cob::kInvalid;   // bit 31: PDO does not exist
+constexpr std::uint32_t kPdoCobNoRtr = cob::kNoRtr;       // bit 30: no RTR allowed (TPDO)
+constexpr std::uint32_t kPdoCobFrame = cob::kFrame29Bit;  // bit 29: 29-bit CAN-ID
 using cob::kRxIdExtended;
 
 // A PDO mapping entry as written to 0x16xx / 0x1Axx (CiA 301 §7.4.8.2):
@@ -65,9 +65,9 @@ struct PdoMapItem {
 
 // Configuration shared by TPDOs and RPDOs, cached from the OD.
 struct PdoConfig {
-  static constexpr int kMaxItems = 64;  // CiA 301: sub 0 of a mapping is 0..0x40
-  std::uint16_t comm_index = 0;         // 0x1400+n or 0x1800+n
-  std::uint16_t map_index = 0;          // 0x1600+n or 0x1A00+n
+  static constexpr int kMaxItems = 64;    // CiA 301: sub 0 of a mapping is 0..0x40
+  std::uint16_t comm_index = 0;           // 0x1400+n or 0x1800+n
+  std::uint16_t map_index = 0;            // 0x1600+n or 0x1A00+n
   const OdObject* comm_object = nullptr;  // in the layout
   const OdObject* map_object = nullptr;   // null when the profile has no mapping record
   std::uint32_t cobid = kPdoCobInvalid;

@@ -16,8 +16,8 @@ enum class SdoAbort : std::uint32_t {
   kCrc = 0x05040004,
   kOutOfMemory = 0x05040005,
   kUnsupportedAccess = 0x06010000,
-  kWriteOnly = 0x06010001,   // attempt to read a write-only object
-  kReadOnly = 0x06010002,    // attempt to write a read-only object
+  kWriteOnly = 0x06010001,  // attempt to read a write-only object
+  kReadOnly = 0x06010002,   // attempt to write a read-only object
   kNoObject = 0x06020000,
   kNotMappable = 0x06040041,
   kPdoLength = 0x06040042,

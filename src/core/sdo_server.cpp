@@ -5,7 +5,7 @@
 
 #include "core/crc16.hpp"
 #include "core/node.hpp"
-#include "core/sdo_protocol.hpp"
+#include "core/protocol.hpp"
 
 namespace cansim {
 
@@ -95,6 +95,7 @@ bool SdoServer::on_frame(const CanFrame& frame, TimeUs now) {
   std::uint8_t d[8] = {};
   std::memcpy(d, frame.data, std::min<std::size_t>(frame.dlc, 8));
 
+  if (silenced(d)) return true;
   in_frame_ = true;
   now_ = now;
   dispatch(d, now);
@@ -135,10 +136,8 @@ void SdoServer::process(TimeUs now) {
     if (state_ == State::kBlockDownloadSub) send_block_download_ack();
   }
   if (state_ == State::kIdle || now < deadline_) return;
-  if (node_.allowed(Service::kSdo))
-    abort(SdoAbort::kTimeout);
-  else
-    idle();
+  if (node_.allowed(Service::kSdo)) abort(SdoAbort::kTimeout);
+  else idle();
 }
 
 // ------------------------------------------------------------ idle: initiates
@@ -146,6 +145,8 @@ void SdoServer::process(TimeUs now) {
 void SdoServer::on_idle(Bytes d, TimeUs now) {
   index_ = get_u16(d + 1);
   sub_ = d[3];
+  for (std::size_t i = 0; i < faults_.abort_n; ++i)
+    if (faults_.aborts[i].object.matches(index_, sub_)) return abort(faults_.aborts[i].code, index_, sub_);
   switch (ccs(d)) {
     case kCcsInitiateDownload: return initiate_download(d, now);
     case kCcsInitiateUpload: return initiate_upload(d, now);
@@ -155,8 +156,7 @@ void SdoServer::on_idle(Bytes d, TimeUs now) {
     case kCcsBlockDownload:
       if ((d[0] & kScEnd) == kScInitiate) return initiate_block_download(d, now);
       break;
-    default:
-      break;
+    default: break;
   }
   // Not an initiate: bytes 1..3 are no multiplexer, answer with 0000:00.
   index_ = 0;
@@ -346,7 +346,7 @@ void SdoServer::on_download_segment(Bytes d, TimeUs now) {
   if (size_ + n > limit) return abort(SdoAbort::kLengthTooHigh);
   std::memcpy(buf_.data() + size_, d + 1, n);
   size_ += n;
-  std::uint8_t confirm = kScsDownloadSegment | toggle_;
+  std::uint8_t confirm = toggled(kScsDownloadSegment | toggle_);
   toggle_ ^= kToggle;
   if (d[0] & kLastSegment) return finish_download(now, confirm);
   touch(now);
@@ -358,7 +358,7 @@ void SdoServer::on_upload_segment(Bytes d, TimeUs now) {
   if ((d[0] & kToggle) != toggle_) return abort(SdoAbort::kToggleBit);
   std::uint32_t n = std::min<std::uint32_t>(7, size_ - offset_);
   bool last = offset_ + n == size_;
-  std::uint8_t cs = std::uint8_t(kScsUploadSegment | toggle_ | segment_unused(n) | (last ? kLastSegment : 0));
+  std::uint8_t cs = toggled(std::uint8_t(kScsUploadSegment | toggle_ | segment_unused(n) | (last ? kLastSegment : 0)));
   send_segment(cs, buf_.data() + offset_, int(n));
   offset_ += n;
   toggle_ ^= kToggle;
@@ -452,8 +452,7 @@ void SdoServer::send_block_upload_sub(TimeUs now) {
     std::uint32_t n = std::min<std::uint32_t>(7, size_ - pos);
     last_segment_ = pos + n >= size_;
     ++seqno_;
-    if (!drop_segment())
-      send_segment(std::uint8_t((last_segment_ ? kSeqLast : 0) | seqno_), buf_.data() + pos, int(n));
+    if (!drop_segment()) send_segment(std::uint8_t((last_segment_ ? kSeqLast : 0) | seqno_), buf_.data() + pos, int(n));
     pos += n;
   }
   state_ = State::kBlockUploadAck;
@@ -477,8 +476,8 @@ void SdoServer::send_block_upload_end(TimeUs now) {
   std::uint32_t unused = size_ == 0 ? 7 : (7 - size_ % 7) % 7;
   std::uint8_t d[8] = {std::uint8_t(kScsBlockUpload | kScEnd | block_end_unused(unused))};
   // CiA 301 §7.2.4.3.15: the CRC is only meaningful when both sides asked
-  // for it, but masters that check it whenever the server offered CRC (npm
-  // canopen, issue 12) exist: the real CRC is always sent, never 0x0000.
+  // for it, but masters that check it whenever the server offered CRC (the
+  // npm package canopen does) exist: the real CRC is always sent, never 0x0000.
   put_u16(d + 1, crc16_ccitt({buf_.data(), size_}));
   send_raw(d);
   state_ = State::kBlockUploadEnd;
@@ -558,6 +557,29 @@ void SdoServer::set_block_drop(std::uint32_t every_n, double probability, std::u
   drop_threshold_ = probability >= 1.0 ? 0xFFFFFFFFu : std::uint32_t(probability * 4294967296.0);
   drop_rng_ = seed | 1;
   drop_count_ = 0;
+}
+
+void SdoServer::set_faults(const Faults& faults) {
+  if (faults.toggle_seed != faults_.toggle_seed || faults_.toggle_probability == 0)
+    toggle_random_ = FaultRandom(faults.toggle_seed);
+  faults_ = faults;
+}
+
+// A request the silent server never sees: every frame when the whole server
+// is silent, else the initiate of a silent object (its transfer never
+// starts, so its later frames are not for a running transfer either).
+bool SdoServer::silenced(Bytes d) const {
+  for (std::size_t i = 0; i < faults_.silent_n; ++i) {
+    const ObjectMatch& m = faults_.silent[i];
+    if (m.index == 0) return true;
+    if (state_ == State::kIdle && m.matches(get_u16(d + 1), d[3])) return true;
+  }
+  return false;
+}
+
+std::uint8_t SdoServer::toggled(std::uint8_t cs) {
+  if (faults_.toggle_probability > 0 && toggle_random_.chance(faults_.toggle_probability)) cs ^= kToggle;
+  return cs;
 }
 
 bool SdoServer::drop_segment() {

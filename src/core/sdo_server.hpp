@@ -36,11 +36,13 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 #include <span>
 #include <vector>
 
 #include "core/can_frame.hpp"
+#include "core/fault_random.hpp"
 #include "core/node_service.hpp"
 #include "core/od.hpp"
 
@@ -75,23 +77,52 @@ class SdoServer : private NodeService {
   void set_block_drop(std::uint32_t every_n, double probability, std::uint64_t seed);
   std::uint32_t dropped_segments() const { return dropped_; }
 
+  // Network faults: objects that answer an abort code, objects
+  // (or the whole server) that never answer, segments with the wrong
+  // toggle bit. A silent object's requests are not seen at all: no answer,
+  // the server's state unchanged (as if the frame were lost); an abort
+  // object answers every initiate with its code. Toggle errors flip the
+  // toggle bit of the server's segment answers (segmented upload and
+  // download) with a probability, from a seeded generator.
+  struct ObjectMatch {
+    std::uint16_t index = 0;  // 0: every object
+    int sub = -1;             // -1: every sub-index
+    bool matches(std::uint16_t i, std::uint8_t s) const { return (index == 0 || index == i) && (sub < 0 || sub == s); }
+  };
+  struct AbortingObject {
+    ObjectMatch object;
+    std::uint32_t code = 0;
+  };
+  struct Faults {
+    static constexpr std::size_t kMax = 4;
+    std::array<ObjectMatch, kMax> silent{};
+    std::size_t silent_n = 0;
+    std::array<AbortingObject, kMax> aborts{};
+    std::size_t abort_n = 0;
+    double toggle_probability = 0;
+    std::uint64_t toggle_seed = 1;
+  };
+  void set_faults(const Faults& faults);
+
   // ---- inspection (tests, daemon statistics)
   bool enabled() const { return valid_; }
   bool busy() const { return state_ != State::kIdle; }
   std::uint32_t rx_cob_id() const { return rx_id_; }
   std::uint32_t tx_cob_id() const { return tx_id_; }
+  // The frame is one of this server's answers (its COB-ID now).
+  bool sends(const CanFrame& f) const { return valid_ && f.id == tx_id_ && f.extended() == tx_ext_; }
   std::size_t buffer_bytes() const { return buf_.size(); }
 
  private:
   enum class State : std::uint8_t {
     kIdle,
-    kDownloadSegment,    // segmented download: waiting for the next segment
-    kUploadSegment,      // segmented upload: waiting for the next segment request
-    kBlockDownloadSub,   // block download: receiving a sub-block
-    kBlockDownloadEnd,   // block download: waiting for the end request
-    kBlockUploadStart,   // block upload: waiting for the client's start (0xA3)
-    kBlockUploadAck,     // block upload: sub-block sent, waiting for its ack
-    kBlockUploadEnd,     // block upload: end sent, waiting for the end response
+    kDownloadSegment,   // segmented download: waiting for the next segment
+    kUploadSegment,     // segmented upload: waiting for the next segment request
+    kBlockDownloadSub,  // block download: receiving a sub-block
+    kBlockDownloadEnd,  // block download: waiting for the end request
+    kBlockUploadStart,  // block upload: waiting for the client's start (0xA3)
+    kBlockUploadAck,    // block upload: sub-block sent, waiting for its ack
+    kBlockUploadEnd,    // block upload: end sent, waiting for the end response
   };
 
   using Bytes = const std::uint8_t*;  // an 8-byte request, zero-padded
@@ -158,11 +189,11 @@ class SdoServer : private NodeService {
   // transfer
   State state_ = State::kIdle;
   TimeUs deadline_ = kNever;
-  TimeUs block_ack_at_ = kNever;   // block download: acknowledge a stalled sub-block
+  TimeUs block_ack_at_ = kNever;  // block download: acknowledge a stalled sub-block
   const OdEntry* entry_ = nullptr;
   std::uint16_t index_ = 0;
   std::uint8_t sub_ = 0;
-  std::uint8_t toggle_ = 0;        // 0x00 / 0x10, as in the command byte
+  std::uint8_t toggle_ = 0;  // 0x00 / 0x10, as in the command byte
   bool size_indicated_ = false;
   bool crc_ = false;               // block: both sides use the CRC
   std::uint8_t blksize_ = 0;       // block: current sub-block size
@@ -177,9 +208,9 @@ class SdoServer : private NodeService {
     TimeUs at;
     std::uint8_t data[8];
   };
-  TimeUs now_ = 0;                 // time of the request being handled
+  TimeUs now_ = 0;  // time of the request being handled
   TimeUs response_delay_ = 0;
-  std::vector<Delayed> delayed_;   // ring, sized by the first set_response_delay
+  std::vector<Delayed> delayed_;  // ring, sized by the first set_response_delay
   std::size_t delayed_head_ = 0;
   std::size_t delayed_n_ = 0;
   std::uint32_t drop_every_n_ = 0;
@@ -187,6 +218,10 @@ class SdoServer : private NodeService {
   std::uint64_t drop_rng_ = 0;
   std::uint32_t drop_count_ = 0;
   std::uint32_t dropped_ = 0;
+  Faults faults_;
+  FaultRandom toggle_random_;
+  bool silenced(Bytes d) const;
+  std::uint8_t toggled(std::uint8_t cs);
 };
 
 }  // namespace cansim

@@ -1,8 +1,8 @@
 #include "core/store.hpp"
 
-#include <array>
 #include <cstring>
 
+#include "core/crc32.hpp"
 #include "core/node.hpp"
 
 namespace cansim {
@@ -10,15 +10,13 @@ namespace cansim {
 namespace {
 constexpr std::uint8_t kMagic[4] = {'C', 'S', 'N', 'V'};
 constexpr std::uint8_t kVersion = 1;
-constexpr std::size_t kHeaderSize = 10;  // magic, version, LSS (3), record count u16
+constexpr std::size_t kHeaderSize = 10;   // magic, version, LSS (3), record count u16
 constexpr std::size_t kRecordHeader = 6;  // index u16, sub, group, length u16
 constexpr std::size_t kCrcSize = 4;
 constexpr std::uint8_t kAllGroups = 1;
 
 // 0x1010/0x1011 sub 1 covers every group, the others their own (od.hpp).
-bool in_group(std::uint8_t sub, std::uint8_t group) {
-  return group != 0 && (sub == kAllGroups || sub == group);
-}
+bool in_group(std::uint8_t sub, std::uint8_t group) { return group != 0 && (sub == kAllGroups || sub == group); }
 
 bool blob_ok(std::span<const std::uint8_t> b) {
   if (b.size() < kHeaderSize + kCrcSize) return false;
@@ -47,8 +45,8 @@ void append_u16(std::vector<std::uint8_t>& out, std::uint16_t v) {
   out.push_back(std::uint8_t(v >> 8));
 }
 
-void append_record(std::vector<std::uint8_t>& out, std::uint16_t index, std::uint8_t sub,
-                   std::uint8_t group, std::span<const std::uint8_t> bytes) {
+void append_record(std::vector<std::uint8_t>& out, std::uint16_t index, std::uint8_t sub, std::uint8_t group,
+                   std::span<const std::uint8_t> bytes) {
   append_u16(out, index);
   out.push_back(sub);
   out.push_back(group);
@@ -56,24 +54,7 @@ void append_record(std::vector<std::uint8_t>& out, std::uint16_t index, std::uin
   out.insert(out.end(), bytes.begin(), bytes.end());
 }
 
-// The CRC of every byte value, so that the blob is checked a byte (not a
-// bit) at a time at every power-on.
-constexpr std::array<std::uint32_t, 256> kCrcTable = [] {
-  std::array<std::uint32_t, 256> table{};
-  for (std::uint32_t byte = 0; byte < 256; ++byte) {
-    std::uint32_t crc = byte;
-    for (int bit = 0; bit < 8; ++bit) crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
-    table[byte] = crc;
-  }
-  return table;
-}();
 }  // namespace
-
-std::uint32_t crc32(std::span<const std::uint8_t> data) {
-  std::uint32_t crc = 0xFFFFFFFFu;
-  for (std::uint8_t byte : data) crc = (crc >> 8) ^ kCrcTable[(crc ^ byte) & 0xFFu];
-  return ~crc;
-}
 
 // Loads into the cache itself: no allocation once it has held a blob this long.
 void StoreRestore::load() {
@@ -226,8 +207,7 @@ SdoAbort StoreRestore::write(const OdEntry& e, std::span<const std::uint8_t> dat
   if (e.sub == 0) return SdoAbort::kReadOnly;
   std::uint32_t v = std::uint32_t(decode_u(e.type, data.data()));
   bool save = e.index == 0x1010;
-  if (v != (save ? kSave : kLoad))
-    return SdoAbort(std::uint32_t(node_.options().store_bad_signature_abort));
+  if (v != (save ? kSave : kLoad)) return SdoAbort(std::uint32_t(node_.options().store_bad_signature_abort));
   return save ? save_group(e.sub) : restore_group(e.sub);
 }
 

@@ -89,7 +89,4 @@ class StoreRestore : private NodeService {
   bool corrupt_ = false;
 };
 
-// CRC-32 (IEEE 802.3, reflected, init and xor 0xFFFFFFFF) of the blob.
-std::uint32_t crc32(std::span<const std::uint8_t> data);
-
 }  // namespace cansim

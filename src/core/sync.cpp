@@ -1,13 +1,12 @@
 #include "core/sync.hpp"
 
-#include "core/cob_id.hpp"
+#include "core/protocol.hpp"
 #include "core/node.hpp"
 
 namespace cansim {
 
 namespace {
 using cob::kFrame29Bit;
-constexpr std::uint16_t kEmcySyncLength = 0x8240;
 
 // Validates the frame-format bits of a COB-ID (CiA 301 Table 50): with bit 29
 // clear, bits 11..28 must be 0.
@@ -34,7 +33,7 @@ void SyncConsumer::read_config() {
 
 bool SyncConsumer::window_open(TimeUs now) const {
   if (window_us_ == 0) return true;
-  return last_sync_ != kNever && now - last_sync_ <= window_us_;
+  return last_sync_ != kNever && now - last_sync_ <= node_.local_duration(window_us_);
 }
 
 bool SyncConsumer::on_frame(const CanFrame& f, TimeUs now) {
@@ -43,7 +42,7 @@ bool SyncConsumer::on_frame(const CanFrame& f, TimeUs now) {
   std::uint8_t expected = overflow_ ? 1 : 0;
   if (f.dlc != expected && !node_.options().sync_accept_any_dlc) {
     std::uint8_t info[5] = {f.dlc, 0, 0, 0, 0};
-    node_.emcy().report(kEmcySyncLength, 0, info, now);
+    node_.emcy().report(emcy::kSyncLength, 0, info, now);
     return true;
   }
   std::uint8_t counter = overflow_ && f.dlc >= 1 ? f.data[0] : 0;
@@ -59,9 +58,7 @@ void SyncConsumer::collect_rx_ids(std::vector<std::uint32_t>& out) const {
   if (present_) out.push_back(cob_id_ | (extended_ ? cob::kRxIdExtended : 0));
 }
 
-bool SyncConsumer::owns(std::uint16_t index) const {
-  return index == 0x1005 || index == 0x1007 || index == 0x1019;
-}
+bool SyncConsumer::owns(std::uint16_t index) const { return index == 0x1005 || index == 0x1007 || index == 0x1019; }
 
 SdoAbort SyncConsumer::write(const OdEntry& e, std::span<const std::uint8_t> data, TimeUs) {
   std::uint64_t v = decode_u(e.type, data.data());

@@ -1,9 +1,12 @@
 #include <cctype>
 #include "ctl/args.hpp"
 
+#include "control/names.hpp"
+
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
+#include <charconv>
 #include <limits>
 #include <optional>
 
@@ -58,8 +61,7 @@ Request on_fleet(Call call, Output output = Output::kNothing) {
 std::string quoted(const std::string& s) { return "'" + s + "'"; }
 
 std::string channel(const std::string& word) {
-  if (word != "pressure" && word != "temperature")
-    throw UsageError("channel must be pressure or temperature, got " + quoted(word));
+  if (!control::parse_channel(word)) throw UsageError("channel must be pressure or temperature, got " + quoted(word));
   return word;
 }
 
@@ -119,9 +121,11 @@ Request build_model(const Words& w) { return on_node(w, node_call("SetModel", {t
 Request build_restore_model(const Words& w) { return on_node(w, node_call("RestoreModel", {text(channel(w[1]))})); }
 
 Request build_override(const Words& w) {
-  bool off = w.has("--off");
-  if (w.size() != (off ? 2u : 4u)) throw UsageError("override takes NODE CHANNEL VALUE UNIT, or NODE CHANNEL --off");
-  if (off) return on_node(w, node_call("ClearOverride", {text(channel(w[1]))}));
+  if (w.has("--off")) {
+    if (w.size() > 2) throw UsageError("override takes NODE CHANNEL VALUE UNIT, or NODE [CHANNEL] --off");
+    return on_node(w, node_call("ClearOverride", {text(w.size() == 2 ? channel(w[1]) : "")}));
+  }
+  if (w.size() != 4) throw UsageError("override takes NODE CHANNEL VALUE UNIT, or NODE [CHANNEL] --off");
   return on_node(w, node_call("Override", {text(channel(w[1])), real(number(w[2])), text(w[3])}));
 }
 
@@ -153,17 +157,22 @@ Request build_cancel(const Words& w) {
   return on_node(w, node_call("CancelFault", {Value(std::uint32_t(id))}));
 }
 
+// The Python client's Node.power_cycle() has the same default.
+constexpr double kPowerCycleOffSeconds = 0.5;
+
 Request build_power_cycle(const Words& w) {
   const std::string* off = w.option("--off");
-  return on_node(w, node_call("PowerCycle", {real(off ? duration_seconds(*off) : 0.0)}));
+  return on_node(w, node_call("PowerCycle", {real(off ? duration_seconds(*off) : kPowerCycleOffSeconds)}));
 }
 
+// The CiA 301 name goes to the daemon, whichever form was typed.
 Request build_nmt(const Words& w) {
-  static const char* const kCommands[] = {"start", "stop", "preop", "reset", "reset-comm"};
-  for (const char* c : kCommands) {
-    if (w[1] == c) return on_node(w, node_call("Nmt", {text(w[1])}));
-  }
-  throw UsageError("NMT command must be start, stop, preop, reset or reset-comm, got " + quoted(w[1]));
+  const auto command = control::parse_nmt_command(w[1]);
+  if (!command)
+    throw UsageError("NMT command must be " + std::string(control::kNmtCommandsText) + ", got " + quoted(w[1]));
+  for (const control::NmtCommandName& c : control::kNmtCommandNames)
+    if (c.command == *command) return on_node(w, node_call("Nmt", {text(c.name)}));
+  return {};
 }
 
 std::vector<Arg> address_args(const ObjectAddress& a) { return {Value(a.index), Value(a.sub)}; }
@@ -233,7 +242,11 @@ Request build_add(const Words& w) {
   return r;
 }
 
-Request build_remove(const Words& w) { return on_fleet(fleet_call("RemoveNode", {text(w[0])})); }
+Request build_remove(const Words& w) {
+  Request r = on_fleet(fleet_call("RemoveNode", {text(w[0])}));
+  r.node = w[0];  // the answer names its key
+  return r;
+}
 
 Request build_reload(const Words&) { return on_fleet(fleet_call("Reload")); }
 
@@ -249,6 +262,74 @@ Request build_dcf(const Words& w) {
 }
 
 Request build_stats(const Words&) { return on_fleet(fleet_call("GetBusStatistics"), Output::kStats); }
+
+// plant [NAME [set INPUT VALUE [UNIT] | override INPUT VALUE [UNIT] | override INPUT --off]]
+Request build_plant(const Words& w) {
+  Request r;
+  r.output = Output::kPlant;
+  if (w.size() > 0) r.node = w[0];
+  const bool off = w.has("--off");
+  if (w.size() <= 1) {
+    if (off) throw UsageError("--off goes with override INPUT");
+    return r;
+  }
+  const std::string& action = w[1];
+  if (action != "set" && action != "override")
+    throw UsageError("expected set or override after the plant's name, got " + quoted(action));
+  if (off) {
+    if (action != "override" || w.size() != 3) throw UsageError("override INPUT --off takes no value");
+    r.call = {Target::kFleet, kPlantInterface, "ClearOverride", {text(w[2])}};
+    return r;
+  }
+  if (w.size() < 4) throw UsageError(action + " takes INPUT VALUE [UNIT]");
+  r.call = {Target::kFleet,
+            kPlantInterface,
+            action == "set" ? "Set" : "Override",
+            {text(w[2]), real(number(w[3])), text(w.size() > 4 ? w[4] : "")}};
+  return r;
+}
+
+Request build_capture(const Words& w) {
+  Request r;
+  r.output = Output::kCapture;
+  r.interfaces = {w[0]};
+  r.file = w[1];
+  return r;
+}
+
+// A CAN identifier in hex, as candump's filters write it (0x allowed).
+std::uint32_t can_id_word(std::string_view s, const char* what) {
+  if (s.rfind("0x", 0) == 0 || s.rfind("0X", 0) == 0) s.remove_prefix(2);
+  std::uint32_t v = 0;
+  auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), v, 16);
+  if (s.empty() || ec != std::errc{} || end != s.data() + s.size() || v > 0x1FFFFFFF)
+    throw UsageError(std::string("--filter: expected ") + what + " in hex, at most 1FFFFFFF (181:7FF)");
+  return v;
+}
+
+Request build_replay(const Words& w) {
+  Request r;
+  r.output = Output::kReplay;
+  r.file = w[0];
+  const std::string* on = w.option("--on");
+  if (!on || on->empty()) throw UsageError("replay: --on BUS is required");
+  r.interfaces = {*on};
+  r.replay.loop = w.has("--loop");
+  if (const std::string* f = w.option("--filter")) {
+    const std::size_t colon = f->find(':');
+    r.replay.filtered = true;
+    r.replay.filter_id = can_id_word(std::string_view(*f).substr(0, colon), "an identifier");
+    r.replay.filter_mask =
+        colon == std::string::npos ? 0x1FFFFFFFu : can_id_word(std::string_view(*f).substr(colon + 1), "a mask");
+  }
+  if (const std::string* x = w.option("--speed")) {
+    const auto v = parse_real(*x);
+    if (!v || !(*v > 0) || *v > 1000)
+      throw UsageError("--speed: expected a factor above 0, at most 1000 (2: twice as fast)");
+    r.replay.speed = *v;
+  }
+  return r;
+}
 
 struct OptionSpec {
   std::string_view name;
@@ -275,44 +356,122 @@ const std::vector<VerbSpec>& verbs() {
       {"help", "[COMMAND]", "this usage, or a command's help", 0, 1, {}, build_help},
       {"list", "", "list the nodes", 0, 0, {}, build_list},
       {"status", "NODE", "show a node's properties", 1, 1, {}, build_status},
-      {"set", "NODE CHANNEL VALUE UNIT [--ramp DURATION]",
-       "set the true value: at once, or ramping there over DURATION", 4, 4, {{"--ramp", true}}, build_set, kGroups},
+      {"set",
+       "NODE CHANNEL VALUE UNIT [--ramp DURATION]",
+       "set the true value: at once, or ramping there over DURATION",
+       4,
+       4,
+       {{"--ramp", true}},
+       build_set,
+       kGroups},
       {"hold", "NODE CHANNEL", "keep the true value at its present level", 2, 2, {}, build_hold},
-      {"model", "NODE CHANNEL YAML", "replace the process model (YAML as in the profile's physics:)", 3, 3, {},
+      {"model",
+       "NODE CHANNEL YAML",
+       "replace the process model (YAML as in the profile's physics:)",
+       3,
+       3,
+       {},
        build_model},
       {"restore-model", "NODE CHANNEL", "back to the profile's process model", 2, 2, {}, build_restore_model},
-      {"override", "NODE CHANNEL VALUE UNIT | --off",
-       "report VALUE whatever the sensor measures; --off: stop doing so", 2, 4, {{"--off", false}}, build_override, kGroups},
-      {"fault", "NODE KIND [--for DURATION] [--at TIME] [KEY=VALUE...]",
-       "arm a fault (kind and keys as in a profile's faults:), print its id", 2, kAny,
-       {{"--for", true}, {"--at", true}}, build_fault, kGroups},
+      {"override",
+       "NODE CHANNEL VALUE UNIT | NODE [CHANNEL] --off",
+       "report VALUE whatever the sensor measures; --off: stop doing so (on every channel without CHANNEL)",
+       1,
+       4,
+       {{"--off", false}},
+       build_override,
+       kGroups},
+      {"fault",
+       "NODE KIND [--for DURATION] [--at TIME] [KEY=VALUE...]",
+       "arm a fault (kind and keys as in a profile's faults:), print its id",
+       2,
+       kAny,
+       {{"--for", true}, {"--at", true}},
+       build_fault,
+       kGroups},
       {"faults", "NODE", "list the armed faults", 1, 1, {}, build_faults},
       {"cancel", "NODE ID", "end fault ID", 2, 2, {}, build_cancel, kGroups},
-      {"power-cycle", "NODE [--off DURATION]", "power off, on again after DURATION (default 0: reboot)", 1, 1,
-       {{"--off", true}}, build_power_cycle, kGroups},
-      {"nmt", "NODE start|stop|preop|reset|reset-comm", "a local NMT transition", 2, 2, {}, build_nmt, kGroups},
+      {"power-cycle",
+       "NODE [--off DURATION]",
+       "power off, on again after DURATION (default 0.5 s; 0: reboot)",
+       1,
+       1,
+       {{"--off", true}},
+       build_power_cycle,
+       kGroups},
+      {"nmt",
+       "NODE start|stop|pre-operational|reset-node|reset-communication",
+       "a local NMT transition (aliases: preop, reset, reset-comm)",
+       2,
+       2,
+       {},
+       build_nmt,
+       kGroups},
       {"read", "NODE INDEX[:SUB]", "read an object (0x6130:1, 1017h, 4119; SUB default 0)", 2, 2, {}, build_read},
-      {"write", "NODE INDEX[:SUB] VALUE [--type TYPE]",
-       "write an object; VALUE typed by its look unless TYPE is given", 3, 3, {{"--type", true}}, build_write},
-      {"record", "NODE PATH | --stop", "record true and reported values to a CSV file", 1, 2, {{"--stop", false}},
+      {"write",
+       "NODE INDEX[:SUB] VALUE [--type TYPE]",
+       "write an object; VALUE typed by its look unless TYPE is given",
+       3,
+       3,
+       {{"--type", true}},
+       build_write},
+      {"record",
+       "NODE PATH | --stop",
+       "record true and reported values to a CSV file",
+       1,
+       2,
+       {{"--stop", false}},
        build_record},
       {"store", "NODE [SUB]", "save parameters as a write of 0x1010:SUB (default 1: all)", 1, 2, {}, build_store},
-      {"restore", "NODE [SUB]", "restore defaults as a write of 0x1011:SUB (default 1: all)", 1, 2, {},
-       build_restore},
-      {"dcf", "NODE [--output FILE]", "the node's CiA 306 DCF (current values), printed or written to FILE", 1, 1,
-       {{"--output", true}}, build_dcf},
+      {"restore", "NODE [SUB]", "restore defaults as a write of 0x1011:SUB (default 1: all)", 1, 2, {}, build_restore},
+      {"dcf",
+       "NODE [--output FILE]",
+       "the node's CiA 306 DCF (current values), printed or written to FILE",
+       1,
+       1,
+       {{"--output", true}},
+       build_dcf},
       {"watch", "[NODE]", "print events and property changes until Ctrl-C", 0, 1, {}, build_watch},
-      {"monitor", "[IFACE...] [--node NODE]",
-       "print every frame decoded (PDO values in engineering units, SDO, NMT, EMCY...) until Ctrl-C", 0, kAny,
-       {{"--node", true}}, build_monitor},
-      {"top", "[GLOB] [--once]",
+      {"monitor",
+       "[IFACE...] [--node NODE]",
+       "print every frame decoded (PDO values in engineering units, SDO, NMT, EMCY...) until Ctrl-C",
+       0,
+       kAny,
+       {{"--node", true}},
+       build_monitor},
+      {"top",
+       "[GLOB] [--once]",
        "the fleet at a glance, refreshed twice a second (GLOB: keys or names like 'generic/*'); --once: one table",
-       0, 1, {{"--once", false}}, build_top},
+       0,
+       1,
+       {{"--once", false}},
+       build_top},
       {"add", "FILE.yaml", "add the nodes of a fleet YAML fragment, print them", 1, 1, {}, build_add},
       {"remove", "NODE", "remove a node", 1, 1, {}, build_remove},
       {"reload", "", "re-read the configuration file (as SIGHUP)", 0, 0, {}, build_reload},
       {"time", "", "print the simulated time", 0, 0, {}, build_time},
       {"stats", "", "per-interface bus statistics", 0, 0, {}, build_stats},
+      {"capture",
+       "BUS FILE",
+       "record every frame on BUS to FILE (- : stdout) in candump -L format until Ctrl-C",
+       2,
+       2,
+       {},
+       build_capture},
+      {"replay",
+       "FILE --on BUS [--loop] [--filter ID[:MASK]] [--speed X]",
+       "play a candump -L file onto BUS as one more participant of the bus",
+       1,
+       1,
+       {{"--on", true}, {"--loop", false}, {"--filter", true}, {"--speed", true}},
+       build_replay},
+      {"plant",
+       "[NAME [set|override INPUT VALUE [UNIT] | override INPUT --off]]",
+       "a plant's variables and inputs (age, source) in units, every plant without NAME; set or override an input",
+       0,
+       5,
+       {{"--off", false}},
+       build_plant},
   };
   return kVerbs;
 }
@@ -457,25 +616,50 @@ const std::vector<ArgumentHelp>& argument_help() {
        "  a count: group (generic).\n"},
       {[](const VerbSpec& v) { return mentions(v, "CHANNEL"); }, "CHANNEL: pressure or temperature.\n"},
       {[](const VerbSpec& v) { return mentions(v, "UNIT"); },
-       "UNIT: bar, mbar, psi, Pa, kPa, MPa (pressure); degC, degF, K (temperature).\n"},
+       "UNIT: bar, mbar, psi, Pa, kPa, MPa (pressure); degC, degF, K (temperature);\n"
+       "  a plant's input: any unit of its kind (%, g/s, Nl/min, W, ...: docs/plants.md).\n"},
       {[](const VerbSpec& v) { return mentions(v, "DURATION") || mentions(v, "TIME"); },
        "DURATION, TIME: a number and s, ms, us, min or h (\"500ms\", \"2 s\"), seconds if bare;\n"
        "  TIME is simulated time since the daemon's start.\n"},
       {[](const VerbSpec& v) { return mentions(v, "KIND"); },
        "KIND: open, short, stuck, drift, spikes, noise_burst, over_temperature,\n"
        "  eeprom_error, silent, power_cycle, bus_off, heartbeat_stop, slow_sdo,\n"
-       "  sdo_block_drop; KEY=VALUE as in a profile's faults: (value=2 bar,\n"
-       "  drift=0.5 bar, channel=temperature, count=3, period=1 s, ...).\n"},
+       "  sdo_block_drop; network: frame_drop, frame_delay, frame_freeze,\n"
+       "  frame_corrupt, frame_dlc, frame_duplicate, node_id_collision, babbling,\n"
+       "  sdo_abort, sdo_silent, sdo_toggle_error, clock_drift, error_frames;\n"
+       "  KEY=VALUE as in a profile's faults: (value=2 bar, drift=0.5 bar,\n"
+       "  channel=temperature, count=3, period=1 s, service=tpdo1, cob_id=0x181,\n"
+       "  probability=0.5, delay=20ms, code=0x06020000, class=passive, ...).\n"
+       "  On a plant (NODE plant:NAME): leak, blocked, valve_stuck, input_lost with\n"
+       "  target=BLOCK or INPUT (leak: kv=0.05 or flow=2 g/s).\n"},
+      {[](const VerbSpec& v) { return v.name == "plant"; },
+       "NAME: a plant of the fleet's plants: section. INPUT: one of its inputs; VALUE in\n"
+       "  UNIT (default: the input's own). set: a value as if its source sent it; override:\n"
+       "  the input is VALUE whatever its source says, until override INPUT --off.\n"},
       {[](const VerbSpec& v) { return mentions(v, "INDEX"); },
        "INDEX[:SUB]: 0x6130:1, 1017h, 4119 (SUB 0 when omitted). read prints a process\n"
        "  value with its unit (3.5 bar; an integer view as 350 (0x15e) = 3.50 bar).\n"},
       {[](const VerbSpec& v) { return v.name == "write"; },
        "VALUE: integers, 0x hex, decimals, \"quoted\" or other text, typed by its look;\n"
        "  --type bool u8 u16 u32 u64 i8 i16 i32 i64 f32 f64 str bytes (bytes: 01:02:ff).\n"},
-      {[](const VerbSpec& v) { return mentions(v, "GLOB"); },
-       "GLOB: keys or names: 'generic/*', 'vcan1/*', 'dps'.\n"},
+      {[](const VerbSpec& v) { return mentions(v, "GLOB"); }, "GLOB: keys or names: 'generic/*', 'vcan1/*', 'dps'.\n"},
       {[](const VerbSpec& v) { return mentions(v, "IFACE"); },
-       "IFACE: CAN interfaces to listen on (default: every interface of the fleet).\n"},
+       "IFACE: CAN interfaces to listen on (default: every interface of the fleet; a\n"
+       "  socketcand bus is read as one of its clients).\n"},
+      {[](const VerbSpec& v) { return v.name == "capture"; },
+       "BUS: a kernel interface (read with CAN_RAW, kernel receive times) or a socketcand\n"
+       "  bus of the fleet (read as one of its clients). FILE: candump -L lines,\n"
+       "  (1700000000.123456) BUS 185#01AB, for canplayer and python-can's can.LogReader;\n"
+       "  flushed after every read; a line on stderr says how many at the end.\n"},
+      {[](const VerbSpec& v) { return v.name == "replay"; },
+       "FILE: candump -L lines (cansimctl capture, candump -L); every frame of it, whatever\n"
+       "  its interface, goes onto BUS through cansimd (Fleet1.QueueFrames): on a timed bus\n"
+       "  it arbitrates with the nodes' frames, a kernel interface gets it written.\n"
+       "  Error and CAN FD frames are skipped. The file's spacing is kept from 100 ms\n"
+       "  after the call; the command ends when its last frame had its time.\n"
+       "--loop: again and again, one mean frame gap after the last frame, until Ctrl-C.\n"
+       "--filter ID[:MASK]: only frames with (identifier & MASK) == (ID & MASK), in hex\n"
+       "  (181:7FF; MASK default 1FFFFFFF). --speed X: X times as fast (0.5: half).\n"},
   };
   return kHelp;
 }
@@ -484,8 +668,9 @@ std::string arguments_text(std::size_t n) { return n == 1 ? "1 argument" : std::
 
 std::string count_error(const VerbSpec& v, std::size_t given) {
   const std::string expected = v.min_words == v.max_words ? std::to_string(v.min_words)
-                               : v.max_words == kAny     ? "at least " + std::to_string(v.min_words)
-                                                         : std::to_string(v.min_words) + " to " + std::to_string(v.max_words);
+                               : v.max_words == kAny
+                                   ? "at least " + std::to_string(v.min_words)
+                                   : std::to_string(v.min_words) + " to " + std::to_string(v.max_words);
   return std::string(v.name) + ": " + arguments_text(given) + " given, expected " + expected;
 }
 
@@ -498,10 +683,8 @@ void parse_verb_line(Scanner& s, CommandLine& line, const VerbSpec*& verb) {
     if (!options_ended && arg == "--") {
       options_ended = true;
     } else if (options_ended || !is_option(arg)) {
-      if (verb)
-        words.positional.push_back(arg);
-      else
-        verb = &find_verb(arg);
+      if (verb) words.positional.push_back(arg);
+      else verb = &find_verb(arg);
     } else if (OptionWord o = split_option(arg); take_global(o, s, line.global)) {
       if (line.global.version) return;
     } else if (verb) {
@@ -524,6 +707,7 @@ void parse_verb_line(Scanner& s, CommandLine& line, const VerbSpec*& verb) {
   if (words.size() < verb->min_words || words.size() > verb->max_words)
     throw UsageError(count_error(*verb, words.size()));
   line.request = verb->build(words);
+  line.request.verb = verb->name;
   line.request.group = verb->groups;
 }
 
@@ -582,31 +766,38 @@ std::string usage_text() {
                                      : synopsis + "\n" + std::string(kColumn, ' ');
     out += std::string(v.description) + "\n";
   }
-  out += "\n"
-         "NODE: a node's name (dps, or generic/1 in a count: group), its fleet key\n"
-         "  (vcan0/dps/0) or IFACE/ID (vcan0/0x10); set, override, fault, cancel,\n"
-         "  power-cycle and nmt also take several: a glob ('generic/*'), an ID range\n"
-         "  (vcan0/0x10-0x13) or a count: group's name (generic).\n"
-         "CHANNEL: pressure or temperature. UNIT: bar, mbar, psi, Pa, kPa, MPa, degC, degF, K.\n"
-         "DURATION, TIME: a number and s, ms, us, min or h (\"500ms\", \"2 s\"), seconds if bare;\n"
-         "  TIME is simulated time since the daemon's start.\n"
-         "VALUE of write: integers, 0x hex, decimals, \"quoted\" or other text;\n"
-         "  TYPE: " + std::string(write_type_names()) + " (bytes: hex like 01:02:ff).\n"
-         "\n"
-         "Options:\n"
-         "  --socket PATH      the daemon's private control socket (peer-to-peer)\n"
-         "  --system           the system bus\n"
-         "  --user             the user (session) bus\n"
-         "                     default: the private socket if it exists ($CANSIM_CONTROL_SOCKET, else\n"
-         "                     $XDG_RUNTIME_DIR/cansimd/control, /run/cansimd/control,\n"
-         "                     /tmp/cansimd-$UID/control), else the system bus as root, else the user bus\n"
-         "  --json             machine-readable output (JSON; watch, monitor: one object per\n"
-         "                     line); errors too, on stderr: {\"error\": ..., \"exit_status\": N}\n"
-         "  --timeout SECONDS  method call timeout (default 10)\n"
-         "  --version          print the version and exit\n"
-         "  -h, --help         print this help and exit\n"
-         "\n"
-         "Exit status: 0 done, 1 refused by the daemon or no connection, 2 bad command line.\n";
+  out +=
+      "\n"
+      "NODE: a node's name (dps, or generic/1 in a count: group), its fleet key\n"
+      "  (vcan0/dps/0) or IFACE/ID (vcan0/0x10); set, override, fault, cancel,\n"
+      "  power-cycle and nmt also take several: a glob ('generic/*'), an ID range\n"
+      "  (vcan0/0x10-0x13) or a count: group's name (generic). fault, faults and\n"
+      "  cancel take a plant as plant:NAME.\n"
+      "CHANNEL: pressure or temperature. UNIT: bar, mbar, psi, Pa, kPa, MPa, degC, degF, K.\n"
+      "DURATION, TIME: a number and s, ms, us, min or h (\"500ms\", \"2 s\"), seconds if bare;\n"
+      "  TIME is simulated time since the daemon's start.\n"
+      "VALUE of write: integers, 0x hex, decimals, \"quoted\" or other text;\n"
+      "  TYPE: " +
+      std::string(write_type_names()) +
+      " (bytes: hex like 01:02:ff).\n"
+      "\n"
+      "Options:\n"
+      "  --socket PATH      the daemon's private control socket (peer-to-peer)\n"
+      "  --system           the system bus\n"
+      "  --user             the user (session) bus\n"
+      "                     default: the private socket if it exists ($CANSIM_CONTROL_SOCKET, else\n"
+      "                     $XDG_RUNTIME_DIR/cansimd/control, /run/cansimd/control,\n"
+      "                     /tmp/cansimd-$UID/control), else the system bus as root, else the user bus\n"
+      "  --json             machine-readable output, one vocabulary across commands\n"
+      "                     (docs/cansimctl.md); acting commands answer {\"node\": ..., \"ok\": true};\n"
+      "                     watch, monitor: one object per line; errors too, on stderr:\n"
+      "                     {\"error\": ..., \"name\": ..., \"exit_status\": N}\n"
+      "  --timeout SECONDS  method call timeout (default 10)\n"
+      "  --version          print the version and exit\n"
+      "  -h, --help         print this help and exit\n"
+      "\n"
+      "Exit status: 0 done, 1 refused by the daemon or no connection, 2 bad command line (a word\n"
+      "the daemon does not know as a unit, fault kind or argument value included).\n";
   return out;
 }
 

@@ -1,5 +1,7 @@
 #include "ctl/canopen_text.hpp"
 
+#include "core/protocol.hpp"
+
 namespace cansim::ctl {
 
 namespace {
@@ -19,11 +21,18 @@ std::string_view find(const Named<Key> (&table)[N], Key key) {
 }
 
 constexpr Named<std::uint8_t> kNmtCommands[] = {
-    {0x01, "start"}, {0x02, "stop"}, {0x80, "preop"}, {0x81, "reset"}, {0x82, "reset-comm"},
+    {kNmtStart, "start"},
+    {kNmtStop, "stop"},
+    {kNmtEnterPreOperational, "pre-operational"},
+    {kNmtResetNode, "reset-node"},
+    {kNmtResetCommunication, "reset-communication"},
 };
 
 constexpr Named<std::uint8_t> kNmtStates[] = {
-    {0x00, "boot-up"}, {0x04, "stopped"}, {0x05, "operational"}, {0x7F, "pre-operational"},
+    {std::uint8_t(NmtState::kInitialising), "boot-up"},
+    {std::uint8_t(NmtState::kStopped), "stopped"},
+    {std::uint8_t(NmtState::kOperational), "operational"},
+    {std::uint8_t(NmtState::kPreOperational), "pre-operational"},
 };
 
 // CiA 301 Table 21; the most specific entry wins (exact, then xx00, then x000).
@@ -99,40 +108,40 @@ constexpr Named<std::uint32_t> kSdoAborts[] = {
     {0x08000024, "no data available"},
 };
 
-// CiA 305 command specifiers (requests 0x7E5 and responses 0x7E4 share them).
+// CiA 305 command specifiers (requests and responses share them).
 constexpr Named<std::uint8_t> kLssCommands[] = {
-    {0x04, "switch state global"},
-    {0x11, "configure node-ID"},
-    {0x13, "configure bit timing"},
-    {0x15, "activate bit timing"},
-    {0x17, "store configuration"},
-    {0x40, "switch state selective: vendor-ID"},
-    {0x41, "switch state selective: product code"},
-    {0x42, "switch state selective: revision number"},
-    {0x43, "switch state selective: serial number"},
-    {0x44, "switch state selective: response"},
-    {0x46, "identify remote slave: vendor-ID"},
-    {0x47, "identify remote slave: product code"},
-    {0x48, "identify remote slave: revision low"},
-    {0x49, "identify remote slave: revision high"},
-    {0x4A, "identify remote slave: serial low"},
-    {0x4B, "identify remote slave: serial high"},
-    {0x4C, "identify non-configured remote slave"},
-    {0x4F, "identify slave"},
-    {0x50, "identify non-configured slave"},
-    {0x51, "fastscan"},
-    {0x5A, "inquire vendor-ID"},
-    {0x5B, "inquire product code"},
-    {0x5C, "inquire revision number"},
-    {0x5D, "inquire serial number"},
-    {0x5E, "inquire node-ID"},
+    {lss::kSwitchGlobal, "switch state global"},
+    {lss::kConfigureNodeId, "configure node-ID"},
+    {lss::kConfigureBitTiming, "configure bit timing"},
+    {lss::kActivateBitTiming, "activate bit timing"},
+    {lss::kStoreConfiguration, "store configuration"},
+    {lss::kSelectiveVendor, "switch state selective: vendor-ID"},
+    {lss::kSelectiveProduct, "switch state selective: product code"},
+    {lss::kSelectiveRevision, "switch state selective: revision number"},
+    {lss::kSelectiveSerial, "switch state selective: serial number"},
+    {lss::kSelectiveReply, "switch state selective: response"},
+    {lss::kIdentifyVendor, "identify remote slave: vendor-ID"},
+    {lss::kIdentifyProduct, "identify remote slave: product code"},
+    {lss::kIdentifyRevisionLow, "identify remote slave: revision low"},
+    {lss::kIdentifyRevisionHigh, "identify remote slave: revision high"},
+    {lss::kIdentifySerialLow, "identify remote slave: serial low"},
+    {lss::kIdentifySerialHigh, "identify remote slave: serial high"},
+    {lss::kIdentifyNonConfigured, "identify non-configured remote slave"},
+    {lss::kIdentifySlaveReply, "identify slave"},
+    {lss::kNonConfiguredReply, "identify non-configured slave"},
+    {lss::kFastscan, "fastscan"},
+    {lss::kInquireVendor, "inquire vendor-ID"},
+    {lss::kInquireProduct, "inquire product code"},
+    {lss::kInquireRevision, "inquire revision number"},
+    {lss::kInquireSerial, "inquire serial number"},
+    {lss::kInquireNodeId, "inquire node-ID"},
 };
 
 }  // namespace
 
 std::string_view nmt_command_name(std::uint8_t cs) { return find(kNmtCommands, cs); }
 
-std::string_view nmt_state_name(std::uint8_t state) { return find(kNmtStates, std::uint8_t(state & 0x7F)); }
+std::string_view nmt_state_name(std::uint8_t state) { return find(kNmtStates, std::uint8_t(state & kNmtStateBits)); }
 
 std::string emcy_meaning(std::uint16_t code) {
   for (std::uint16_t key : {code, std::uint16_t(code & 0xFF00), std::uint16_t(code & 0xF000)}) {
@@ -144,5 +153,19 @@ std::string emcy_meaning(std::uint16_t code) {
 std::string_view sdo_abort_meaning(std::uint32_t code) { return find(kSdoAborts, code); }
 
 std::string_view lss_command_name(std::uint8_t cs) { return find(kLssCommands, cs); }
+
+bool written_in_hex(std::uint16_t index, std::uint8_t sub) {
+  auto in = [index](unsigned first, unsigned last) { return index >= first && index <= last; };
+  if (index == 0x1000 || index == 0x1001 || index == 0x1002 || index == 0x1005 || index == 0x1012 || index == 0x1014 ||
+      index == 0x1F80)
+    return true;
+  if (sub == 0) return false;  // the count of an array or record
+  if (index == 0x1003 || index == 0x1010 || index == 0x1011 || index == 0x1016 || index == 0x6131 || index == 0x6150)
+    return true;
+  if (index == 0x1018) return sub <= 3;     // vendor-ID, product code, revision; the serial is a number
+  if (in(0x1200, 0x12FF)) return sub <= 3;  // SDO COB-IDs and the node-ID
+  if (in(0x1400, 0x15FF) || in(0x1800, 0x19FF)) return sub == 1;  // PDO COB-IDs
+  return in(0x1600, 0x17FF) || in(0x1A00, 0x1BFF);                // mapping entries
+}
 
 }  // namespace cansim::ctl

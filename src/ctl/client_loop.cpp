@@ -99,11 +99,11 @@ void ClientLoop::every(std::uint64_t period_us, std::function<void()> handler) {
   sources_.push_back(std::move(s));
 }
 
-int ClientLoop::run() {
+int ClientLoop::run(const char* verb, bool quiet) {
   int r = sd_event_loop(event_);
   if (!error_.empty()) throw Failure(error_);
   expect(r, "event loop failed");
-  if (r != 0) throw Failure("cansimd closed the connection");
+  if (r != 0 && !quiet) std::fprintf(stderr, "cansimctl %s: cansimd has stopped; done.\n", verb);
   return 0;
 }
 

@@ -2,11 +2,13 @@
 // sd-event with the connection attached, SIGINT / SIGTERM ending it, and the
 // sources each verb adds (signal matches, CAN sockets, a refresh timer). A
 // handler that throws ends the loop; run() then throws Failure with its text.
+// cansimd stopping ends the loop as Ctrl-C does: the verb is done, not failed.
 #pragma once
 
 #include <systemd/sd-event.h>
 
 #include <cstdint>
+#include <cstdio>
 #include <functional>
 #include <memory>
 #include <string>
@@ -29,9 +31,10 @@ class ClientLoop {
   void on_readable(int fd, std::function<void()> handler);
   // `handler` runs every period_us, the first time period_us from now.
   void every(std::uint64_t period_us, std::function<void()> handler);
-  // Runs until SIGINT / SIGTERM (returns 0); a disconnect or a failing
-  // handler throws Failure.
-  int run();
+  // Runs until SIGINT / SIGTERM, stop() or cansimd closing the connection
+  // (then "cansimctl VERB: cansimd has stopped; done." on stderr, unless
+  // quiet); returns 0. A failing handler throws Failure.
+  int run(const char* verb, bool quiet);
   // Ends the loop from a handler: run() returns 0.
   void stop();
 

@@ -23,19 +23,21 @@ struct BusError {
 };
 
 void append_value(sd_bus_message* m, const Value& value) {
-  std::visit([m](const auto& v) {
-    using T = std::decay_t<decltype(v)>;
-    if constexpr (std::is_same_v<T, bool>) {
-      int b = v;
-      expect(sd_bus_message_append_basic(m, 'b', &b), "cannot build the call");
-    } else if constexpr (std::is_same_v<T, std::string>) {
-      expect(sd_bus_message_append_basic(m, 's', v.c_str()), "cannot build the call");
-    } else if constexpr (std::is_same_v<T, Bytes>) {
-      expect(sd_bus_message_append_array(m, 'y', v.data(), v.size()), "cannot build the call");
-    } else {
-      expect(sd_bus_message_append_basic(m, signature(Value(v))[0], &v), "cannot build the call");
-    }
-  }, value);
+  std::visit(
+      [m](const auto& v) {
+        using T = std::decay_t<decltype(v)>;
+        if constexpr (std::is_same_v<T, bool>) {
+          int b = v;
+          expect(sd_bus_message_append_basic(m, 'b', &b), "cannot build the call");
+        } else if constexpr (std::is_same_v<T, std::string>) {
+          expect(sd_bus_message_append_basic(m, 's', v.c_str()), "cannot build the call");
+        } else if constexpr (std::is_same_v<T, Bytes>) {
+          expect(sd_bus_message_append_array(m, 'y', v.data(), v.size()), "cannot build the call");
+        } else {
+          expect(sd_bus_message_append_basic(m, signature(Value(v))[0], &v), "cannot build the call");
+        }
+      },
+      value);
 }
 
 void append_arg(sd_bus_message* m, const Arg& arg) {
@@ -148,11 +150,18 @@ Connection::~Connection() { sd_bus_flush_close_unref(bus_); }
 
 MessagePtr Connection::call(const std::string& path, const std::string& interface, const std::string& method,
                             const std::vector<Arg>& args) {
+  return call_with(path, interface, method, [&](sd_bus_message* m) {
+    for (const Arg& a : args) append_arg(m, a);
+  });
+}
+
+MessagePtr Connection::call_with(const std::string& path, const std::string& interface, const std::string& method,
+                                 const std::function<void(sd_bus_message*)>& append) {
   sd_bus_message* m = nullptr;
   expect(sd_bus_message_new_method_call(bus_, &m, destination_, path.c_str(), interface.c_str(), method.c_str()),
          "cannot build the call");
   MessagePtr request(m);
-  for (const Arg& a : args) append_arg(m, a);
+  append(m);
   BusError e;
   sd_bus_message* reply = nullptr;
   int r = sd_bus_call(bus_, m, timeout_us_, &e.error, &reply);

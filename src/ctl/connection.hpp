@@ -73,9 +73,12 @@ class Connection {
   // The reply; a D-Bus error throws Failure with its message.
   MessagePtr call(const std::string& path, const std::string& interface, const std::string& method,
                   const std::vector<Arg>& args = {});
+  // The same with arguments `append` writes into the call (what Arg cannot say: arrays of structs).
+  MessagePtr call_with(const std::string& path, const std::string& interface, const std::string& method,
+                       const std::function<void(sd_bus_message*)>& append);
 
   std::string node_path(const std::string& node);  // Fleet1.GetNode
-  std::int64_t simulated_time_us();                  // Fleet1.SimulatedTime
+  std::int64_t simulated_time_us();                // Fleet1.SimulatedTime
 
  private:
   sd_bus* bus_ = nullptr;

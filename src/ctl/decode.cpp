@@ -148,12 +148,24 @@ constexpr PropertyReader kNodeProperties[] = {
     {"NmtState", "s", [](sd_bus_message* m, NodeStatus& s) { s.nmt_state = read_string(m); }},
     {"Powered", "b", [](sd_bus_message* m, NodeStatus& s) { s.powered = read_bool(m); }},
     {"OnBus", "b", [](sd_bus_message* m, NodeStatus& s) { s.on_bus = read_bool(m); }},
-    {"Pressure", "(ddsy)", [](sd_bus_message* m, NodeStatus& s) { s.pressure = read_reading(m); }},
-    {"Temperature", "(ddsy)", [](sd_bus_message* m, NodeStatus& s) { s.temperature = read_reading(m); }},
+    {"Pressure", "(ddsy)",
+     [](sd_bus_message* m, NodeStatus& s) {
+       const double counts = s.pressure.counts;  // the properties come in any order
+       s.pressure = read_reading(m);
+       s.pressure.counts = counts;
+     }},
+    {"Temperature", "(ddsy)",
+     [](sd_bus_message* m, NodeStatus& s) {
+       const double counts = s.temperature.counts;
+       s.temperature = read_reading(m);
+       s.temperature.counts = counts;
+     }},
+    {"PressureCounts", "d", [](sd_bus_message* m, NodeStatus& s) { s.pressure.counts = read_basic<double>(m, 'd'); }},
+    {"TemperatureCounts", "d",
+     [](sd_bus_message* m, NodeStatus& s) { s.temperature.counts = read_basic<double>(m, 'd'); }},
     {"Overrides", "a(sds)",
      [](sd_bus_message* m, NodeStatus& s) { s.overrides = read_array(m, "(sds)", read_override); }},
-    {"Faults", "a(usb)",
-     [](sd_bus_message* m, NodeStatus& s) { s.faults = read_array(m, "(usb)", read_fault_brief); }},
+    {"Faults", "a(usb)", [](sd_bus_message* m, NodeStatus& s) { s.faults = read_array(m, "(usb)", read_fault_brief); }},
     {"EmcyCount", "u", [](sd_bus_message* m, NodeStatus& s) { s.emcy_count = read_basic<std::uint32_t>(m, 'u'); }},
     {"LastEmcy", "(xqyay)", [](sd_bus_message* m, NodeStatus& s) { s.last_emcy = read_emcy(m); }},
     {"Recording", "s", [](sd_bus_message* m, NodeStatus& s) { s.recording = read_string(m); }},
@@ -330,19 +342,34 @@ BusStats* row_of(std::vector<BusStats>& rows, const char* name) {
 }  // namespace
 
 void read_bus_load(sd_bus_message* m, std::vector<BusStats>& rows) {
-  enter(m, 'v', "a(ssddddxxxuut)");
-  read_array(m, "(ssddddxxxuut)", [&](sd_bus_message* m) {
+  enter(m, 'v', "a(ssddddxxxxxuut)");
+  read_array(m, "(ssddddxxxxxuut)", [&](sd_bus_message* m) {
     const char *name, *model;
     BusStats l;
-    expect_value(sd_bus_message_read(m, "(ssddddxxxuut)", &name, &model, &l.offered_1s, &l.offered_10s, &l.carried_1s,
-                                     &l.carried_10s, &l.delay_p50_us, &l.delay_p99_us, &l.delay_max_us, &l.queued,
-                                     &l.queue_capacity, &l.queue_dropped));
+    expect_value(sd_bus_message_read(m, "(ssddddxxxxxuut)", &name, &model, &l.offered_1s, &l.offered_10s, &l.carried_1s,
+                                     &l.carried_10s, &l.delay_p50_us, &l.delay_p99_us, &l.delay_max_us, &l.slip_p99_us,
+                                     &l.slip_max_us, &l.queued, &l.queue_capacity, &l.queue_dropped));
     if (BusStats* b = row_of(rows, name)) {
       l.name = b->name, l.up = b->up, l.bit_rate_kbit = b->bit_rate_kbit, l.frames_in = b->frames_in;
       l.frames_out = b->frames_out, l.frames_dropped = b->frames_dropped, l.frames_offline = b->frames_offline;
-      l.offered_load = b->offered_load, l.measured_load = b->measured_load, l.state = b->state, l.model = model;
+      // measured_load is by definition carried_load_10s: take it from this one sample, not GetStats' earlier one.
+      l.offered_load = b->offered_load, l.measured_load = l.carried_10s, l.state = b->state, l.model = model;
       *b = l;
     }
+    return 0;
+  });
+  leave(m);
+}
+
+void read_socketcand_buses(sd_bus_message* m, std::vector<BusStats>& rows) {
+  enter(m, 'v', "a(ssqu)");
+  read_array(m, "(ssqu)", [&](sd_bus_message* m) {
+    const char *name, *host;
+    std::uint16_t port = 0;
+    std::uint32_t clients = 0;
+    expect_value(sd_bus_message_read(m, "(ssqu)", &name, &host, &port, &clients));
+    if (BusStats* b = row_of(rows, name))
+      b->transport = "socketcand", b->listen_host = host, b->listen_port = port, b->clients = clients;
     return 0;
   });
   leave(m);
@@ -434,6 +461,46 @@ std::vector<ObjectInfo> read_object_infos(sd_bus_message* m) {
     leave(m);
     return o;
   });
+}
+
+std::vector<ObjectInfo> read_count_scaling(sd_bus_message* m) {
+  return read_array(m, "(qydds)", [](sd_bus_message* m) {
+    ObjectInfo o;
+    CountScaling c;
+    const char* unit = "";
+    expect_value(sd_bus_message_read(m, "(qydds)", &o.index, &o.sub, &c.scale, &c.offset, &unit));
+    c.unit = unit;
+    o.engineering = c;
+    return o;
+  });
+}
+
+std::map<std::string, std::vector<PdoInfo>> read_fleet_pdo_mappings(sd_bus_message* m) {
+  std::map<std::string, std::vector<PdoInfo>> out;
+  for (auto& [key, pdos] : read_array(m, "(sa(subya(qyyssds))a(qydds))", [](sd_bus_message* m) {
+         enter(m, 'r', "sa(subya(qyyssds))a(qydds)");
+         std::string key = read_string(m);
+         std::vector<PdoInfo> pdos = read_pdo_infos(m);
+         attach_count_scaling(counts_of(pdos), read_count_scaling(m));
+         leave(m);
+         return std::make_pair(std::move(key), std::move(pdos));
+       }))
+    out[key] = std::move(pdos);
+  return out;
+}
+
+std::vector<ObjectInfo*> counts_of(std::vector<PdoInfo>& pdos) {
+  std::vector<ObjectInfo*> counts;
+  for (PdoInfo& p : pdos)
+    for (PdoEntryInfo& e : p.entries)
+      if (e.object.unit == kCountsUnit) counts.push_back(&e.object);
+  return counts;
+}
+
+void attach_count_scaling(std::vector<ObjectInfo*> objects, const std::vector<ObjectInfo>& scaling) {
+  for (ObjectInfo* o : objects)
+    for (const ObjectInfo& s : scaling)
+      if (s.index == o->index && s.sub == o->sub) o->engineering = s.engineering;
 }
 
 std::map<std::uint16_t, std::string> read_emcy_codes(sd_bus_message* m) {

@@ -6,26 +6,13 @@
 #include <cstring>
 #include <ctime>
 
+#include "core/protocol.hpp"
 #include "ctl/canopen_text.hpp"
 #include "ctl/json.hpp"
 
 namespace cansim::ctl {
 
 namespace {
-
-// CiA 301 predefined connection set (§7.3.3, Table 43).
-constexpr std::uint32_t kNmtId = 0x000, kSyncId = 0x080, kEmcyBase = 0x080, kSdoTxBase = 0x580,
-                        kSdoRxBase = 0x600, kHeartbeatBase = 0x700;
-constexpr std::uint32_t kLssMaster = 0x7E5, kLssSlave = 0x7E4;  // CiA 305 §6
-constexpr std::uint32_t kExtendedFlag = 1u << 29;
-
-// SDO command specifiers (CiA 301 §7.2.4.3): bits 7-5 of byte 0.
-enum : std::uint8_t {
-  kCcsDownloadSegment = 0, kCcsDownloadInitiate = 1, kCcsUploadInitiate = 2, kCcsUploadSegment = 3,
-  kCsAbort = 4, kCcsBlockUpload = 5, kCcsBlockDownload = 6,
-  kScsUploadSegment = 0, kScsDownloadSegment = 1, kScsUploadInitiate = 2, kScsDownloadInitiate = 3,
-  kScsBlockDownload = 5, kScsBlockUpload = 6,
-};
 
 std::uint64_t little_endian(const std::uint8_t* p, std::size_t n) {
   std::uint64_t v = 0;
@@ -55,11 +42,11 @@ struct TypeShape {
   unsigned bytes;
 };
 constexpr TypeShape kTypes[] = {
-    {"BOOLEAN", 'b', 1},      {"INTEGER8", 'i', 1},     {"INTEGER16", 'i', 2},    {"INTEGER24", 'i', 3},
-    {"INTEGER32", 'i', 4},    {"INTEGER40", 'i', 5},    {"INTEGER48", 'i', 6},    {"INTEGER56", 'i', 7},
-    {"INTEGER64", 'i', 8},    {"UNSIGNED8", 'u', 1},    {"UNSIGNED16", 'u', 2},   {"UNSIGNED24", 'u', 3},
-    {"UNSIGNED32", 'u', 4},   {"UNSIGNED40", 'u', 5},   {"UNSIGNED48", 'u', 6},   {"UNSIGNED56", 'u', 7},
-    {"UNSIGNED64", 'u', 8},   {"REAL32", 'f', 4},       {"REAL64", 'f', 8},       {"VISIBLE_STRING", 's', 0},
+    {"BOOLEAN", 'b', 1},        {"INTEGER8", 'i', 1},     {"INTEGER16", 'i', 2},  {"INTEGER24", 'i', 3},
+    {"INTEGER32", 'i', 4},      {"INTEGER40", 'i', 5},    {"INTEGER48", 'i', 6},  {"INTEGER56", 'i', 7},
+    {"INTEGER64", 'i', 8},      {"UNSIGNED8", 'u', 1},    {"UNSIGNED16", 'u', 2}, {"UNSIGNED24", 'u', 3},
+    {"UNSIGNED32", 'u', 4},     {"UNSIGNED40", 'u', 5},   {"UNSIGNED48", 'u', 6}, {"UNSIGNED56", 'u', 7},
+    {"UNSIGNED64", 'u', 8},     {"REAL32", 'f', 4},       {"REAL64", 'f', 8},     {"VISIBLE_STRING", 's', 0},
     {"UNICODE_STRING", 'a', 0}, {"OCTET_STRING", 'a', 0}, {"DOMAIN", 'a', 0},
 };
 
@@ -94,11 +81,13 @@ std::optional<Value> pdo_number(const TypeShape& t, std::uint64_t raw, unsigned 
 }
 
 double as_double(const Value& v) {
-  return std::visit([](const auto& x) -> double {
-    using T = std::decay_t<decltype(x)>;
-    if constexpr (std::is_arithmetic_v<T>) return double(x);
-    return NAN;
-  }, v);
+  return std::visit(
+      [](const auto& x) -> double {
+        using T = std::decay_t<decltype(x)>;
+        if constexpr (std::is_arithmetic_v<T>) return double(x);
+        return NAN;
+      },
+      v);
 }
 
 // 10^-d scales: the decimals to print (0x6132 of an integer PV); -1 otherwise.
@@ -106,17 +95,6 @@ int decimals_of(double scale) {
   if (scale >= 1.0 || scale <= 0.0) return -1;
   int d = int(std::lround(-std::log10(scale)));
   return d > 0 && d <= 18 && std::fabs(scale * std::pow(10.0, d) - 1.0) < 1e-9 ? d : -1;
-}
-
-// An engineering value: raw x scale, exact for 10^-d scales (350 x 0.01 = 3.5, not 3.5000000000000004).
-DecodedField scaled_field(const ObjectInfo& o, const Value& raw) {
-  DecodedField f{o.name, o.index, o.sub, raw, o.unit};
-  if (o.scale == 1.0) return f;
-  const double x = as_double(raw);
-  if (std::isnan(x)) return f;
-  f.decimals = decimals_of(o.scale);
-  f.value = Value(f.decimals > 0 ? x / std::pow(10.0, f.decimals) : x * o.scale);
-  return f;
 }
 
 DecodedField text_field(std::string name, std::string value, bool bare = false) {
@@ -168,7 +146,7 @@ void decode_nmt(const RawFrame& f, DecodedFrame& out) {
   out.fields.push_back(text_field("command", command.empty() ? hex_text(f.data[0], 2) : std::string(command), true));
   if (f.dlc >= 2) {
     DecodedField target = hex_field("node-ID", f.data[1], 2);
-    if (f.data[1] == 0) target.value = Value(std::string("all"));
+    if (f.data[1] == kNmtAllNodes) target.value = Value(std::string("all"));
     out.fields.push_back(std::move(target));
   }
 }
@@ -180,14 +158,14 @@ void decode_heartbeat(const RawFrame& f, DecodedFrame& out) {
     return;
   }
   if (f.dlc < 1) return raw(f, out);
-  const std::uint8_t state = f.data[0] & 0x7F;
-  if (state == 0) {
+  const std::uint8_t state = f.data[0] & kNmtStateBits;
+  if (state == std::uint8_t(NmtState::kInitialising)) {
     out.kind = "boot-up";
     return;
   }
   const std::string_view name = nmt_state_name(state);
   out.fields.push_back(text_field("state", name.empty() ? hex_text(state, 2) : std::string(name), true));
-  if (f.data[0] & 0x80) out.fields.push_back(number_field("toggle", 1));
+  if (f.data[0] & kGuardingToggle) out.fields.push_back(number_field("toggle", 1));
 }
 
 void decode_emcy(const RawFrame& f, const std::string& meaning, DecodedFrame& out) {
@@ -211,26 +189,33 @@ void decode_lss(const RawFrame& f, DecodedFrame& out) {
   const std::uint8_t cs = f.data[0];
   const std::string_view name = lss_command_name(cs);
   std::string what = name.empty() ? hex_text(cs, 2) : std::string(name);
-  out.fields.push_back(text_field("command", what + (f.id == kLssSlave ? " (response)" : ""), true));
+  const bool reply = f.id == cob::kLssToMaster;
+  out.fields.push_back(text_field("command", what + (reply ? " (response)" : ""), true));
   if (f.dlc < 8) return;
   switch (cs) {
-    case 0x04: out.fields.push_back(text_field("mode", f.data[1] ? "configuration" : "waiting")); break;
-    case 0x11:
-    case 0x5E:
-      if (f.id == kLssMaster && cs == 0x11) out.fields.push_back(hex_field("node-ID", f.data[1], 2));
-      else if (f.id == kLssSlave && cs == 0x5E) out.fields.push_back(hex_field("node-ID", f.data[1], 2));
-      else if (f.id == kLssSlave) out.fields.push_back(number_field("error", f.data[1]));
+    case lss::kSwitchGlobal:
+      out.fields.push_back(text_field("mode", f.data[1] == lss::kModeWaiting ? "waiting" : "configuration"));
       break;
-    case 0x13:
-      if (f.id == kLssMaster) out.fields.push_back(number_field("table index", f.data[2]));
+    case lss::kConfigureNodeId:
+      if (reply) out.fields.push_back(number_field("error", f.data[1]));
+      else out.fields.push_back(hex_field("node-ID", f.data[1], 2));
+      break;
+    case lss::kInquireNodeId:
+      if (reply) out.fields.push_back(hex_field("node-ID", f.data[1], 2));
+      break;
+    case lss::kConfigureBitTiming:
+      if (!reply) out.fields.push_back(number_field("table index", f.data[2]));
       else out.fields.push_back(number_field("error", f.data[1]));
       break;
-    case 0x15: out.fields.push_back(number_field("switch delay ms", little_endian(f.data + 1, 2))); break;
-    case 0x17:
-      if (f.id == kLssSlave) out.fields.push_back(number_field("error", f.data[1]));
+    case lss::kActivateBitTiming:
+      out.fields.push_back(number_field("switch delay ms", little_endian(f.data + 1, 2)));
+      break;
+    case lss::kStoreConfiguration:
+      if (reply) out.fields.push_back(number_field("error", f.data[1]));
       break;
     default:
-      if ((cs >= 0x40 && cs <= 0x4B) || (cs >= 0x5A && cs <= 0x5D))
+      if ((cs >= lss::kSelectiveVendor && cs <= lss::kIdentifySerialHigh) ||
+          (cs >= lss::kInquireVendor && cs <= lss::kInquireSerial))
         out.fields.push_back(hex_field("value", little_endian(f.data + 1, 4), 8));
       break;
   }
@@ -240,19 +225,6 @@ std::string two_digit_hex(unsigned v) {
   char buf[8];
   std::snprintf(buf, sizeof buf, "%02X", v);
   return buf;
-}
-
-std::string format_field_value(const DecodedField& f) {
-  if (!f.value) return "-";
-  if (f.decimals > 0) {
-    char buf[64];
-    std::snprintf(buf, sizeof buf, "%.*f", f.decimals, as_double(*f.value));
-    return buf;
-  }
-  if (const auto* b = std::get_if<Bytes>(&*f.value)) return b->empty() ? "-" : format_bytes(*b);
-  if (const auto* u = std::get_if<std::uint64_t>(&*f.value); u && f.style == IntegerStyle::kHex)
-    return hex_text(*u, f.hex_digits);
-  return format_value(*f.value, f.style);
 }
 
 std::string clock_text(double t) {
@@ -267,18 +239,57 @@ std::string clock_text(double t) {
 
 }  // namespace
 
-std::string engineering_text(const Value& raw, double scale) {
-  ObjectInfo o;
-  o.scale = scale;
-  return format_field_value(scaled_field(o, raw));
+DecodedField object_field(const ObjectInfo& o, const Value& raw) {
+  DecodedField f;
+  f.name = o.name;
+  f.index = o.index;
+  f.sub = o.sub;
+  f.value = f.raw = raw;
+  f.unit = o.unit;
+  const double x = as_double(raw);
+  if (o.unit == kCountsUnit && !std::isnan(x)) {
+    f.counts = x * o.scale;
+    f.value = Value(o.engineering ? x * o.engineering->scale + o.engineering->offset : *f.counts);
+    f.unit = o.engineering ? o.engineering->unit : kCountsUnit;
+    return f;
+  }
+  if (o.scale == 1.0 || std::isnan(x)) return f;
+  f.decimals = decimals_of(o.scale);
+  f.value = Value(f.decimals > 0 ? x / std::pow(10.0, f.decimals) : x * o.scale);
+  return f;
+}
+
+std::string format_field_value(const DecodedField& f) {
+  if (!f.value) return "-";
+  if (f.decimals > 0) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.*f", f.decimals, as_double(*f.value));
+    return buf;
+  }
+  if (const auto* b = std::get_if<Bytes>(&*f.value)) return b->empty() ? "-" : format_bytes(*b);
+  if (const auto* u = std::get_if<std::uint64_t>(&*f.value); u && f.style == IntegerStyle::kHex)
+    return hex_text(*u, f.hex_digits);
+  if (const auto* d = std::get_if<double>(&*f.value)) return format_measure(*d);
+  return format_value(*f.value, f.style);
+}
+
+Json field_json(const DecodedField& f) {
+  return {{"name", f.name},
+          {"index", f.index ? Json(*f.index) : Json(nullptr)},
+          {"sub", f.sub ? Json(*f.sub) : Json(nullptr)},
+          {"value", f.value ? json_value(*f.value) : Json(nullptr)},
+          {"unit", json_text_or_null(f.unit)},
+          {"raw", f.raw ? json_value(*f.raw) : Json(nullptr)},
+          {"counts", f.counts ? json_number(*f.counts) : Json(nullptr)}};
 }
 
 Value typed_bytes(const std::string& type, const Bytes& data) {
   const TypeShape* t = shape_of(type);
   if (!t) return data;
-  if (t->kind == 's') return std::string(data.begin(), std::find_if(data.rbegin(), data.rend(), [](std::uint8_t c) {
-                                                           return c != 0;
-                                                         }).base());  // without NUL padding
+  if (t->kind == 's')
+    return std::string(data.begin(), std::find_if(data.rbegin(), data.rend(), [](std::uint8_t c) {
+                                       return c != 0;
+                                     }).base());  // without NUL padding
   if (t->kind == 'a' || data.size() < t->bytes || data.empty()) return data;
   const std::uint64_t raw = little_endian(data.data(), t->bytes);
   auto v = pdo_number(*t, raw, t->bytes * 8);
@@ -287,14 +298,22 @@ Value typed_bytes(const std::string& type, const Bytes& data) {
 
 void FrameDecoder::set_node(NodeInfo node) {
   std::string key = node.key;
-  nodes_[key] = std::move(node);
-  rebuild_index();
+  auto it = nodes_.find(key);
+  if (it != nodes_.end()) {
+    unindex(it->second);
+    it->second = std::move(node);
+  } else {
+    it = nodes_.emplace(key, std::move(node)).first;
+  }
+  index(it->second);
 }
 
 void FrameDecoder::remove_node(const std::string& key) {
-  nodes_.erase(key);
+  auto it = nodes_.find(key);
+  if (it == nodes_.end()) return;
+  unindex(it->second);
+  nodes_.erase(it);
   sdo_.erase(key);
-  rebuild_index();
 }
 
 NodeInfo* FrameDecoder::node(const std::string& key) {
@@ -302,20 +321,29 @@ NodeInfo* FrameDecoder::node(const std::string& key) {
   return it == nodes_.end() ? nullptr : &it->second;
 }
 
-void FrameDecoder::rebuild_index() {
-  pdo_by_id_.clear();
-  for (const auto& [key, n] : nodes_) {
-    for (std::size_t i = 0; i < n.pdos.size(); ++i) {
-      if (n.pdos[i].valid) pdo_by_id_.emplace(std::make_pair(n.interface, n.pdos[i].cob_id), std::make_pair(key, i));
-    }
-  }
+// One node's entries in the indexes, added or taken out: a node costs what
+// its own PDOs cost, whatever the fleet's size.
+void FrameDecoder::index(const NodeInfo& n) {
+  key_by_id_[{n.interface, n.node_id}].insert(n.key);
+  for (std::size_t i = 0; i < n.pdos.size(); ++i)
+    if (n.pdos[i].valid) pdo_by_id_[{n.interface, n.pdos[i].cob_id}].emplace(n.key, i);
+}
+
+void FrameDecoder::unindex(const NodeInfo& n) {
+  const auto forget = [&](auto& index, const auto& id) {
+    auto it = index.find(id);
+    if (it == index.end()) return;
+    it->second.erase(n.key);
+    if (it->second.empty()) index.erase(it);
+  };
+  forget(key_by_id_, std::make_pair(n.interface, n.node_id));
+  for (const PdoInfo& p : n.pdos)
+    if (p.valid) forget(pdo_by_id_, std::make_pair(n.interface, p.cob_id));
 }
 
 NodeInfo* FrameDecoder::by_id(const std::string& interface, std::uint8_t node_id) {
-  for (auto& [key, n] : nodes_) {
-    if (n.interface == interface && n.node_id == node_id) return &n;
-  }
-  return nullptr;
+  auto it = key_by_id_.find({interface, node_id});
+  return it == key_by_id_.end() ? nullptr : node(*it->second.begin());
 }
 
 void FrameDecoder::load(NodeInfo& n) {
@@ -340,15 +368,50 @@ const ObjectInfo* FrameDecoder::object(NodeInfo& n, std::uint16_t index, std::ui
 }
 
 DecodedFrame FrameDecoder::decode(const RawFrame& f) {
+  DecodedFrame out = decode_canopen(f);
+  if (!plant_signals_.empty()) add_plant_fields(f, out);
+  return out;
+}
+
+void FrameDecoder::add_plant_fields(const RawFrame& f, DecodedFrame& out) const {
+  CanFrame frame;
+  frame.id = f.id;
+  frame.dlc = f.dlc;
+  frame.flags = std::uint8_t((f.extended ? CanFrame::kExtended : 0) | (f.rtr ? CanFrame::kRtr : 0));
+  std::memcpy(frame.data, f.data, 8);
+  bool first = true;
+  for (const PlantSignalInfo& p : plant_signals_) {
+    if (p.interface != f.interface || !p.signal.matches(frame)) continue;
+    const std::optional<double> v = p.signal.value(frame);
+    if (!v) continue;
+    if (first && out.kind == "raw") {  // a frame no node owns: the controller's command
+      out.kind = "plant";
+      out.fields.clear();
+    }
+    first = false;
+    DecodedField field;
+    field.name = p.plant + "." + p.input;
+    field.value = Value(*v);
+    field.unit = p.unit;
+    out.fields.push_back(std::move(field));
+  }
+}
+
+DecodedFrame FrameDecoder::decode_canopen(const RawFrame& f) {
   DecodedFrame out;
   out.time = f.time;
+  out.simulated_time = f.simulated_time;
   out.interface = f.interface;
   out.id = f.id;
   out.extended = f.extended;
-  const std::uint32_t cob = f.id | (f.extended ? kExtendedFlag : 0);
-  if (auto it = pdo_by_id_.find({f.interface, cob}); it != pdo_by_id_.end()) {
-    NodeInfo& n = nodes_.at(it->second.first);
-    decode_pdo(n, n.pdos[it->second.second], f, out);
+  out.rtr = f.rtr;
+  out.dlc = f.dlc;
+  if (!f.rtr) out.data.assign(f.data, f.data + std::min<std::uint8_t>(f.dlc, 8));
+  const std::uint32_t cob_id = f.id | (f.extended ? cob::kFrame29Bit : 0);
+  if (auto it = pdo_by_id_.find({f.interface, cob_id}); it != pdo_by_id_.end()) {
+    const auto& [key, pdo] = *it->second.begin();
+    NodeInfo& n = nodes_.at(key);
+    decode_pdo(n, n.pdos[pdo], f, out);
     return out;
   }
   if (f.extended) {
@@ -361,23 +424,23 @@ DecodedFrame FrameDecoder::decode(const RawFrame& f) {
     out.label = n->label;
     return true;
   };
-  const auto node_id = std::uint8_t(f.id & 0x7F);
-  const std::uint32_t function = f.id & ~0x7Fu;
-  if (f.id == kNmtId) {
-    if (f.dlc >= 2 && f.data[1] != 0) attach(by_id(f.interface, f.data[1]));
+  const std::uint8_t node_id = cob::node_id_of(f.id);
+  const std::uint32_t function = cob::function_code(f.id);
+  if (f.id == cob::kNmt) {
+    if (f.dlc >= 2 && f.data[1] != kNmtAllNodes) attach(by_id(f.interface, f.data[1]));
     decode_nmt(f, out);
-  } else if (f.id == kSyncId) {
+  } else if (f.id == cob::kSync) {
     decode_sync(f, out);
-  } else if (f.id == kLssMaster || f.id == kLssSlave) {
+  } else if (f.id == cob::kLssFromMaster || f.id == cob::kLssToMaster) {
     decode_lss(f, out);
   } else if (node_id == 0 || !attach(by_id(f.interface, node_id))) {
     raw(f, out);
-  } else if (function == kEmcyBase) {
+  } else if (function == cob::kEmcyBase) {
     decode_emcy(f, f.dlc >= 2 ? emcy_text(*node(out.node), std::uint16_t(little_endian(f.data, 2))) : "", out);
-  } else if (function == kHeartbeatBase) {
+  } else if (function == cob::kErrorControlBase) {
     decode_heartbeat(f, out);
-  } else if (function == kSdoTxBase || function == kSdoRxBase) {
-    decode_sdo(*node(out.node), function == kSdoRxBase, f, out);
+  } else if (function == cob::kSdoTxBase || function == cob::kSdoRxBase) {
+    decode_sdo(*node(out.node), function == cob::kSdoRxBase, f, out);
   } else {
     out.node.clear();
     out.label.clear();
@@ -406,7 +469,7 @@ void FrameDecoder::decode_pdo(NodeInfo& n, const PdoInfo& pdo, const RawFrame& f
       const TypeShape* t = shape_of(e.object.type);
       auto v = t ? pdo_number(*t, raw_bits, e.bits) : std::nullopt;
       if (v) {
-        out.fields.push_back(scaled_field(e.object, *v));
+        out.fields.push_back(object_field(e.object, *v));
       } else {
         DecodedField raw_field = hex_field(e.object.name, raw_bits, (e.bits + 3) / 4);
         raw_field.index = e.object.index;
@@ -418,8 +481,7 @@ void FrameDecoder::decode_pdo(NodeInfo& n, const PdoInfo& pdo, const RawFrame& f
   }
 }
 
-void FrameDecoder::sdo_value(NodeInfo& n, std::uint16_t index, std::uint8_t sub, const Bytes& data,
-                             DecodedFrame& out) {
+void FrameDecoder::sdo_value(NodeInfo& n, std::uint16_t index, std::uint8_t sub, const Bytes& data, DecodedFrame& out) {
   const ObjectInfo* o = object(n, index, sub);
   DecodedField f;
   f.index = index;
@@ -430,7 +492,12 @@ void FrameDecoder::sdo_value(NodeInfo& n, std::uint16_t index, std::uint8_t sub,
     out.fields.push_back(std::move(f));
     return;
   }
-  out.fields.push_back(scaled_field(*o, typed_bytes(o->type, data)));
+  DecodedField field = object_field(*o, typed_bytes(o->type, data));
+  if (written_in_hex(index, sub) && field.value && std::holds_alternative<std::uint64_t>(*field.value)) {
+    field.style = IntegerStyle::kHex;
+    field.hex_digits = int(2 * std::min<std::size_t>(data.size(), 8));
+  }
+  out.fields.push_back(std::move(field));
 }
 
 void FrameDecoder::decode_sdo(NodeInfo& n, bool request, const RawFrame& f, DecodedFrame& out) {
@@ -440,7 +507,7 @@ void FrameDecoder::decode_sdo(NodeInfo& n, bool request, const RawFrame& f, Deco
     return;
   }
   const std::uint8_t cmd = f.data[0];
-  const std::uint8_t cs = cmd >> 5;
+  const std::uint8_t cs = cmd & sdo::kCsMask;
   const auto index = std::uint16_t(little_endian(f.data + 1, 2));
   const std::uint8_t sub = f.data[3];
   SdoTransfer& transfer = sdo_[n.key];
@@ -455,10 +522,10 @@ void FrameDecoder::decode_sdo(NodeInfo& n, bool request, const RawFrame& f, Deco
   };
   // Initiate with e (expedited) / s (size indicated) / n (unused bytes): the value, or the size that follows.
   auto initiate = [&](bool upload) {
-    const bool expedited = cmd & 0x02, sized = cmd & 0x01;
+    const bool expedited = cmd & sdo::kExpedited, sized = cmd & sdo::kSizeIndicated;
     if (expedited) {
-      const unsigned unused = sized ? (cmd >> 2) & 3 : 0;
-      sdo_value(n, index, sub, Bytes(f.data + 4, f.data + 8 - unused), out);
+      const unsigned bytes = sized ? sdo::expedited_bytes(cmd) : 4;
+      sdo_value(n, index, sub, Bytes(f.data + 4, f.data + 4 + bytes), out);
       transfer.active = false;
       return;
     }
@@ -468,13 +535,13 @@ void FrameDecoder::decode_sdo(NodeInfo& n, bool request, const RawFrame& f, Deco
   };
   // A segment: 7 - n data bytes; c (bit 0) ends the transfer, whose value is then printed whole.
   auto segment = [&](bool upload) {
-    const unsigned unused = (cmd >> 1) & 7;
-    const bool last = cmd & 0x01;
+    const unsigned bytes = sdo::segment_bytes(cmd);
+    const bool last = cmd & sdo::kLastSegment;
     if (!transfer.active || transfer.upload != upload) {
-      out.fields.push_back(bytes_field("data", f.data + 1, 7 - unused));
+      out.fields.push_back(bytes_field("data", f.data + 1, bytes));
       return;
     }
-    transfer.data.insert(transfer.data.end(), f.data + 1, f.data + 8 - unused);
+    transfer.data.insert(transfer.data.end(), f.data + 1, f.data + 1 + bytes);
     if (!last) {
       out.fields.push_back(number_field("bytes so far", transfer.data.size()));
       return;
@@ -482,7 +549,7 @@ void FrameDecoder::decode_sdo(NodeInfo& n, bool request, const RawFrame& f, Deco
     transfer.active = false;
     sdo_value(n, transfer.index, transfer.sub, transfer.data, out);
   };
-  if (cs == kCsAbort) {
+  if (cs == sdo::kCsAbort) {
     command("abort");
     object_only();
     const auto code = std::uint32_t(little_endian(f.data + 4, 4));
@@ -494,21 +561,21 @@ void FrameDecoder::decode_sdo(NodeInfo& n, bool request, const RawFrame& f, Deco
   }
   if (request) {
     switch (cs) {
-      case kCcsDownloadInitiate: command("download request"); return initiate(false);
-      case kCcsDownloadSegment: command("download segment"); return segment(false);
-      case kCcsUploadInitiate:
+      case sdo::kCcsInitiateDownload: command("download request"); return initiate(false);
+      case sdo::kCcsDownloadSegment: command("download segment"); return segment(false);
+      case sdo::kCcsInitiateUpload:
         command("upload request");
         transfer = {true, index, sub, {}, false};
         return object_only();
-      case kCcsUploadSegment: return command("upload segment request");
-      case kCcsBlockUpload: command("block upload request"); return object_only();
-      case kCcsBlockDownload: command("block download request"); return object_only();
+      case sdo::kCcsUploadSegment: return command("upload segment request");
+      case sdo::kCcsBlockUpload: command("block upload request"); return object_only();
+      case sdo::kCcsBlockDownload: command("block download request"); return object_only();
     }
   } else {
     switch (cs) {
-      case kScsUploadInitiate: command("upload response"); return initiate(true);
-      case kScsUploadSegment: command("upload segment"); return segment(true);
-      case kScsDownloadInitiate:
+      case sdo::kScsInitiateUpload: command("upload response"); return initiate(true);
+      case sdo::kScsUploadSegment: command("upload segment"); return segment(true);
+      case sdo::kScsInitiateDownload:
         // A device answering reads with 0x60 + the value (Honeywell DPS, Table 19).
         if (!transfer.active && transfer.upload && transfer.index == index && transfer.sub == sub) {
           command("upload response");
@@ -516,9 +583,9 @@ void FrameDecoder::decode_sdo(NodeInfo& n, bool request, const RawFrame& f, Deco
         }
         command("download response");
         return object_only();
-      case kScsDownloadSegment: return command("download segment response");
-      case kScsBlockUpload: return command("block upload response");
-      case kScsBlockDownload: return command("block download response");
+      case sdo::kScsDownloadSegment: return command("download segment response");
+      case sdo::kScsBlockUpload: return command("block upload response");
+      case sdo::kScsBlockDownload: return command("block download response");
     }
   }
   command("unknown command");
@@ -537,37 +604,29 @@ std::string format_decoded(const DecodedFrame& f) {
     after_bare = field.bare;
     std::string value = format_field_value(field);
     if (!field.unit.empty() && field.value) value += " " + field.unit;
+    if (field.counts && field.unit != kCountsUnit) value = format_measure(*field.counts) + " counts (" + value + ")";
     std::string name = field.name;
-    if (field.index && f.kind == "SDO") name = hex_text(*field.index, 4) + ":" + two_digit_hex(field.sub.value_or(0)) + " " + name;
+    if (field.index && f.kind == "SDO")
+      name = hex_text(*field.index, 4) + ":" + two_digit_hex(field.sub.value_or(0)) + " " + name;
     line += field.bare ? value : (field.value ? name + " = " + value : name);
   }
   return line;
 }
 
-void write_decoded_json(JsonWriter& json, const DecodedFrame& f) {
-  json.begin_object();
-  json.member("t", f.time);
-  json.member("id", f.id);
-  json.key("node");
-  if (f.node.empty()) json.null(); else json.value(f.node);
-  json.member("kind", f.kind);
-  json.key("fields");
-  json.begin_array();
-  for (const DecodedField& field : f.fields) {
-    json.begin_object();
-    json.member("name", field.name);
-    json.key("index");
-    if (field.index) json.value(*field.index); else json.null();
-    json.key("sub");
-    if (field.sub) json.value(*field.sub); else json.null();
-    json.key("value");
-    if (field.value) write_json(json, *field.value); else json.null();
-    json.key("unit");
-    if (field.unit.empty()) json.null(); else json.value(field.unit);
-    json.end_object();
-  }
-  json.end_array();
-  json.end_object();
+Json decoded_json(const DecodedFrame& f) {
+  Json fields = Json::array();
+  for (const DecodedField& field : f.fields) fields.push_back(field_json(field));
+  return {{"time", f.simulated_time ? json_number(*f.simulated_time) : Json(nullptr)},
+          {"wall_time", f.time},
+          {"interface", f.interface},
+          {"id", f.id},
+          {"extended", f.extended},
+          {"rtr", f.rtr},
+          {"dlc", f.dlc},
+          {"data", json_value(f.data)},
+          {"node", json_text_or_null(f.node)},
+          {"kind", f.kind},
+          {"fields", std::move(fields)}};
 }
 
 }  // namespace cansim::ctl

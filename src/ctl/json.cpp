@@ -1,96 +1,44 @@
 #include "ctl/json.hpp"
 
+#include <charconv>
 #include <cmath>
-#include <cstdio>
-
-#include "ctl/values.hpp"
+#include <cstdlib>
 
 namespace cansim::ctl {
 
-std::string json_quote(std::string_view text) {
-  std::string out = "\"";
-  for (char c : text) {
-    switch (c) {
-      case '"': out += "\\\""; break;
-      case '\\': out += "\\\\"; break;
-      case '\n': out += "\\n"; break;
-      case '\r': out += "\\r"; break;
-      case '\t': out += "\\t"; break;
-      default:
-        if (static_cast<unsigned char>(c) < 0x20) {
-          char buf[8];
-          std::snprintf(buf, sizeof buf, "\\u%04x", static_cast<unsigned>(c));
-          out += buf;
+Json json_number(double d) {
+  if (!std::isfinite(d)) return nullptr;
+  const auto f = static_cast<float>(d);
+  if (static_cast<double>(f) != d) return d;
+  char buf[32];
+  auto end = std::to_chars(buf, buf + sizeof buf - 1, f).ptr;
+  *end = '\0';
+  return std::strtod(buf, nullptr);  // the double nearest the float's text: dumped as that text
+}
+
+Json json_value(const Value& v) {
+  return std::visit(
+      [](const auto& x) -> Json {
+        using T = std::decay_t<decltype(x)>;
+        if constexpr (std::is_same_v<T, Bytes>) {
+          std::string hex = format_bytes(x);
+          std::erase(hex, ' ');
+          return hex;
+        } else if constexpr (std::is_same_v<T, double>) {
+          return json_number(x);
         } else {
-          out += c;
+          return x;
         }
-    }
-  }
-  return out + "\"";
+      },
+      v);
 }
 
-void JsonWriter::before_value() {
-  if (after_key_) {
-    after_key_ = false;
-    return;
-  }
-  if (first_.empty()) return;
-  if (!first_.back()) out_ << ',';
-  first_.back() = false;
-}
+Json json_text_or_null(const std::string& text) { return text.empty() ? Json(nullptr) : Json(text); }
 
-void JsonWriter::begin_object() {
-  before_value();
-  out_ << '{';
-  first_.push_back(true);
-}
+Json json_seconds(std::int64_t us) { return us < 0 ? Json(nullptr) : Json(double(us) / 1e6); }
 
-void JsonWriter::end_object() {
-  first_.pop_back();
-  out_ << '}';
-}
-
-void JsonWriter::begin_array() {
-  before_value();
-  out_ << '[';
-  first_.push_back(true);
-}
-
-void JsonWriter::end_array() {
-  first_.pop_back();
-  out_ << ']';
-}
-
-void JsonWriter::key(std::string_view name) {
-  before_value();
-  out_ << json_quote(name) << ':';
-  after_key_ = true;
-}
-
-void JsonWriter::value(std::string_view text) {
-  before_value();
-  out_ << json_quote(text);
-}
-
-void JsonWriter::value(bool b) {
-  before_value();
-  out_ << (b ? "true" : "false");
-}
-
-void JsonWriter::integer(const std::string& digits) {
-  before_value();
-  out_ << digits;
-}
-
-void JsonWriter::value(double d) {
-  if (!std::isfinite(d)) return null();
-  before_value();
-  out_ << format_number(d);
-}
-
-void JsonWriter::null() {
-  before_value();
-  out_ << "null";
+void print_json(std::ostream& out, const Json& document) {
+  out << document.dump(-1, ' ', false, Json::error_handler_t::replace) << '\n';
 }
 
 }  // namespace cansim::ctl

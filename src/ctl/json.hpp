@@ -1,80 +1,40 @@
-// A minimal streaming JSON writer for cansimctl --json (no dependency).
+// cansimctl --json: values are nlohmann::ordered_json (members in the order
+// they are added), each document written on its own line. The member names
+// are one vocabulary shared by every verb (docs/cansimctl.md): `node` is a
+// node's fleet key, `time` simulated seconds, `wall_time` Unix seconds,
+// `kind` what a record is, `fields` a decoded frame's or signal's values,
+// bytes are hex text ("0102ff"), a missing value is null.
 #pragma once
 
-#include <concepts>
+#include <nlohmann/json.hpp>
+
 #include <cstdint>
+#include <optional>
 #include <ostream>
 #include <string>
-#include <string_view>
-#include <type_traits>
-#include <vector>
+
+#include "ctl/values.hpp"
 
 namespace cansim::ctl {
 
-// The JSON string literal for text, quotes included. Control characters are
-// escaped as \uXXXX; bytes >= 0x80 pass through (the text is UTF-8).
-std::string json_quote(std::string_view text);
+using Json = nlohmann::ordered_json;
 
-// Writes one JSON value; commas between members and elements are automatic.
-// Inside an object, call key() before each member's value.
-class JsonWriter {
- public:
-  explicit JsonWriter(std::ostream& out) : out_(out) {}
+// A measured number: NaN and infinities are null; a value that is exactly a
+// float (a REAL32 object) is that float's shortest text (0.1f is 0.1, not
+// 0.10000000149011612).
+Json json_number(double d);
 
-  void begin_object();
-  void end_object();
-  void begin_array();
-  void end_array();
-  void key(std::string_view name);
+// A value as Read returns it: numbers and booleans as themselves, strings as
+// they are, bytes as hex text.
+Json json_value(const Value& v);
 
-  void value(std::string_view text);
-  void value(const char* text) { value(std::string_view(text)); }
-  void value(bool b);
-  void value(double d);  // NaN and infinities: null
-  template <std::integral T>
-    requires(!std::same_as<T, bool>)
-  void value(T n) {
-    if constexpr (std::is_signed_v<T>)
-      integer(std::to_string(std::int64_t(n)));
-    else
-      integer(std::to_string(std::uint64_t(n)));
-  }
-  void null();
+// Text, or null when it is empty.
+Json json_text_or_null(const std::string& text);
 
-  // key(name) then value(v).
-  template <typename T>
-  void member(std::string_view name, const T& v) {
-    key(name);
-    value(v);
-  }
+// Simulated time in µs as seconds; negative (none) is null.
+Json json_seconds(std::int64_t us);
 
- private:
-  void before_value();
-  void integer(const std::string& digits);
-
-  std::ostream& out_;
-  std::vector<bool> first_;  // per open container: no element written yet
-  bool after_key_ = false;
-};
-
-// An array of objects, one per item; `members(json, item)` writes its members.
-template <typename Items, typename Members>
-void write_objects(JsonWriter& json, const Items& items, Members members) {
-  json.begin_array();
-  for (const auto& item : items) {
-    json.begin_object();
-    members(json, item);
-    json.end_object();
-  }
-  json.end_array();
-}
-
-// The same as one JSON document on its own line.
-template <typename Items, typename Members>
-void print_objects(std::ostream& out, const Items& items, Members members) {
-  JsonWriter json(out);
-  write_objects(json, items, members);
-  out << '\n';
-}
+// One document on its own line; bytes that are not UTF-8 are replaced, not thrown.
+void print_json(std::ostream& out, const Json& document);
 
 }  // namespace cansim::ctl

@@ -1,22 +1,15 @@
 #include "ctl/monitor.hpp"
 
-#include <linux/can.h>
-#include <linux/can/raw.h>
-#include <net/if.h>
-#include <sys/socket.h>
-#include <unistd.h>
-
-#include <algorithm>
-#include <cerrno>
 #include <cstdio>
-#include <cstring>
 #include <map>
 #include <set>
 
 #include "ctl/client_loop.hpp"
 #include "ctl/decode.hpp"
 #include "ctl/frame_decoder.hpp"
+#include "ctl/frame_source.hpp"
 #include "ctl/json.hpp"
+#include "ctl/time_base.hpp"
 
 namespace cansim::ctl {
 
@@ -26,103 +19,29 @@ std::string node_label(const std::string& name, std::uint32_t index, bool name_s
 
 namespace {
 
-// A CAN_RAW socket on one interface, with the kernel's receive time of each frame.
-class CanSocket {
- public:
-  explicit CanSocket(const std::string& interface) : interface_(interface) {
-    fd_ = socket(PF_CAN, SOCK_RAW | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_RAW);
-    if (fd_ < 0) throw Failure("cannot open a CAN socket: " + std::string(std::strerror(errno)));
-    const unsigned index = if_nametoindex(interface.c_str());
-    if (index == 0) {
-      close(fd_);
-      throw Failure("no CAN interface " + interface + " (the fleet's nodes on it are off the bus)");
-    }
-    const int on = 1;
-    setsockopt(fd_, SOL_SOCKET, SO_TIMESTAMP, &on, sizeof on);
-    const can_err_mask_t errors = CAN_ERR_MASK;
-    setsockopt(fd_, SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &errors, sizeof errors);
-    sockaddr_can addr{};
-    addr.can_family = AF_CAN;
-    addr.can_ifindex = int(index);
-    if (bind(fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr) < 0) {
-      const int e = errno;
-      close(fd_);
-      throw Failure("cannot listen on " + interface + ": " + std::strerror(e));
-    }
-  }
-  ~CanSocket() { close(fd_); }
-  CanSocket(const CanSocket&) = delete;
-  CanSocket& operator=(const CanSocket&) = delete;
-
-  int fd() const { return fd_; }
-  const std::string& interface() const { return interface_; }
-
-  // The next frame; false when none is waiting.
-  bool receive(RawFrame& out) {
-    can_frame frame{};
-    iovec iov{&frame, sizeof frame};
-    alignas(cmsghdr) char control[CMSG_SPACE(sizeof(timeval))];
-    msghdr msg{};
-    msg.msg_iov = &iov;
-    msg.msg_iovlen = 1;
-    msg.msg_control = control;
-    msg.msg_controllen = sizeof control;
-    const ssize_t n = recvmsg(fd_, &msg, 0);
-    if (n < 0) {
-      if (errno == EAGAIN || errno == EINTR) return false;
-      throw Failure("cannot read " + interface_ + ": " + std::strerror(errno));
-    }
-    out = RawFrame{};
-    out.interface = interface_;
-    out.time = receive_time(msg);
-    out.extended = frame.can_id & CAN_EFF_FLAG;
-    out.rtr = frame.can_id & CAN_RTR_FLAG;
-    out.id = frame.can_id & (out.extended ? CAN_EFF_MASK : CAN_SFF_MASK);
-    if (frame.can_id & CAN_ERR_FLAG) out.id = frame.can_id & CAN_ERR_MASK;
-    out.dlc = std::min<std::uint8_t>(frame.can_dlc, 8);
-    std::memcpy(out.data, frame.data, out.dlc);
-    return true;
-  }
-
- private:
-  static double receive_time(msghdr& msg) {
-    for (cmsghdr* c = CMSG_FIRSTHDR(&msg); c; c = CMSG_NXTHDR(&msg, c)) {
-      if (c->cmsg_level != SOL_SOCKET || c->cmsg_type != SO_TIMESTAMP) continue;
-      timeval tv;
-      std::memcpy(&tv, CMSG_DATA(c), sizeof tv);
-      return double(tv.tv_sec) + double(tv.tv_usec) / 1e6;
-    }
-    timespec ts;
-    clock_gettime(CLOCK_REALTIME, &ts);
-    return double(ts.tv_sec) + double(ts.tv_nsec) / 1e9;
-  }
-
-  std::string interface_;
-  int fd_ = -1;
-};
-
 std::string last_segment(const std::string& key) { return key.substr(key.rfind('/') + 1); }
 
 class Monitor {
  public:
   Monitor(Connection& connection, const MonitorOptions& options, std::ostream& out)
-      : connection_(connection),
-        options_(options),
-        out_(out),
-        decoder_([this](NodeInfo& n) { load_objects(n); }) {}
+      : connection_(connection), options_(options), out_(out), decoder_([this](NodeInfo& n) { load_objects(n); }) {}
 
   int run();
 
  private:
-  void load_fleet();
+  void load_fleet(const std::vector<std::string>& interfaces);
   NodeInfo describe(const std::string& path, const std::string& key, const std::string& label,
                     const std::string& interface, std::uint8_t node_id);
+  NodeInfo node_info(const std::string& key, const std::string& label, const std::string& interface,
+                     std::uint8_t node_id, std::vector<PdoInfo> pdos);
   void refresh(const std::string& path);
   void add(const std::string& path);
   void load_objects(NodeInfo& n);
+  std::vector<ObjectInfo> count_scaling(const std::string& path);
   void on_signal(sd_bus_message* m);
-  void on_frames(CanSocket& socket);
+  void on_frames(FrameSource& source);
   void print(const DecodedFrame& f);
+  void print_dropped(const FrameSource& source, const RawFrame& next);
   std::vector<std::string> fleet_interfaces();
 
   Connection& connection_;
@@ -130,8 +49,10 @@ class Monitor {
   std::ostream& out_;
   FrameDecoder decoder_;
   std::string only_key_;
+  TimeBase clock_;  // a frame's wall time -> the daemon's simulated time
   std::map<std::string, std::string> path_by_key_;
   std::map<std::string, int> name_count_;
+  std::map<const FrameSource*, std::uint64_t> dropped_shown_;
 };
 
 std::string path_of(sd_bus_message* m) {
@@ -139,27 +60,74 @@ std::string path_of(sd_bus_message* m) {
   return p ? p : "";
 }
 
-NodeInfo Monitor::describe(const std::string& path, const std::string& key, const std::string& label,
-                           const std::string& interface, std::uint8_t node_id) {
+NodeInfo Monitor::node_info(const std::string& key, const std::string& label, const std::string& interface,
+                            std::uint8_t node_id, std::vector<PdoInfo> pdos) {
   NodeInfo n;
   n.key = key;
   n.label = label;
   n.interface = interface;
   n.node_id = node_id;
-  MessagePtr reply = connection_.call(path, kNodeInterface, "GetPdoMapping");
-  n.pdos = read_pdo_infos(reply.get());
+  n.pdos = std::move(pdos);
   return n;
 }
 
-void Monitor::load_fleet() {
-  MessagePtr reply = connection_.call(kFleetPath, kFleetInterface, "ListNodes");
-  std::vector<NodeRow> rows = read_node_rows(reply.get());
+// One node's PDOs asked of it (a node added or changed while monitoring).
+NodeInfo Monitor::describe(const std::string& path, const std::string& key, const std::string& label,
+                           const std::string& interface, std::uint8_t node_id) {
+  NodeInfo n = node_info(key, label, interface, node_id,
+                         read_pdo_infos(connection_.call(path, kNodeInterface, "GetPdoMapping").get()));
+  std::vector<ObjectInfo*> counts = counts_of(n.pdos);
+  if (!counts.empty()) attach_count_scaling(counts, count_scaling(path));
+  return n;
+}
+
+std::vector<ObjectInfo> Monitor::count_scaling(const std::string& path) {
+  return read_count_scaling(connection_.call(path, kNodeInterface, "ListCountScaling").get());
+}
+
+// The plant inputs carried by frames (Fleet1.ListPlantSignals).
+std::vector<PlantSignalInfo> plant_signals(Connection& c) {
+  MessagePtr reply = c.call(kFleetPath, kFleetInterface, "ListPlantSignals");
+  sd_bus_message* m = reply.get();
+  std::vector<PlantSignalInfo> out;
+  expect(sd_bus_message_enter_container(m, 'a', "(sssubqyybdds)"), "unexpected reply from cansimd");
+  const char *plant = nullptr, *input = nullptr, *iface = nullptr, *unit = nullptr;
+  PlantSignalInfo p;
+  int extended = 0, little = 0;
+  std::uint8_t type = 0;
+  int r;
+  while ((r = sd_bus_message_read(m, "(sssubqyybdds)", &plant, &input, &iface, &p.signal.can_id, &extended,
+                                  &p.signal.start, &p.signal.length, &type, &little, &p.signal.scale, &p.signal.offset,
+                                  &unit)) > 0) {
+    p.plant = plant, p.input = input, p.interface = iface, p.unit = unit;
+    p.signal.extended = extended, p.signal.little_endian = little;
+    p.signal.type = CanSignal::Type(std::min<std::uint8_t>(type, 2));
+    out.push_back(p);
+  }
+  expect(r, "unexpected reply from cansimd");
+  return out;
+}
+
+// The PDOs of every node of each bus monitored in one call a bus
+// (GetPdoMappings): 1,000 nodes on 8 buses in 9 round trips. A node that came
+// between the calls is asked alone.
+void Monitor::load_fleet(const std::vector<std::string>& interfaces) {
+  decoder_.set_plant_signals(plant_signals(connection_));
+  std::vector<NodeRow> rows = read_node_rows(connection_.call(kFleetPath, kFleetInterface, "ListNodes").get());
+  const std::set<std::string> monitored(interfaces.begin(), interfaces.end());
+  std::map<std::string, std::vector<PdoInfo>> pdos;
+  for (const std::string& name : monitored)
+    pdos.merge(
+        read_fleet_pdo_mappings(connection_.call(kFleetPath, kFleetInterface, "GetPdoMappings", {Value(name)}).get()));
   for (const NodeRow& r : rows) ++name_count_[r.name];
   for (const NodeRow& r : rows) {
+    if (!monitored.count(r.interface)) continue;  // its frames are not read
     path_by_key_[r.key] = r.path;
     const auto index = std::uint32_t(std::stoul(last_segment(r.key)));
     const std::string label = node_label(r.name, index, name_count_[r.name] > 1);
-    decoder_.set_node(describe(r.path, r.key, label, r.interface, r.node_id));
+    auto it = pdos.find(r.key);
+    decoder_.set_node(it == pdos.end() ? describe(r.path, r.key, label, r.interface, r.node_id)
+                                       : node_info(r.key, label, r.interface, r.node_id, std::move(it->second)));
   }
 }
 
@@ -187,8 +155,15 @@ void Monitor::add(const std::string& path) {
 void Monitor::load_objects(NodeInfo& n) {
   auto it = path_by_key_.find(n.key);
   if (it == path_by_key_.end()) return;
-  if (!n.objects) n.objects = read_object_infos(connection_.call(it->second, kNodeInterface, "ListObjects").get());
-  if (!n.emcy_codes) n.emcy_codes = read_emcy_codes(connection_.call(it->second, kNodeInterface, "ListEmcyCodes").get());
+  if (!n.objects) {
+    n.objects = read_object_infos(connection_.call(it->second, kNodeInterface, "ListObjects").get());
+    std::vector<ObjectInfo*> counts;
+    for (ObjectInfo& o : *n.objects)
+      if (o.unit == kCountsUnit) counts.push_back(&o);
+    if (!counts.empty()) attach_count_scaling(counts, count_scaling(it->second));
+  }
+  if (!n.emcy_codes)
+    n.emcy_codes = read_emcy_codes(connection_.call(it->second, kNodeInterface, "ListEmcyCodes").get());
 }
 
 void Monitor::on_signal(sd_bus_message* m) {
@@ -213,18 +188,39 @@ void Monitor::on_signal(sd_bus_message* m) {
 
 void Monitor::print(const DecodedFrame& f) {
   if (!only_key_.empty() && f.node != only_key_) return;
-  if (!options_.json) {
-    out_ << format_decoded(f) << '\n';
-    return;
-  }
-  JsonWriter json(out_);
-  write_decoded_json(json, f);
-  out_ << '\n';
+  if (options_.json) print_json(out_, decoded_json(f));
+  else out_ << format_decoded(f) << '\n';
 }
 
-void Monitor::on_frames(CanSocket& socket) {
+// Frames the kernel dropped before `next` came (its socket's queue was
+// full): never silently, one record before the frame that follows them.
+void Monitor::print_dropped(const FrameSource& source, const RawFrame& next) {
+  std::uint64_t& shown = dropped_shown_[&source];
+  if (source.dropped() == shown) return;
+  const std::uint64_t lost = source.dropped() - shown;
+  shown = source.dropped();
+  if (options_.json) {
+    print_json(out_, {{"time", next.simulated_time ? json_number(*next.simulated_time) : Json(nullptr)},
+                      {"wall_time", next.time},
+                      {"interface", source.interface()},
+                      {"node", nullptr},
+                      {"kind", "dropped"},
+                      {"dropped", lost},
+                      {"dropped_total", shown}});
+  } else {
+    out_ << source.interface() << ": " << lost
+         << " frame(s) dropped before cansimctl read them (its socket's receive queue was full), " << shown
+         << " since monitor started\n";
+  }
+}
+
+void Monitor::on_frames(FrameSource& source) {
   RawFrame frame;
-  while (socket.receive(frame)) print(decoder_.decode(frame));
+  while (source.receive(frame)) {
+    frame.simulated_time = clock_.simulated(frame.time);
+    print_dropped(source, frame);
+    print(decoder_.decode(frame));
+  }
   out_.flush();
 }
 
@@ -241,13 +237,15 @@ int Monitor::run() {
                   [this](sd_bus_message* m) { on_signal(m); });
   connection_.call(kFleetPath, kFleetInterface, "Subscribe");
   if (!options_.node.empty()) only_key_ = node_key_of_path(connection_.node_path(options_.node));
-  load_fleet();
+  clock_ = TimeBase::of(connection_);
   std::vector<std::string> names = options_.interfaces.empty() ? fleet_interfaces() : options_.interfaces;
-  std::vector<std::unique_ptr<CanSocket>> sockets;
+  load_fleet(names);
+  const SocketcandAddresses served = socketcand_addresses(connection_);
+  std::vector<std::unique_ptr<FrameSource>> sockets;
   std::string errors;
   for (const std::string& name : names) {
     try {
-      sockets.push_back(std::make_unique<CanSocket>(name));
+      sockets.push_back(open_frame_source(name, served, options_.timeout_s));
     } catch (const Failure& e) {
       if (!options_.interfaces.empty()) throw;
       errors += std::string(errors.empty() ? "" : "; ") + e.what();
@@ -256,7 +254,7 @@ int Monitor::run() {
   if (sockets.empty()) throw Failure(errors.empty() ? "the fleet has no interface" : errors);
   if (!errors.empty()) std::fprintf(stderr, "cansimctl: %s\n", errors.c_str());
   for (auto& s : sockets) loop.on_readable(s->fd(), [this, socket = s.get()] { on_frames(*socket); });
-  return loop.run();
+  return loop.run("monitor", options_.json);
 }
 
 }  // namespace

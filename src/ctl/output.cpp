@@ -1,9 +1,8 @@
 #include "ctl/output.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
-
-#include "ctl/json.hpp"
 
 namespace cansim::ctl {
 
@@ -17,13 +16,6 @@ std::string hex(std::uint64_t n, int digits) {
 
 std::string yes_no(bool b) { return b ? "yes" : "no"; }
 
-// A measured quantity for people: six significant digits.
-std::string measure(double d) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.6g", d);
-  return buf;
-}
-
 std::string percent(double fraction) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.1f%%", fraction * 100.0);
@@ -31,9 +23,7 @@ std::string percent(double fraction) {
 }
 
 // A time span in µs: "0.5 s"; negative is none.
-std::string span(std::int64_t us, const char* none) {
-  return us < 0 ? none : format_number(double(us) / 1e6) + " s";
-}
+std::string span(std::int64_t us, const char* none) { return us < 0 ? none : format_number(double(us) / 1e6) + " s"; }
 
 std::string instant(std::int64_t us) { return us < 0 ? "-" : format_seconds(us); }
 
@@ -47,7 +37,8 @@ std::string joined(const std::vector<T>& items, Format format) {
 
 std::string reading_text(const Reading& r) {
   if (r.unit.empty()) return "none";
-  return measure(r.reported) + " " + r.unit + " reported, " + measure(r.true_value) + " " + r.unit +
+  const std::string counts = std::isnan(r.counts) ? "" : " (" + format_measure(r.counts) + " counts)";
+  return format_reading_value(r, r.reported) + counts + " reported, " + format_reading_value(r, r.true_value) +
          " true, status " + hex(r.status, 2);
 }
 
@@ -62,55 +53,13 @@ std::string fault_brief_text(const FaultBrief& f) {
   return std::to_string(f.id) + " " + f.kind + (f.active ? " (active)" : "");
 }
 
-std::string override_text(const OverrideRow& o) { return o.channel + " " + measure(o.value) + " " + o.unit; }
+std::string override_text(const OverrideRow& o) { return o.channel + " " + format_measure(o.value) + " " + o.unit; }
 
 // Human text of a field value: quoted when it would not read as one word.
 std::string field_text(const Field& f) {
   std::string text = format_value(f.value, f.style);
   bool plain = !text.empty() && text.find_first_of(" \"=") == std::string::npos;
-  return plain ? text : json_quote(text);
-}
-
-void write_reading(JsonWriter& json, std::string_view name, const Reading& r) {
-  json.key(name);
-  json.begin_object();
-  json.member("true", r.true_value);
-  json.member("reported", r.reported);
-  json.member("unit", r.unit);
-  json.member("status", r.status);
-  json.end_object();
-}
-
-// [{"id", "kind", "active"}]: status's faults and watch's Faults alike.
-void write_fault_briefs(JsonWriter& json, const std::vector<FaultBrief>& faults) {
-  write_objects(json, faults, [](JsonWriter& json, const FaultBrief& f) {
-    json.member("id", f.id);
-    json.member("kind", f.kind);
-    json.member("active", f.active);
-  });
-}
-
-void write_status_lists(JsonWriter& json, const NodeStatus& s) {
-  json.key("overrides");
-  write_objects(json, s.overrides, [](JsonWriter& json, const OverrideRow& o) {
-    json.member("channel", o.channel);
-    json.member("value", o.value);
-    json.member("unit", o.unit);
-  });
-  json.key("faults");
-  write_fault_briefs(json, s.faults);
-}
-
-void write_last_emcy(JsonWriter& json, const EmcyRecord& e) {
-  json.key("last_emcy");
-  if (e.time_us < 0) return json.null();
-  json.begin_object();
-  json.member("time", double(e.time_us) / 1e6);
-  json.member("code", e.code);
-  json.member("register", e.error_register);
-  json.key("vendor");
-  write_json(json, e.vendor);
-  json.end_object();
+  return plain ? text : Json(text).dump(-1, ' ', false, Json::error_handler_t::replace);
 }
 
 }  // namespace
@@ -134,6 +83,135 @@ void Table::print(std::ostream& out) const {
 
 std::string format_fault_briefs(const std::vector<FaultBrief>& faults) { return joined(faults, fault_brief_text); }
 
+std::string format_reading_value(const Reading& r, double value) {
+  return r.unit.empty() ? "-" : format_measure(value) + " " + r.unit;
+}
+
+// ---------------------------------------------------------------- JSON
+
+void to_json(Json& j, const NodeRow& r) {
+  j = {{"node", r.key},
+       {"name", r.name},
+       {"interface", r.interface},
+       {"node_id", r.node_id},
+       {"profile", r.profile},
+       {"personality", r.personality},
+       {"nmt_state", r.nmt_state},
+       {"path", r.path}};
+}
+
+void to_json(Json& j, const Reading& r) {
+  if (r.unit.empty()) {
+    j = nullptr;
+    return;
+  }
+  j = {{"value", json_number(r.reported)},
+       {"true_value", json_number(r.true_value)},
+       {"unit", r.unit},
+       {"status", r.status},
+       {"counts", json_number(r.counts)}};
+}
+
+void to_json(Json& j, const OverrideRow& o) {
+  j = {{"channel", o.channel}, {"value", json_number(o.value)}, {"unit", o.unit}};
+}
+
+void to_json(Json& j, const FaultBrief& f) { j = {{"id", f.id}, {"kind", f.kind}, {"active", f.active}}; }
+
+void to_json(Json& j, const FaultRow& f) {
+  j = {{"id", f.id},
+       {"kind", f.kind},
+       {f.plant ? "target" : "channel", json_text_or_null(f.channel)},
+       {"active", f.active},
+       {"start", json_seconds(f.start_us)},
+       {"duration", json_seconds(f.duration_us)},
+       {"period", f.period_us > 0 ? json_seconds(f.period_us) : Json(nullptr)},
+       {"count", f.count}};
+}
+
+void to_json(Json& j, const EmcyRecord& e) {
+  if (e.time_us < 0) {
+    j = nullptr;
+    return;
+  }
+  j = {{"time", json_seconds(e.time_us)},
+       {"code", e.code},
+       {"register", e.error_register},
+       {"vendor", json_value(e.vendor)}};
+}
+
+void to_json(Json& j, const NodeStatus& s) {
+  j = {{"node", s.key},
+       {"name", s.name},
+       {"entry_index", s.index},
+       {"interface", s.interface},
+       {"node_id", s.node_id},
+       {"profile", s.profile},
+       {"personality", s.personality},
+       {"nmt_state", s.nmt_state},
+       {"powered", s.powered},
+       {"on_bus", s.on_bus},
+       {"pressure", s.pressure},
+       {"temperature", s.temperature},
+       {"overrides", s.overrides},
+       {"faults", s.faults},
+       {"emcy_count", s.emcy_count},
+       {"last_emcy", s.last_emcy},
+       {"recording", json_text_or_null(s.recording)},
+       {"path", s.path}};
+}
+
+void to_json(Json& j, const GroupResult& r) {
+  j = {{"node", r.key}, {"ok", r.ok}};
+  if (r.fault_id) j["id"] = *r.fault_id;
+  if (!r.ok) j["error"] = r.error;
+}
+
+void to_json(Json& j, const NodeRef& n) { j = {{"node", n.key}, {"path", n.path}}; }
+
+void to_json(Json& j, const BusStats& b) {
+  j = {{"interface", b.name},
+       {"up", b.up},
+       {"bit_rate_kbit", b.bit_rate_kbit},
+       {"frames_in", b.frames_in},
+       {"frames_out", b.frames_out},
+       {"frames_dropped", b.frames_dropped},
+       {"frames_offline", b.frames_offline},
+       {"offered_load", json_number(b.offered_load)},
+       {"measured_load", json_number(b.measured_load)},
+       {"bus_model", b.model},
+       {"controller_state", b.state},
+       {"offered_load_1s", json_number(b.offered_1s)},
+       {"offered_load_10s", json_number(b.offered_10s)},
+       {"carried_load_1s", json_number(b.carried_1s)},
+       {"carried_load_10s", json_number(b.carried_10s)},
+       {"queue_delay_p50_us", b.delay_p50_us},
+       {"queue_delay_p99_us", b.delay_p99_us},
+       {"queue_delay_max_us", b.delay_max_us},
+       {"slip_p99_us", b.slip_p99_us},
+       {"slip_max_us", b.slip_max_us},
+       {"queued", b.queued},
+       {"queue_capacity", b.queue_capacity},
+       {"queue_dropped", b.queue_dropped},
+       {"transport", b.transport}};
+  if (b.transport == "socketcand") {
+    j["listen_host"] = b.listen_host;
+    j["listen_port"] = b.listen_port;
+    j["clients"] = b.clients;
+  }
+}
+
+// {"time", "node", "kind": the signal, "fields": [{"name", "value"}]}.
+void to_json(Json& j, const Event& e) {
+  Json fields = Json::array();
+  for (const Field& f : e.fields)
+    fields.push_back({{"name", f.name}, {"value", f.faults ? Json(*f.faults) : json_value(f.value)}});
+  j = {{"time", e.time_us ? json_seconds(*e.time_us) : Json(nullptr)},
+       {"node", e.source == "fleet" || e.source.starts_with('/') ? Json(nullptr) : Json(e.source)},
+       {"kind", e.name},
+       {"fields", std::move(fields)}};
+}
+
 std::string format_event(const Event& e) {
   std::string time = e.time_us ? format_seconds(*e.time_us) : "-";
   std::string line = std::string(time.size() < 12 ? 12 - time.size() : 0, ' ') + time + " " + e.source + " " + e.name;
@@ -142,18 +220,7 @@ std::string format_event(const Event& e) {
 }
 
 void Printer::nodes(const std::vector<NodeRow>& rows) {
-  if (json_) {
-    return print_objects(out_, rows, [](JsonWriter& json, const NodeRow& r) {
-      json.member("path", r.path);
-      json.member("key", r.key);
-      json.member("name", r.name);
-      json.member("interface", r.interface);
-      json.member("node_id", r.node_id);
-      json.member("profile", r.profile);
-      json.member("personality", r.personality);
-      json.member("nmt_state", r.nmt_state);
-    });
-  }
+  if (json_) return print_json(out_, rows);
   Table table({"KEY", "NAME", "INTERFACE", "ID", "PROFILE", "PERSONALITY", "NMT"});
   for (const NodeRow& r : rows)
     table.add({r.key, r.name, r.interface, hex(r.node_id, 2), r.profile, r.personality, r.nmt_state});
@@ -161,10 +228,8 @@ void Printer::nodes(const std::vector<NodeRow>& rows) {
 }
 
 void Printer::status(const NodeStatus& s) {
-  if (json_)
-    status_json(s);
-  else
-    status_text(s);
+  if (json_) print_json(out_, s);
+  else status_text(s);
 }
 
 void Printer::status_text(const NodeStatus& s) {
@@ -186,89 +251,45 @@ void Printer::status_text(const NodeStatus& s) {
   table.print(out_);
 }
 
-void Printer::status_json(const NodeStatus& s) {
-  JsonWriter json(out_);
-  json.begin_object();
-  json.member("path", s.path);
-  json.member("key", s.key);
-  json.member("name", s.name);
-  json.member("index", s.index);
-  json.member("profile", s.profile);
-  json.member("personality", s.personality);
-  json.member("interface", s.interface);
-  json.member("node_id", s.node_id);
-  json.member("nmt_state", s.nmt_state);
-  json.member("powered", s.powered);
-  json.member("on_bus", s.on_bus);
-  write_reading(json, "pressure", s.pressure);
-  write_reading(json, "temperature", s.temperature);
-  write_status_lists(json, s);
-  json.member("emcy_count", s.emcy_count);
-  write_last_emcy(json, s.last_emcy);
-  json.member("recording", s.recording);
-  json.end_object();
-  out_ << '\n';
-}
-
-void Printer::fault_id(std::uint32_t id) {
-  if (!json_) {
-    out_ << id << '\n';
-    return;
-  }
-  JsonWriter json(out_);
-  json.begin_object();
-  json.member("id", id);
-  json.end_object();
-  out_ << '\n';
-}
-
-void Printer::faults(const std::vector<FaultRow>& rows) {
-  if (json_) {
-    return print_objects(out_, rows, [](JsonWriter& json, const FaultRow& f) {
-      json.member("id", f.id);
-      json.member("kind", f.kind);
-      json.member("channel", f.channel);
-      json.member("active", f.active);
-      json.member("start_us", f.start_us);
-      json.member("duration_us", f.duration_us);
-      json.member("period_us", f.period_us);
-      json.member("count", f.count);
-    });
-  }
-  Table table({"ID", "KIND", "CHANNEL", "ACTIVE", "START", "DURATION", "PERIOD", "COUNT"});
+void Printer::faults(const std::vector<FaultRow>& rows, const char* column) {
+  if (json_) return print_json(out_, rows);
+  Table table({"ID", "KIND", column, "ACTIVE", "START", "DURATION", "PERIOD", "COUNT"});
   for (const FaultRow& f : rows) {
-    table.add({std::to_string(f.id), f.kind, f.channel.empty() ? "-" : f.channel, yes_no(f.active),
-               instant(f.start_us), span(f.duration_us, "until cancelled"),
-               f.period_us > 0 ? span(f.period_us, "-") : "-", std::to_string(f.count)});
+    table.add({std::to_string(f.id), f.kind, f.channel.empty() ? "-" : f.channel, yes_no(f.active), instant(f.start_us),
+               span(f.duration_us, "until cancelled"), f.period_us > 0 ? span(f.period_us, "-") : "-",
+               std::to_string(f.count)});
   }
   table.print(out_);
 }
 
-void Printer::value(const ObjectAddress& object, const Value& v, const ObjectInfo* meaning) {
-  const bool scaled = meaning && meaning->scale != 1.0 && !std::holds_alternative<double>(v);
-  const std::string unit = meaning ? meaning->unit : "";
-  if (!json_) {
-    std::string text = format_value(v);
-    if (scaled) {
-      text += " = " + engineering_text(v, meaning->scale) + (unit.empty() ? "" : " " + unit);
-    } else if (!unit.empty()) {
-      text += " " + unit;
-    }
-    out_ << text << '\n';
+void Printer::value(const std::string& node, const ObjectAddress& object, const Value& v, const ObjectInfo* meaning) {
+  const ObjectInfo none{object.index, object.sub, "", "", 1.0, ""};
+  const ObjectInfo& o = meaning ? *meaning : none;
+  const DecodedField field = object_field(o, v);
+  if (json_) {
+    print_json(out_, {{"node", node},
+                      {"index", object.index},
+                      {"sub", object.sub},
+                      {"name", json_text_or_null(o.name)},
+                      {"type", json_text_or_null(o.type)},
+                      {"value", field.value ? json_value(*field.value) : Json(nullptr)},
+                      {"unit", json_text_or_null(field.unit)},
+                      {"raw", json_value(v)},
+                      {"counts", field.counts ? json_number(*field.counts) : Json(nullptr)}});
     return;
   }
-  JsonWriter json(out_);
-  json.begin_object();
-  json.member("index", object.index);
-  json.member("sub", object.sub);
-  json.member("type", signature(v));
-  json.key("value");
-  write_json(json, v);
-  json.key("unit");
-  if (unit.empty()) json.null(); else json.value(unit);
-  json.member("scale", meaning ? meaning->scale : 1.0);
-  json.end_object();
-  out_ << '\n';
+  const std::string unit = field.unit.empty() ? "" : " " + field.unit;
+  const bool derived = field.value && *field.value != v;
+  if (field.counts && field.unit != kCountsUnit)
+    out_ << format_measure(*field.counts) << " counts = " << format_field_value(field) << unit << '\n';
+  else if (derived) out_ << format_value(v) << " = " << format_field_value(field) << unit << '\n';
+  else if (std::holds_alternative<double>(v)) out_ << format_measure(std::get<double>(v)) << unit << '\n';
+  else out_ << format_value(v) << unit << '\n';
+}
+
+void Printer::acted(const GroupResult& result) {
+  if (json_) return print_json(out_, result);
+  if (result.fault_id) out_ << *result.fault_id << '\n';
 }
 
 void Printer::group(const std::vector<GroupResult>& results) {
@@ -279,12 +300,7 @@ void Printer::group(const std::vector<GroupResult>& results) {
     table.print(out_);
     return;
   }
-  print_objects(out_, results, [](JsonWriter& json, const GroupResult& r) {
-    json.member("node", r.key);
-    json.member("ok", r.ok);
-    if (r.fault_id) json.member("id", *r.fault_id);
-    if (!r.ok) json.member("error", r.error);
-  });
+  print_json(out_, results);
 }
 
 void Printer::error(std::ostream& err, bool json, const std::string& what, const std::string& name, int status) {
@@ -292,14 +308,7 @@ void Printer::error(std::ostream& err, bool json, const std::string& what, const
     err << "cansimctl: " << what << '\n';
     return;
   }
-  JsonWriter w(err);
-  w.begin_object();
-  w.member("error", what);
-  w.key("name");
-  if (name.empty()) w.null(); else w.value(name);
-  w.member("exit_status", status);
-  w.end_object();
-  err << '\n';
+  print_json(err, {{"error", what}, {"name", json_text_or_null(name)}, {"exit_status", status}});
 }
 
 void Printer::added(const std::vector<NodeRef>& nodes) {
@@ -307,10 +316,11 @@ void Printer::added(const std::vector<NodeRef>& nodes) {
     for (const NodeRef& n : nodes) out_ << n.key << '\n';
     return;
   }
-  print_objects(out_, nodes, [](JsonWriter& json, const NodeRef& n) {
-    json.member("path", n.path);
-    json.member("key", n.key);
-  });
+  print_json(out_, nodes);
+}
+
+void Printer::done() {
+  if (json_) print_json(out_, {{"ok", true}});
 }
 
 void Printer::document(std::string_view name, const std::string& text) {
@@ -318,11 +328,7 @@ void Printer::document(std::string_view name, const std::string& text) {
     out_ << text;
     return;
   }
-  JsonWriter json(out_);
-  json.begin_object();
-  json.member(name, std::string_view(text));
-  json.end_object();
-  out_ << '\n';
+  print_json(out_, {{std::string(name), text}});
 }
 
 void Printer::time(std::int64_t us) {
@@ -330,52 +336,23 @@ void Printer::time(std::int64_t us) {
     out_ << format_seconds(us) << " s\n";
     return;
   }
-  JsonWriter json(out_);
-  json.begin_object();
-  json.member("simulated_time_us", us);
-  json.member("seconds", double(us) / 1e6);
-  json.end_object();
-  out_ << '\n';
+  print_json(out_, {{"time", json_seconds(us)}});
 }
 
 void Printer::stats(const std::vector<BusStats>& rows) {
-  if (json_) {
-    return print_objects(out_, rows, [](JsonWriter& json, const BusStats& b) {
-      json.member("interface", b.name);
-      json.member("up", b.up);
-      json.member("bit_rate_kbit", b.bit_rate_kbit);
-      json.member("frames_in", b.frames_in);
-      json.member("frames_out", b.frames_out);
-      json.member("frames_dropped", b.frames_dropped);
-      json.member("frames_offline", b.frames_offline);
-      json.member("offered_load", b.offered_load);
-      json.member("measured_load", b.measured_load);
-      json.member("bus_model", b.model);
-      json.member("controller_state", b.state);
-      json.member("offered_load_1s", b.offered_1s);
-      json.member("offered_load_10s", b.offered_10s);
-      json.member("carried_load_1s", b.carried_1s);
-      json.member("carried_load_10s", b.carried_10s);
-      json.member("queue_delay_p50_us", b.delay_p50_us);
-      json.member("queue_delay_p99_us", b.delay_p99_us);
-      json.member("queue_delay_max_us", b.delay_max_us);
-      json.member("queued", b.queued);
-      json.member("queue_capacity", b.queue_capacity);
-      json.member("queue_dropped", b.queue_dropped);
-    });
-  }
-  Table table({"INTERFACE", "UP", "KBIT/S", "IN", "OUT", "DROPPED", "OFFLINE", "OFFERED", "MEASURED"});
+  if (json_) return print_json(out_, rows);
+  Table table({"INTERFACE", "UP", "KBIT/S", "IN", "OUT", "DROPPED", "OFFLINE"});
   for (const BusStats& b : rows) {
     table.add({b.name, yes_no(b.up), std::to_string(b.bit_rate_kbit), std::to_string(b.frames_in),
-               std::to_string(b.frames_out), std::to_string(b.frames_dropped), std::to_string(b.frames_offline),
-               percent(b.offered_load), percent(b.measured_load)});
+               std::to_string(b.frames_out), std::to_string(b.frames_dropped), std::to_string(b.frames_offline)});
   }
   table.print(out_);
-  // The bus model's figures (Fleet1.BusLoad, BusStates): loads over 1 / 10 s,
-  // queueing delays over 10 s.
+  // The bus's one set of load figures (Fleet1.BusLoad, BusStates): carried
+  // (at most 100 %) and offered over 1 / 10 s, queueing delays and the
+  // slip over 10 s.
   out_ << '\n';
   Table bus({"INTERFACE", "MODEL", "STATE", "CARRIED 1S", "10S", "OFFERED 1S", "10S", "DELAY P50", "P99", "MAX",
-             "QUEUED", "LOST"});
+             "SLIP P99", "MAX", "QUEUED", "LOST"});
   auto ms = [](std::int64_t us) {
     char buf[32];
     std::snprintf(buf, sizeof buf, "%.1f ms", double(us) / 1000.0);
@@ -383,31 +360,30 @@ void Printer::stats(const std::vector<BusStats>& rows) {
   };
   for (const BusStats& b : rows)
     bus.add({b.name, b.model, b.state, percent(b.carried_1s), percent(b.carried_10s), percent(b.offered_1s),
-             percent(b.offered_10s), ms(b.delay_p50_us), ms(b.delay_p99_us), ms(b.delay_max_us),
-             std::to_string(b.queued) + "/" + std::to_string(b.queue_capacity), std::to_string(b.queue_dropped)});
+             percent(b.offered_10s), ms(b.delay_p50_us), ms(b.delay_p99_us), ms(b.delay_max_us), ms(b.slip_p99_us),
+             ms(b.slip_max_us), std::to_string(b.queued) + "/" + std::to_string(b.queue_capacity),
+             std::to_string(b.queue_dropped)});
   bus.print(out_);
+  // Buses cansimd serves over TCP (Fleet1.SocketcandBuses): where clients connect.
+  Table served({"INTERFACE", "TRANSPORT", "LISTEN", "CLIENTS"});
+  bool any = false;
+  for (const BusStats& b : rows) {
+    if (b.transport != "socketcand") continue;
+    any = true;
+    const bool v6 = b.listen_host.find(':') != std::string::npos;
+    const std::string host = v6 ? "[" + b.listen_host + "]" : b.listen_host;
+    served.add({b.name, b.transport, b.listen_port ? host + ":" + std::to_string(b.listen_port) : "(not listening)",
+                std::to_string(b.clients)});
+  }
+  if (!any) return;
+  out_ << '\n';
+  served.print(out_);
 }
 
 void Printer::event(const Event& e) {
-  if (!json_) {
-    out_ << format_event(e) << std::endl;
-    return;
-  }
-  JsonWriter json(out_);
-  json.begin_object();
-  json.key("time");
-  if (e.time_us)
-    json.value(double(*e.time_us) / 1e6);
-  else
-    json.null();
-  json.member("source", e.source);
-  json.member("event", e.name);
-  for (const Field& f : e.fields) {
-    json.key(f.name);
-    if (f.faults) write_fault_briefs(json, *f.faults); else write_json(json, f.value);
-  }
-  json.end_object();
-  out_ << std::endl;
+  if (json_) print_json(out_, e);
+  else out_ << format_event(e) << '\n';
+  out_.flush();
 }
 
 }  // namespace cansim::ctl

@@ -24,7 +24,7 @@ struct GroupResult {
   std::string key;
   bool ok = false;
   std::optional<std::uint32_t> fault_id{};  // fault: the id armed on this node
-  std::string error{};                     // refused: the reason
+  std::string error{};                      // refused: the reason
 };
 
 // A node object and its fleet key (AddNodes).
@@ -35,10 +35,11 @@ struct NodeRef {
 // ListFaults: a(ussbxxxu). Times in µs; duration -1: until cancelled.
 struct FaultRow {
   std::uint32_t id = 0;
-  std::string kind, channel;
+  std::string kind, channel;  // a plant's fault: channel is its target (a block or an input)
   bool active = false;
   std::int64_t start_us = -1, duration_us = -1, period_us = 0;
   std::uint32_t count = 0;
+  bool plant = false;  // a fault of a plant (Plant1.ListFaults): JSON names channel "target"
 };
 
 // GetBusStatistics: a(sbuttttdd). Loads are fractions of the bit rate.
@@ -48,19 +49,28 @@ struct BusStats {
   std::uint32_t bit_rate_kbit = 0;
   std::uint64_t frames_in = 0, frames_out = 0, frames_dropped = 0, frames_offline = 0;
   double offered_load = 0, measured_load = 0;
-  // Fleet1.BusLoad a(ssddddxxxuut) and BusStates a{ss} of the same interface.
+  // Fleet1.BusLoad a(ssddddxxxxxuut) and BusStates a{ss} of the same interface.
   std::string model, state;
   double offered_1s = 0, offered_10s = 0, carried_1s = 0, carried_10s = 0;
   std::int64_t delay_p50_us = 0, delay_p99_us = 0, delay_max_us = 0;
+  std::int64_t slip_p99_us = 0, slip_max_us = 0;
   std::uint32_t queued = 0, queue_capacity = 0;
   std::uint64_t queue_dropped = 0;
+  // Fleet1.SocketcandBuses a(ssqu): a socketcand bus's address and clients
+  // (docs/socketcand.md); transport "socketcan" for a kernel interface.
+  std::string transport = "socketcan";
+  std::string listen_host = "";
+  std::uint16_t listen_port = 0;
+  std::uint32_t clients = 0;
 };
 
-// Node1.Pressure / Temperature: (ddsy). NaN and "" without such a channel.
+// Node1.Pressure / Temperature: (ddsy), both values in `unit` (the reported
+// one as the device means it). NaN and "" without such a channel.
 struct Reading {
   double true_value = NAN, reported = NAN;
   std::string unit;
   std::uint8_t status = 0;
+  double counts = NAN;  // Node1.PressureCounts / TemperatureCounts: the PV when it is in counts
 };
 
 struct OverrideRow {  // Node1.Overrides: a(sds)
@@ -104,7 +114,7 @@ struct NodeStatus {
 struct Field {
   std::string name;
   Value value;
-  IntegerStyle style = IntegerStyle::kDecimal;  // human output; JSON always prints numbers
+  IntegerStyle style = IntegerStyle::kDecimal;      // human output; JSON always prints numbers
   std::optional<std::vector<FaultBrief>> faults{};  // the Faults property: value is its text, JSON a list
 };
 

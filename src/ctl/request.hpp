@@ -16,6 +16,7 @@ namespace cansim::ctl {
 using control::kBusName;
 using control::kFleetInterface;
 using control::kNodeInterface;
+using control::kPlantInterface;
 inline constexpr const char* kFleetPath = control::kRootPath;
 inline constexpr const char* kNodePathPrefix = control::kNodePrefix;
 inline constexpr const char* kPropertiesInterface = "org.freedesktop.DBus.Properties";
@@ -59,18 +60,33 @@ enum class Output {
   kWatch,    // Subscribe, then print signals until SIGINT/SIGTERM (only Request::node's, if given)
   kMonitor,  // decode the frames of Request::interfaces (all: none given) until SIGINT/SIGTERM
   kTop,      // the fleet table (Request::pattern, Request::once) until q / SIGINT / SIGTERM
+  kCapture,  // the frames of Request::interfaces[0] to Request::file (candump -L) until SIGINT/SIGTERM
+  kReplay,   // Request::file onto Request::interfaces[0] (Fleet1.QueueFrames), Request::replay
+  kPlant,    // a plant's (Request::node) or every plant's variables and inputs; with Call::method, Set / Override /
+             // ClearOverride
+};
+
+// replay's options (ctl/capture_replay.hpp).
+struct ReplaySettings {
+  bool loop = false;
+  bool filtered = false;
+  std::uint32_t filter_id = 0, filter_mask = 0;
+  double speed = 1.0;
+  bool operator==(const ReplaySettings&) const = default;
 };
 
 struct Request {
-  std::string node;       // NODE as given on the command line, "" when none
+  std::string verb;  // the command ("set"), for its usage after a usage-level refusal
+  std::string node;  // NODE as given on the command line, "" when none
   Call call;
   Output output = Output::kNothing;
-  std::string file;       // kAdded: read; kDcf: written
-  ObjectAddress object;   // kValue
-  std::vector<std::string> interfaces;  // kMonitor
-  std::string pattern;    // kTop: GLOB
-  bool once = false;      // kTop
-  bool group = false;     // node may name several nodes (glob, ID range, count: group)
+  std::string file;                     // kAdded: read; kDcf: written
+  ObjectAddress object;                 // kValue
+  std::vector<std::string> interfaces;  // kMonitor; kCapture, kReplay: the bus
+  ReplaySettings replay;                // kReplay
+  std::string pattern;                  // kTop: GLOB
+  bool once = false;                    // kTop
+  bool group = false;                   // node may name several nodes (glob, ID range, count: group)
 };
 
 }  // namespace cansim::ctl

@@ -24,12 +24,6 @@ namespace {
 
 constexpr std::uint64_t kRefreshUs = 500000;  // about twice a second
 
-std::string measure(double d) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.6g", d);
-  return buf;
-}
-
 std::string two_hex(std::uint8_t v) {
   char buf[4];
   std::snprintf(buf, sizeof buf, "%02x", v);
@@ -54,9 +48,11 @@ TopRow row_of(const NodeStatus& s) {
   r.node_id = s.node_id;
   r.state = state_text(s);
   r.pressure = s.pressure.unit.empty() ? "-"
-                                       : measure(s.pressure.reported) + " / " + measure(s.pressure.true_value) + " " +
-                                             s.pressure.unit;
-  r.temperature = s.temperature.unit.empty() ? "-" : measure(s.temperature.reported) + " " + s.temperature.unit;
+                                       : format_measure(s.pressure.reported) + " / " +
+                                             format_reading_value(s.pressure, s.pressure.true_value);
+  if (!std::isnan(s.pressure.counts)) r.pressure += " (" + format_measure(s.pressure.counts) + " counts)";
+  r.temperature = format_reading_value(s.temperature, s.temperature.reported);
+  if (!std::isnan(s.temperature.counts)) r.temperature += " (" + format_measure(s.temperature.counts) + " counts)";
   r.status = (s.pressure.unit.empty() ? "--" : two_hex(s.pressure.status)) + " " +
              (s.temperature.unit.empty() ? "--" : two_hex(s.temperature.status));
   r.faults = active_faults(s.faults);
@@ -69,21 +65,6 @@ std::string fps_text(double fps) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.1f", fps);
   return buf;
-}
-
-void write_rows_json(std::ostream& out, const std::vector<TopRow>& rows) {
-  print_objects(out, rows, [](JsonWriter& json, const TopRow& r) {
-    json.member("key", r.key);
-    json.member("node_id", r.node_id);
-    json.member("nmt_state", r.state);
-    json.member("pressure", r.pressure);
-    json.member("temperature", r.temperature);
-    json.member("status", r.status);
-    json.member("faults", r.faults);
-    json.member("emcy_count", r.emcy);
-    json.key("frames_per_second");
-    if (r.fps < 0) json.null(); else json.value(std::round(r.fps * 10) / 10);
-  });
 }
 
 // The terminal in raw mode and on its alternate screen while top runs.
@@ -129,6 +110,7 @@ class Top {
   void fetch_page();
   void sample(const NodeStatus& s);
   std::vector<TopRow> rows() const;
+  Json rows_json() const;
   void draw();
   void on_signal(sd_bus_message* m);
   void on_key(ClientLoop& loop);
@@ -158,7 +140,7 @@ void Top::fetch_all() {
 
 // The rows on screen, one GetAll each.
 void Top::fetch_page() {
-  const std::vector<Arg> interface{Value(std::string(kNodeInterface))};
+  const std::vector<Arg> interface { Value(std::string(kNodeInterface)) };
   for (std::size_t i = first_; i < std::min(nodes_.size(), first_ + page_); ++i) {
     MessagePtr reply = connection_.call(nodes_[i].path, kPropertiesInterface, "GetAll", interface);
     NodeStatus s = read_node_status(reply.get());
@@ -168,6 +150,12 @@ void Top::fetch_page() {
   }
 }
 
+Json Top::rows_json() const {
+  Json rows = Json::array();
+  for (const NodeStatus& s : nodes_) rows.push_back(top_json(s, rates_));
+  return rows;
+}
+
 std::vector<TopRow> Top::rows() const {
   std::vector<TopRow> out;
   for (const NodeStatus& s : nodes_) out.push_back(top_row(s, rates_));
@@ -175,33 +163,23 @@ std::vector<TopRow> Top::rows() const {
 }
 
 void Top::draw() {
-  if (options_.json) return write_rows_json(out_, rows());
+  if (options_.json) return print_json(out_, rows_json());
   if (!interactive_) {
     out_ << format_top_table(rows()) << std::endl;
     return;
   }
   std::size_t height = 24, width = 80;
   Screen::size(height, width);
-  page_ = height > 3 ? height - 3 : 1;
+  page_ = height > 3 ? height - 3 : 1;  // the title, a blank line and the table's header
   first_ = std::min(first_, last_first());
   std::size_t operational = 0;
   for (const NodeStatus& s : nodes_) operational += s.nmt_state == "operational";
-  std::string head = "cansimctl top: " + std::to_string(nodes_.size()) + " node(s)" +
-                     (options_.glob.empty() ? "" : " matching '" + options_.glob + "'") + ", " +
-                     std::to_string(operational) + " operational; rows " +
-                     std::to_string(nodes_.empty() ? 0 : first_ + 1) + "-" +
-                     std::to_string(std::min(nodes_.size(), first_ + page_)) +
-                     "  (arrows, PgUp/PgDn, Home/End scroll; q quits)";
-  // Home, then each line over the old one (cleared to its end), then the rest cleared: no flicker.
-  std::string screen = "\x1b[H" + head.substr(0, width) + "\x1b[K\n\x1b[K\n";
-  const std::string table = format_top_table(rows(), first_, page_);
-  for (std::size_t start = 0; start < table.size();) {
-    std::size_t end = table.find('\n', start);
-    if (end == std::string::npos) end = table.size();
-    screen += table.substr(start, std::min(end - start, width)) + "\x1b[K\n";
-    start = end + 1;
-  }
-  out_ << screen << "\x1b[J" << std::flush;
+  std::string head =
+      "cansimctl top: " + std::to_string(nodes_.size()) + " node(s)" +
+      (options_.glob.empty() ? "" : " matching '" + options_.glob + "'") + ", " + std::to_string(operational) +
+      " operational; rows " + std::to_string(nodes_.empty() ? 0 : first_ + 1) + "-" +
+      std::to_string(std::min(nodes_.size(), first_ + page_)) + "  (arrows, PgUp/PgDn, Home/End scroll; q quits)";
+  out_ << top_screen(head, format_top_table(rows(), first_, page_), height, width) << std::flush;
 }
 
 // NMT states and EMCYs show as they happen; nodes added or removed at once.
@@ -258,10 +236,11 @@ int Top::run() {
   fetch_all();
   draw();
   loop.every(kRefreshUs, [this] {
-    if (interactive_) fetch_page(); else fetch_all();
+    if (interactive_) fetch_page();
+    else fetch_all();
     draw();
   });
-  return loop.run();
+  return loop.run("top", options_.json);
 }
 
 }  // namespace
@@ -278,7 +257,7 @@ void FrameRates::sample(const std::string& key, std::uint64_t frames, double sec
   std::deque<Sample>& list = samples_[key];
   if (!list.empty() && (seconds <= list.back().seconds || frames < list.back().frames)) {
     if (frames >= list.back().frames) return;  // no time passed
-    list.clear();  // removed and added again: counting restarts
+    list.clear();                              // removed and added again: counting restarts
   }
   list.push_back({frames, seconds});
   while (list.size() > 2 && seconds - list[1].seconds >= kWindow) list.pop_front();
@@ -303,6 +282,36 @@ TopRow top_row(const NodeStatus& node, const FrameRates& rates) {
   TopRow r = row_of(node);
   r.fps = rates.rate(node.key);
   return r;
+}
+
+Json top_json(const NodeStatus& node, const FrameRates& rates) {
+  const double fps = rates.rate(node.key);
+  return {{"node", node.key},
+          {"node_id", node.node_id},
+          {"nmt_state", node.nmt_state},
+          {"powered", node.powered},
+          {"on_bus", node.on_bus},
+          {"pressure", node.pressure},
+          {"temperature", node.temperature},
+          {"faults", node.faults},
+          {"emcy_count", node.emcy_count},
+          {"frames_per_second", fps < 0 ? Json(nullptr) : Json(std::round(fps * 10) / 10)}};
+}
+
+std::string top_screen(const std::string& head, const std::string& table, std::size_t height, std::size_t width) {
+  std::vector<std::string> lines{head, ""};
+  for (std::size_t start = 0; start < table.size();) {
+    std::size_t end = std::min(table.find('\n', start), table.size());
+    lines.push_back(table.substr(start, end - start));
+    start = end + 1;
+  }
+  lines.resize(std::min(lines.size(), std::max<std::size_t>(height, 1)));
+  // Home, then each line over the old one (cleared to its end), the rest
+  // cleared: no flicker. No newline after the last line: on the screen's
+  // last row it would scroll the title away.
+  std::string screen = "\x1b[H";
+  for (std::size_t i = 0; i < lines.size(); ++i) screen += (i ? "\n" : "") + lines[i].substr(0, width) + "\x1b[K";
+  return screen + "\x1b[J";
 }
 
 std::string format_top_table(const std::vector<TopRow>& rows, std::size_t first, std::size_t count) {

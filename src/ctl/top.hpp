@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "ctl/connection.hpp"
+#include "ctl/json.hpp"
 #include "ctl/replies.hpp"
 
 namespace cansim::ctl {
@@ -39,7 +40,7 @@ struct TopRow {
   std::string status;       // 0x6150 of pressure and temperature: "00 00"
   std::string faults;       // active fault kinds, "-"
   std::uint32_t emcy = 0;
-  double fps = -1;          // frames per second, < 0 : not known yet
+  double fps = -1;  // frames per second, < 0 : not known yet
 };
 
 // Frames per second of each node from samples of its FramesSent, over the
@@ -48,7 +49,7 @@ class FrameRates {
  public:
   static constexpr double kWindow = 5.0;
   void sample(const std::string& key, std::uint64_t frames, double seconds);  // seconds: any monotonic clock
-  double rate(const std::string& key) const;  // < 0 : fewer than two samples
+  double rate(const std::string& key) const;                                  // < 0 : fewer than two samples
  private:
   struct Sample {
     std::uint64_t frames = 0;
@@ -63,6 +64,16 @@ TopRow top_row(const NodeStatus& node, const FrameRates& rates);
 
 // The header, then rows [first, first + rows) aligned; every row when rows is 0.
 std::string format_top_table(const std::vector<TopRow>& rows, std::size_t first = 0, std::size_t count = 0);
+
+// A row with --json: {"node", "node_id", "nmt_state", "powered", "on_bus",
+// "pressure", "temperature" (status's readings), "faults", "emcy_count",
+// "frames_per_second"}.
+Json top_json(const NodeStatus& node, const FrameRates& rates);
+
+// What a terminal of `height` rows and `width` columns shows: the title, a
+// blank line, then the table's lines, at most `height` lines in all, each cut
+// at `width`, drawn from the top-left corner over the last screen.
+std::string top_screen(const std::string& head, const std::string& table, std::size_t height, std::size_t width);
 
 // Does node `key` (vcan0/generic/3, entry name generic) match a top / group glob?
 bool glob_matches(const std::string& glob, const std::string& key, const std::string& name);

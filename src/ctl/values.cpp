@@ -1,11 +1,11 @@
 #include "ctl/values.hpp"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <type_traits>
-
-#include "ctl/json.hpp"
 
 namespace cansim::ctl {
 
@@ -108,10 +108,10 @@ struct WriteType {
   char kind;  // b: boolean, u: unsigned, i: signed, d: double, s: string, a: bytes
   int bits;
 };
-constexpr WriteType kWriteTypes[] = {
-    {"bool", 'b', 1},  {"u8", 'u', 8},   {"u16", 'u', 16}, {"u32", 'u', 32}, {"u64", 'u', 64},
-    {"i8", 'i', 8},    {"i16", 'i', 16}, {"i32", 'i', 32}, {"i64", 'i', 64}, {"f32", 'd', 32},
-    {"f64", 'd', 64},  {"str", 's', 0},  {"bytes", 'a', 0}};
+constexpr WriteType kWriteTypes[] = {{"bool", 'b', 1}, {"u8", 'u', 8},   {"u16", 'u', 16}, {"u32", 'u', 32},
+                                     {"u64", 'u', 64}, {"i8", 'i', 8},   {"i16", 'i', 16}, {"i32", 'i', 32},
+                                     {"i64", 'i', 64}, {"f32", 'd', 32}, {"f64", 'd', 64}, {"str", 's', 0},
+                                     {"bytes", 'a', 0}};
 
 const WriteType* find_write_type(std::string_view name) {
   for (const WriteType& t : kWriteTypes) {
@@ -208,10 +208,12 @@ std::optional<std::uint64_t> parse_unsigned(std::string_view text) {
 std::optional<double> parse_real(std::string_view text) {
   auto v = number_value(text);
   if (!v) return std::nullopt;
-  return std::visit([](auto n) -> std::optional<double> {
-    if constexpr (std::is_arithmetic_v<decltype(n)>) return double(n);
-    return std::nullopt;
-  }, *v);
+  return std::visit(
+      [](auto n) -> std::optional<double> {
+        if constexpr (std::is_arithmetic_v<decltype(n)>) return double(n);
+        return std::nullopt;
+      },
+      *v);
 }
 
 std::optional<ObjectAddress> parse_object_address(std::string_view text) {
@@ -285,11 +287,47 @@ const char* write_type_names() { return "bool u8 u16 u32 u64 i8 i16 i32 i64 f32 
 bool is_write_type(std::string_view type) { return find_write_type(type) != nullptr; }
 
 std::string format_number(double d) {
-  char buf[64];
-  auto f = static_cast<float>(d);
-  bool is_float = std::isfinite(d) && static_cast<double>(f) == d;
-  auto r = is_float ? std::to_chars(buf, buf + sizeof buf, f) : std::to_chars(buf, buf + sizeof buf, d);
+  char buf[128];
+  const auto f = static_cast<float>(d);
+  const bool is_float = std::isfinite(d) && static_cast<double>(f) == d;
+  const double magnitude = std::fabs(d);
+  const bool fixed = magnitude == 0 || (magnitude >= 1e-6 && magnitude < 1e15);
+  const auto format = fixed ? std::chars_format::fixed : std::chars_format::general;
+  auto r = is_float ? std::to_chars(buf, buf + sizeof buf, f, format) : std::to_chars(buf, buf + sizeof buf, d, format);
   return std::string(buf, r.ptr);
+}
+
+namespace {
+
+// "9990440.5" -> "9 990 440.5"; a whole part of four digits stays as it is.
+std::string grouped(std::string text) {
+  const std::size_t start = !text.empty() && text[0] == '-' ? 1 : 0;
+  const std::size_t point = std::min(text.find('.'), text.size());
+  if (point - start <= 4 || text.find_first_not_of("-0123456789.") != std::string::npos) return text;
+  for (std::size_t i = point; i > start + 3;) {
+    i -= 3;
+    text.insert(i, 1, ' ');
+  }
+  return text;
+}
+
+}  // namespace
+
+std::string format_measure(double d) {
+  if (std::isnan(d)) return "-";
+  const auto f = static_cast<float>(d);
+  if (!std::isfinite(d) || static_cast<double>(f) == d) return grouped(format_number(d));
+  const double magnitude = std::fabs(d);
+  if (magnitude < 1e-6 || magnitude >= 1e15) return format_number(d);
+  const int exponent = int(std::floor(std::log10(magnitude)));
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*f", std::clamp(5 - exponent, 0, 12), d);
+  std::string text = buf;
+  if (text.find('.') != std::string::npos) {
+    text.erase(text.find_last_not_of('0') + 1);
+    if (text.back() == '.') text.pop_back();
+  }
+  return grouped(text);
 }
 
 std::string format_seconds(std::int64_t us) {
@@ -311,25 +349,27 @@ std::string format_bytes(const Bytes& b) {
 }
 
 std::string format_value(const Value& v, IntegerStyle style) {
-  return std::visit([style](const auto& x) -> std::string {
-    using T = std::decay_t<decltype(x)>;
-    if constexpr (std::is_same_v<T, bool>) {
-      return x ? "true" : "false";
-    } else if constexpr (std::is_integral_v<T>) {
-      char hex[24] = "0x";
-      auto end = std::to_chars(hex + 2, hex + sizeof hex, std::make_unsigned_t<T>(x), 16).ptr;
-      std::string h(hex, end);
-      if (style == IntegerStyle::kHex) return h;
-      std::string decimal = std::to_string(x);
-      return style == IntegerStyle::kBoth ? decimal + " (" + h + ")" : decimal;
-    } else if constexpr (std::is_same_v<T, double>) {
-      return format_number(x);
-    } else if constexpr (std::is_same_v<T, std::string>) {
-      return x;
-    } else {
-      return format_bytes(x);
-    }
-  }, v);
+  return std::visit(
+      [style](const auto& x) -> std::string {
+        using T = std::decay_t<decltype(x)>;
+        if constexpr (std::is_same_v<T, bool>) {
+          return x ? "true" : "false";
+        } else if constexpr (std::is_integral_v<T>) {
+          char hex[24] = "0x";
+          auto end = std::to_chars(hex + 2, hex + sizeof hex, std::make_unsigned_t<T>(x), 16).ptr;
+          std::string h(hex, end);
+          if (style == IntegerStyle::kHex) return h;
+          std::string decimal = std::to_string(x);
+          return style == IntegerStyle::kBoth ? decimal + " (" + h + ")" : decimal;
+        } else if constexpr (std::is_same_v<T, double>) {
+          return format_number(x);
+        } else if constexpr (std::is_same_v<T, std::string>) {
+          return x;
+        } else {
+          return format_bytes(x);
+        }
+      },
+      v);
 }
 
 bool natural_less(std::string_view a, std::string_view b) {
@@ -349,19 +389,6 @@ bool natural_less(std::string_view a, std::string_view b) {
     ++i, ++j;
   }
   return a.size() - i < b.size() - j;
-}
-
-void write_json(JsonWriter& json, const Value& v) {
-  std::visit([&json](const auto& x) {
-    using T = std::decay_t<decltype(x)>;
-    if constexpr (std::is_same_v<T, Bytes>) {
-      std::string hex = format_bytes(x);
-      std::erase(hex, ' ');
-      json.value(hex);
-    } else {
-      json.value(x);
-    }
-  }, v);
 }
 
 }  // namespace cansim::ctl

@@ -11,14 +11,12 @@
 
 namespace cansim::ctl {
 
-class JsonWriter;
-
 using Bytes = std::vector<std::uint8_t>;
 
 // An object value as Node1.Read returns it and Node1.Write takes it: the D-Bus
 // types b y n q i u x t d s ay (docs/control-api.md, Read).
-using Value = std::variant<bool, std::uint8_t, std::int16_t, std::uint16_t, std::int32_t, std::uint32_t,
-                           std::int64_t, std::uint64_t, double, std::string, Bytes>;
+using Value = std::variant<bool, std::uint8_t, std::int16_t, std::uint16_t, std::int32_t, std::uint32_t, std::int64_t,
+                           std::uint64_t, double, std::string, Bytes>;
 
 // The D-Bus signature of the value's type: "b", "y", ..., "s", "ay".
 const char* signature(const Value& v);
@@ -67,7 +65,14 @@ bool is_write_type(std::string_view type);
 
 // The shortest text that reads back as d; a value that is exactly a float
 // (a REAL32 object) prints as that float: 0.1f is "0.1", not "0.100000001".
+// No exponent between 1e-6 and 1e15 ("9990440", not "9.99044e+06").
 std::string format_number(double d);
+
+// A measured quantity for people, readable at every magnitude: a REAL32
+// value as its float's shortest text, another double to six significant
+// digits, never with an exponent, the whole part above 9999 in groups of
+// three ("9 990 440", "2.4996", "0.00012"); "-" for NaN.
+std::string format_measure(double d);
 
 // Simulated time in µs as seconds: "12.345678".
 std::string format_seconds(std::int64_t us);
@@ -84,8 +89,5 @@ std::string format_value(const Value& v, IntegerStyle style = IntegerStyle::kBot
 
 // Natural order: digit runs compare as numbers ("pt/2" before "pt/10").
 bool natural_less(std::string_view a, std::string_view b);
-
-// Numbers, booleans and strings as themselves, bytes as a hex string "0102ff".
-void write_json(JsonWriter& json, const Value& v);
 
 }  // namespace cansim::ctl

@@ -1,6 +1,6 @@
 #include "daemon/bus_load.hpp"
 
-#include "core/cob_id.hpp"
+#include "core/protocol.hpp"
 
 namespace cansim::daemon {
 
@@ -19,7 +19,8 @@ int tpdo_length(const Node& node, std::uint16_t mapping_index) {
   if (!node.od().find(mapping_index, 0)) return 8;
   unsigned count = unsigned(v.u(mapping_index, 0));
   unsigned bits = 0;
-  for (unsigned sub = 1; sub <= count && sub <= 64; ++sub) bits += unsigned(v.u(mapping_index, std::uint8_t(sub)) & 0xFF);
+  for (unsigned sub = 1; sub <= count && sub <= 64; ++sub)
+    bits += unsigned(v.u(mapping_index, std::uint8_t(sub)) & 0xFF);
   int bytes = int((bits + 7) / 8);
   return bytes > 8 ? 8 : bytes;
 }

@@ -14,7 +14,7 @@ namespace cansim::daemon {
 
 struct Traffic {
   double frames_per_s = 0;
-  double bits_per_s = 0;        // without stuffing
+  double bits_per_s = 0;          // without stuffing
   double stuffed_bits_per_s = 0;  // worst case
   Traffic& operator+=(const Traffic& o) {
     frames_per_s += o.frames_per_s;

@@ -13,9 +13,7 @@ namespace {
 
 constexpr const char* kLevels[] = {"trace", "debug", "info", "warn", "error", "critical", "off"};
 
-bool parse_number(const std::string& text, std::int64_t& out) {
-  return config::parse_int_literal(text, out);
-}
+bool parse_number(const std::string& text, std::int64_t& out) { return config::parse_int_literal(text, out); }
 
 }  // namespace
 
@@ -23,7 +21,8 @@ std::string usage_text() {
   return "usage: cansimd --profile FILE|NAME [--interface IF] [--node-id N] [options]\n"
          "       cansimd --config FILE [options]\n"
          "       cansimd --export-eds FILE|NAME [--node-id N] [--strict] [--strict-eds] [--output FILE]\n"
-         "       cansimd --export-dbc CONFIG|PROFILE [--interface IF] [--node-id N] [--strict] [--strict-eds] [--output FILE]\n"
+         "       cansimd --export-dbc CONFIG|PROFILE [--interface IF] [--node-id N] [--strict] [--strict-eds] "
+         "[--output FILE]\n"
          "\n"
          "Simulates CANopen (CiA 301/305/404) sensor nodes on SocketCAN interfaces.\n"
          "\n"
@@ -57,6 +56,11 @@ std::string usage_text() {
          "                       /run/cansimd/control as root, else /tmp/cansimd-UID/control)\n"
          "  --max-clients N      clients the private socket serves at once, 1..4096 (default 64);\n"
          "                       one more is told why and closed\n"
+         "  --address-file FILE  before each READY=1, write FILE (atomically) with one line per\n"
+         "                       socketcand bus: NAME HOST PORT (docs/socketcand.md); removed at exit\n"
+         "  --socketcand         serve every interface of the fleet as a kernel-free socketcand bus of\n"
+         "                       the same name on 127.0.0.1, a free port each, whatever the file says\n"
+         "                       (tests on a host without CAN: docs/python.md)\n"
          "  --version            print the version and exit\n"
          "  --help               print this help and exit\n"
          "\n"
@@ -68,10 +72,14 @@ namespace {
 
 // Options without a value.
 bool* flag_of(CliOptions& o, const std::string& arg) {
-  const std::pair<const char*, bool*> flags[] = {{"--help", &o.help},     {"-h", &o.help},
-                                                 {"--version", &o.version}, {"--check", &o.check},
-                                                 {"--strict", &o.strict}, {"--quirks", &o.quirks},
-                                                 {"--strict-eds", &o.strict_eds}};
+  const std::pair<const char*, bool*> flags[] = {{"--help", &o.help},
+                                                 {"-h", &o.help},
+                                                 {"--version", &o.version},
+                                                 {"--check", &o.check},
+                                                 {"--strict", &o.strict},
+                                                 {"--quirks", &o.quirks},
+                                                 {"--strict-eds", &o.strict_eds},
+                                                 {"--socketcand", &o.socketcand}};
   for (const auto& [name, field] : flags)
     if (arg == name) return field;
   return nullptr;
@@ -80,15 +88,18 @@ bool* flag_of(CliOptions& o, const std::string& arg) {
 // Options with a value, stored as given.
 std::string* text_of(CliOptions& o, const std::string& arg) {
   const std::pair<const char*, std::string*> texts[] = {
-      {"--profile", &o.profile},     {"--config", &o.config}, {"--export-eds", &o.export_eds},
-      {"--export-dbc", &o.export_dbc}, {"--output", &o.output},       {"--state-dir", &o.state_dir}, {"--record", &o.record}};
+      {"--profile", &o.profile},       {"--config", &o.config},
+      {"--export-eds", &o.export_eds}, {"--export-dbc", &o.export_dbc},
+      {"--output", &o.output},         {"--state-dir", &o.state_dir},
+      {"--record", &o.record},         {"--address-file", &o.address_file}};
   for (const auto& [name, field] : texts)
     if (arg == name) return field;
   return nullptr;
 }
 
 bool is_checked_option(const std::string& arg) {
-  for (const char* name : {"--interface", "--node-id", "--log-level", "--bus", "--control-socket", "--max-clients", "--seed"})
+  for (const char* name :
+       {"--interface", "--node-id", "--log-level", "--bus", "--control-socket", "--max-clients", "--seed"})
     if (arg == name) return true;
   return false;
 }
@@ -112,14 +123,16 @@ std::string set_checked(CliOptions& o, const std::string& arg, const std::string
       return "--bus: expected auto, system, user or none, got '" + value + "'";
     o.bus = value;
   } else if (arg == "--control-socket") {
-    if (value.empty() || value.size() > 107) return "--control-socket: expected a socket path of 1..107 characters or none";
+    if (value.empty() || value.size() > 107)
+      return "--control-socket: expected a socket path of 1..107 characters or none";
     o.control_socket = value;
   } else if (arg == "--max-clients") {
     if (!parse_number(value, v) || v < 1 || std::uint64_t(v) > limits::kMaxClientsCeiling)
       return "--max-clients: expected 1.." + std::to_string(limits::kMaxClientsCeiling) + ", got '" + value + "'";
     o.max_clients = std::size_t(v);
   } else if (arg == "--seed") {
-    if (!parse_number(value, v) || value[0] == '-') return "--seed: expected a non-negative integer, got '" + value + "'";
+    if (!parse_number(value, v) || value[0] == '-')
+      return "--seed: expected a non-negative integer, got '" + value + "'";
     o.seed = std::uint64_t(v);
   }
   return {};

@@ -7,12 +7,15 @@
 #include <algorithm>
 #include <csignal>
 #include <filesystem>
+#include <fstream>
 #include <set>
 
 #include "core/node.hpp"
 #include "daemon/bus_load.hpp"
 #include "daemon/file_storage.hpp"
+#include "daemon/free_memory.hpp"
 #include "daemon/logging.hpp"
+#include "io/frame_schedule.hpp"
 #include "personalities/registry.hpp"
 
 #ifndef CANSIM_PROFILE_DIR
@@ -22,19 +25,67 @@
 namespace cansim::daemon {
 
 namespace {
-constexpr TimeUs kRetryPeriod = 1'000'000;      // reopen a missing / down interface
-constexpr TimeUs kDrainRetry = 1'000;           // kernel queue full (ENOBUFS): retry
-constexpr TimeUs kStatusPeriod = 5'000'000;     // STATUS= and drop reports
-constexpr TimeUs kDownReminder = 30'000'000;    // repeat "still down" warnings
-constexpr int kReadBatchesPerWake = 16;         // fairness between interfaces
+constexpr TimeUs kRetryPeriod = 1'000'000;    // reopen a missing / down interface
+constexpr TimeUs kDrainRetry = 1'000;         // kernel queue full (ENOBUFS): retry
+constexpr TimeUs kStatusPeriod = 5'000'000;   // STATUS= and drop reports
+constexpr TimeUs kDownReminder = 30'000'000;  // repeat "still down" warnings
+constexpr int kReadBatchesPerWake = 16;       // fairness between interfaces
+constexpr TimeUs kTrimDelay = 1'000'000;      // removed nodes' memory back to the kernel
+// CAN-controller journal lines of one interface: at most this many per period.
+constexpr int kControllerLinesBurst = 8;
+constexpr TimeUs kControllerLinePeriod = 10'000'000;
 
 // The configured rate, else the kernel's (real CAN), else 250 kbit/s.
 std::uint32_t resolve_bit_rate(const config::InterfaceConfig& ic, bool* from_kernel = nullptr) {
   if (ic.bit_rate_kbit) return ic.bit_rate_kbit;
+  if (ic.socketcand()) return 250;  // no kernel behind it
   std::uint32_t kernel = io::kernel_bit_rate(ic.name);
   if (from_kernel) *from_kernel = kernel != 0;
   return kernel ? kernel / 1000 : 250;
 }
+// A socketcand bus's settings: its `listen:` and the bounds of config/limits.hpp.
+io::SocketcandSettings socketcand_settings(const config::InterfaceConfig& ic) {
+  io::SocketcandSettings s;
+  s.bus = ic.name;
+  s.host = ic.listen_host;
+  s.port = ic.listen_port;
+  s.max_clients = limits::kSocketcandClients;
+  s.max_unread = limits::kSocketcandUnread;
+  s.send_buffer = limits::kSocketcandSendBuffer;
+  s.read_per_pass = limits::kSocketcandReadPerPass;
+  s.max_in_flight = limits::kSocketcandInFlight;
+  s.rawmode_hold = limits::kSocketcandRawmodeHoldUs;
+  s.warning_period = limits::kWarningPeriodUs;
+  return s;
+}
+
+// The server's journal lines, with the bus as their subject (CANSIM_IFACE=).
+io::SocketcandServer::Log socketcand_log(const std::string& name) {
+  return [name](io::SocketcandServer::Level level, const std::string& line) {
+    const auto subject = LogSubject::interface(name);
+    if (level == io::SocketcandServer::Level::kWarn) spdlog::warn("{}", line);
+    else if (level == io::SocketcandServer::Level::kInfo) spdlog::info("{}", line);
+    else spdlog::debug("{}", line);
+  };
+}
+
+// --socketcand: every interface a kernel-free bus of its own name on a free
+// loopback port, so a test's fleet runs where the kernel has no CAN and
+// fleets started side by side never share a bus.
+void serve_as_socketcand(std::vector<config::InterfaceConfig>& interfaces) {
+  for (config::InterfaceConfig& ic : interfaces) {
+    ic.transport = config::TransportKind::kSocketcand;
+    ic.listen_host = "127.0.0.1";
+    ic.listen_port = 0;
+    ic.allow_remote = false;
+  }
+}
+
+std::string endpoint(const std::string& host, std::uint16_t port) {
+  const bool v6 = host.find(':') != std::string::npos;
+  return (v6 ? "[" + host + "]" : host) + ":" + std::to_string(port);
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------- building
@@ -51,8 +102,9 @@ NodeSetup node_setup(const config::NodeConfig& node) {
 }
 
 std::unique_ptr<Application> make_node_application(const config::NodeConfig& node, std::uint64_t seed,
-                                                   const std::string& state_dir) {
+                                                   const std::string& state_dir, const physics::PlantResolver* plants) {
   personalities::NodeContext ctx;
+  ctx.plants = plants;
   ctx.fleet_seed = seed;
   ctx.index = node.index;
   ctx.key = node.key;
@@ -83,15 +135,14 @@ void add_mismatch(std::vector<BitRateMismatch>& out, const config::NodeConfig& n
 }
 }  // namespace
 
-std::vector<BitRateMismatch> bit_rate_mismatches(const config::FleetConfig& fleet,
-                                                 const std::function<std::uint32_t(const config::InterfaceConfig&)>& bus_kbit) {
+std::vector<BitRateMismatch> bit_rate_mismatches(
+    const config::FleetConfig& fleet, const std::function<std::uint32_t(const config::InterfaceConfig&)>& bus_kbit) {
   std::vector<BitRateMismatch> out;
   std::map<std::string, std::uint32_t> rates;
   for (const auto& ic : fleet.interfaces) rates[ic.name] = bus_kbit(ic);
   for (const auto& n : fleet.nodes) {
     auto rate = rates.find(n.interface);
-    if (rate != rates.end() && config::bit_rate_selector(n.bit_rate_kbit) !=
-                                     config::bit_rate_selector(rate->second))
+    if (rate != rates.end() && config::bit_rate_selector(n.bit_rate_kbit) != config::bit_rate_selector(rate->second))
       add_mismatch(out, n, rate->second);
   }
   return out;
@@ -120,15 +171,19 @@ std::vector<std::string> load_warnings(const config::FleetConfig& fleet) {
 }
 
 std::string check_fleet(config::FleetConfig& fleet, std::vector<std::string>* warnings) {
+  const std::unique_ptr<physics::PlantSet> plants = PlantWiring::build(fleet.plants, fleet.seed);
+  const physics::PlantSetResolver resolver(*plants);
   for (config::NodeConfig n : fleet.nodes) {
     n.record_file.clear();  // --check must not truncate recordings
-    make_node_application(n, fleet.seed);
+    make_node_application(n, fleet.seed, {}, &resolver);
   }
   if (warnings) *warnings = load_warnings(fleet);
   if (warnings)
     for (const BitRateMismatch& m : bit_rate_mismatches(fleet, effective_bit_rate)) warnings->push_back(describe(m));
+  std::string plants_text;
+  if (!fleet.plants.empty()) plants_text = ", " + std::to_string(fleet.plants.specs.size()) + " plant(s)";
   return fleet.file + ": ok, " + std::to_string(fleet.nodes.size()) + " node(s) on " +
-         std::to_string(fleet.interfaces.size()) + " interface(s)";
+         std::to_string(fleet.interfaces.size()) + " interface(s)" + plants_text;
 }
 
 // ---------------------------------------------------------------- interfaces
@@ -136,9 +191,15 @@ std::string check_fleet(config::FleetConfig& fleet, std::vector<std::string>* wa
 struct Daemon::Interface : io::FdHandler {
   Interface(Daemon& d, std::string name) : daemon(d), can(std::move(name)) {}
   void on_events(std::uint32_t events) override { daemon.on_can_events(*this, events); }
+  // Open (a kernel interface) or listening (a socketcand bus).
+  bool up() const { return tcp ? tcp->listening() : can.is_open(); }
+  std::uint64_t frames_in() const { return tcp ? tcp->stats().frames_in : can.stats().rx; }
+  std::uint64_t frames_out() const { return tcp ? tcp->stats().frames_out : can.stats().tx; }
 
   Daemon& daemon;
-  io::CanInterface can;
+  io::CanInterface can;                       // a kernel interface (unused, never opened, for a socketcand bus)
+  std::unique_ptr<io::SocketcandServer> tcp;  // `transport: socketcand`: cansimd is the wire
+  io::FrameSchedule scheduled{limits::kQueuedFramesPerBus};  // Fleet1.QueueFrames: a replay's frames
   io::BusId bus = 0;
   std::uint32_t bit_rate_kbit = 250;
   bool configured = false;
@@ -148,16 +209,24 @@ struct Daemon::Interface : io::FdHandler {
   TimeUs drain_at = kNever;
   TimeUs last_down_log = 0;
   bool reported_down = false;
-  std::uint64_t last_frames = 0;  // rx + tx at the last status report
-  double measured_load = 0;       // fraction of the bit rate over the last status period
   config::BusModelChoice bus_model = config::BusModelChoice::kAuto;
-  bool real_can = false;          // the kernel says: a CAN controller (it paces the bus)
+  bool real_can = false;  // the kernel says: a CAN controller (it paces the bus)
   std::uint64_t bus_drops_reported = 0;
+  std::uint64_t resent_reported = 0, late_reported = 0;  // kernel pacing
+  std::set<std::string> node_keys;                       // the running nodes on it
+  LineBudget controller_lines{kControllerLinesBurst, kControllerLinePeriod};
+  std::uint64_t ignored_reported = 0;  // error frames ignored (no controller), as last logged
+  TimeUs next_ignored_line = 0;
 };
 
-Daemon::Daemon(DaemonSettings settings) : settings_(std::move(settings)) {}
+// The loop lives as long as the daemon: start() adds the interfaces and the
+// control API to it, run() the signals.
+Daemon::Daemon(DaemonSettings settings) : settings_(std::move(settings)) {
+  if (!loop_.open()) throw std::runtime_error(loop_.error());
+}
 Daemon::~Daemon() {
   endpoints_.reset();
+  plants_.detach(core_.now());
   core_.set_observer(nullptr);
 }
 
@@ -168,8 +237,16 @@ Daemon::Interface& Daemon::ensure_interface(const config::InterfaceConfig& ic) {
   if (!iface) {
     interfaces_.push_back(std::make_unique<Interface>(*this, ic.name));
     iface = interfaces_.back().get();
-    iface->bus = core_.add_bus(ic.name, iface->can, 3);
-    iface->can.set_deferred(true);
+    if (ic.socketcand()) {
+      iface->tcp = std::make_unique<io::SocketcandServer>(loop_, socketcand_settings(ic));
+      iface->bus = core_.add_bus(ic.name, *iface->tcp, 3);
+      iface->tcp->attach(
+          core_, iface->bus, [this] { return clock_now(); }, socketcand_log(ic.name));
+    } else {
+      iface->bus = core_.add_bus(ic.name, iface->can, 3);
+      // Timed buses on an interface with an ETF qdisc are paced by the kernel.
+      iface->can.set_kernel_pacing(true, epoch_ * 1000);
+    }
     iface->retry_at = 0;  // open at the next housekeeping pass
   }
   const auto subject = LogSubject::interface(ic.name);
@@ -182,22 +259,27 @@ Daemon::Interface& Daemon::ensure_interface(const config::InterfaceConfig& ic) {
   iface->bit_rate_kbit = kbit;
   core_.set_bus_bit_rate(iface->bus, config::bit_rate_selector(kbit));
   iface->bus_model = ic.bus_model;
-  apply_bus_model(*iface, io::kernel_link(ic.name));
+  apply_bus_model(*iface, iface->tcp ? io::KernelLink{} : io::kernel_link(ic.name));
   iface->configured = true;
   return *iface;
 }
 
 // Timed on a virtual bus unless `bus_model: ideal`; a real CAN controller
-// paces its own bus (README "The bus model"). A missing interface counts as
+// paces its own bus (docs/bus-model.md). A missing interface counts as
 // virtual until it appears.
 void Daemon::apply_bus_model(Interface& iface, const io::KernelLink& link) {
   iface.real_can = link.real_can();
   const bool timed = !iface.real_can && iface.bus_model != config::BusModelChoice::kIdeal;
   const io::BusModel model = timed ? io::BusModel::kTimed : io::BusModel::kIdeal;
-  if (core_.bus_model(iface.bus) == model) return;
-  core_.set_bus_model(iface.bus, model);
+  const bool changed = core_.bus_model(iface.bus) != model;
+  if (changed) core_.set_bus_model(iface.bus, model);
+  core_.update_pacer(iface.bus);
+  // Frames leave in sendmmsg batches at the end of a loop pass, except on a
+  // bus the loop paces: there each is written when it ends (the pass's other
+  // work would make it late, and the next one follows from then).
+  iface.can.set_deferred(!timed || core_.bus_pacer(iface.bus) == io::Pacer::kAhead);
   const auto subject = LogSubject::interface(iface.can.name());
-  if (iface.real_can && iface.bus_model == config::BusModelChoice::kTimed)
+  if (changed && iface.real_can && iface.bus_model == config::BusModelChoice::kTimed)
     spdlog::info("{}: a real CAN controller paces this bus itself: bus_model: timed has no effect", iface.can.name());
 }
 
@@ -216,37 +298,64 @@ void Daemon::on_can_events(Interface& iface, std::uint32_t events) {
     }
   }
   if (events & EPOLLOUT) drain(iface, now);
+  if (events & EPOLLERR) iface.can.resend_dropped();
   flush(now);  // the answers to what was just read
 }
 
 // A real controller's error frames: its nodes react as their devices do, the
-// journal and the control API's subscribers hear of it.
+// journal and the control API's subscribers hear of it. The journal lines
+// are rate-limited (a flapping controller may send thousands a second), each
+// says what changed; error frames on a virtual bus are counted, not obeyed.
 void Daemon::take_controller_reports(Interface& iface, TimeUs now) {
   io::ControllerReport r;
   while (iface.can.take_report(r)) {
     if (r.event.state_changed || r.event.frames_lost) core_.controller_event(iface.bus, r.event, now);
-    const auto subject = LogSubject::interface(iface.can.name());
-    const std::string& name = iface.can.name();
-    const std::size_t nodes = core_.node_count(iface.bus);
-    std::string counters;
-    if (r.tx_errors >= 0) counters = fmt::format(", TX errors {}, RX errors {}", r.tx_errors, r.rx_errors);
-    if (r.event.state_changed) {
-      const char* now_name = io::can_state_name(r.event.state);
-      const char* was = io::can_state_name(r.before);
-      if (r.event.state == CanState::kBusOff)
-        spdlog::error("{}: CAN controller bus-off (was {}{}): its {} node(s) are off the bus", name, was, counters, nodes);
-      else if (r.event.state == CanState::kErrorActive)
-        spdlog::info("{}: CAN controller {} ({}was {}): its {} node(s) are on the bus", name, now_name,
-                     r.restarted ? "restarted, " : "", was, nodes);
-      else
-        spdlog::warn("{}: CAN controller {} (was {}{})", name, now_name, was, counters);
-      if (control_) control_->bus_state_changed(name, r.before, r.event.state, now);
-    }
-    if (r.event.frames_lost)
-      spdlog::warn("{}: CAN controller lost frames ({}{}{})", name, r.rx_overflow ? "RX overflow" : "",
-                   r.rx_overflow && r.tx_overflow ? ", " : "", r.tx_overflow ? "TX overflow" : "");
-    if (r.tx_timeout) spdlog::warn("{}: transmission timed out (driver)", name);
+    if (r.event.state_changed && control_) control_->bus_state_changed(iface.can.name(), r.before, r.event.state, now);
+    log_controller_report(iface, r, now);
   }
+  report_ignored_error_frames(iface, now);
+}
+
+void Daemon::log_controller_report(Interface& iface, const io::ControllerReport& r, TimeUs now) {
+  const auto subject = LogSubject::interface(iface.can.name());
+  const std::string& name = iface.can.name();
+  const auto line = [&](spdlog::level::level_enum level, const std::string& text) {
+    if (iface.controller_lines.allow(now)) spdlog::log(level, "{}{}", text, iface.controller_lines.take_held());
+  };
+  std::string counters;
+  if (r.tx_errors >= 0) counters = fmt::format(", TX errors {}, RX errors {}", r.tx_errors, r.rx_errors);
+  if (r.merged) counters += fmt::format(", {} report(s) merged in a flood", r.merged);
+  if (r.event.state_changed) {
+    const char* now_name = io::can_state_name(r.event.state);
+    const char* was = io::can_state_name(r.before);
+    const std::size_t nodes = core_.node_count(iface.bus);
+    if (r.event.state == CanState::kBusOff)
+      line(spdlog::level::err, fmt::format("{}: CAN controller bus-off (was {}{}): its {} node(s) are off the bus",
+                                           name, was, counters, nodes));
+    else if (r.event.state == CanState::kErrorActive)
+      line(spdlog::level::info, fmt::format("{}: CAN controller {} ({}was {}{}): its {} node(s) are on the bus", name,
+                                            now_name, r.restarted ? "restarted, " : "", was, counters, nodes));
+    else line(spdlog::level::warn, fmt::format("{}: CAN controller {} (was {}{})", name, now_name, was, counters));
+  }
+  if (r.rx_overflow || r.tx_overflow)
+    line(spdlog::level::warn, fmt::format("{}: CAN controller lost frames ({})", name,
+                                          r.rx_overflow && r.tx_overflow ? "RX and TX overflow"
+                                          : r.rx_overflow                ? "RX overflow"
+                                                                         : "TX overflow"));
+  if (r.tx_timeout) line(spdlog::level::warn, fmt::format("{}: transmission timed out (driver)", name));
+}
+
+// At most one line per kControllerLinePeriod with the count since the last.
+void Daemon::report_ignored_error_frames(Interface& iface, TimeUs now) {
+  const std::uint64_t ignored = iface.can.stats().error_frames_ignored;
+  if (ignored == iface.ignored_reported || now < iface.next_ignored_line) return;
+  const auto subject = LogSubject::interface(iface.can.name());
+  spdlog::warn(
+      "{}: {} error frame(s) from the wire ignored: a virtual bus has no CAN controller (some program wrote "
+      "them), its {} node(s) stay error-active",
+      iface.can.name(), ignored - iface.ignored_reported, core_.node_count(iface.bus));
+  iface.ignored_reported = ignored;
+  iface.next_ignored_line = now + kControllerLinePeriod;
 }
 
 void Daemon::drain(Interface& iface, TimeUs now) {
@@ -260,8 +369,10 @@ void Daemon::drain(Interface& iface, TimeUs now) {
 // Frames are sent deferred: what one pass of the loop produced leaves in
 // sendmmsg batches (CanInterface::set_deferred).
 void Daemon::flush(TimeUs now) {
-  for (auto& i : interfaces_)
+  for (auto& i : interfaces_) {
     if (i->can.wants_write() && i->drain_at == kNever) drain(*i, now);
+    if (i->tcp) i->tcp->flush();
+  }
 }
 
 void Daemon::sweep_interfaces(TimeUs now) {
@@ -280,26 +391,36 @@ void Daemon::sweep_interfaces(TimeUs now) {
     std::uint32_t want = EPOLLIN | (i.can.wants_write() && i.drain_at == kNever ? EPOLLOUT : 0u);
     i.can.take_interest_changed();
     if (want != i.mask) {
-      loop_.modify(i.can.fd(), want, &i);
-      i.mask = want;
+      if (!loop_.modify(i.can.fd(), want, &i))
+        spdlog::warn("{}: {} (writes wait for the next pass)", i.can.name(), loop_.error());
+      else i.mask = want;
     }
   }
 }
 
 void Daemon::try_open(Interface& i, TimeUs now) {
+  if (i.tcp) return try_listen(i, now);
   const auto subject = LogSubject::interface(i.can.name());
-  if (i.can.open()) {
-    loop_.add(i.can.fd(), EPOLLIN, &i);
+  std::string refused;  // the loop's reason, when it could not watch an open interface
+  if (i.can.open() && !loop_.add(i.can.fd(), EPOLLIN, &i)) {
+    refused = loop_.error();
+    i.can.close();
+  }
+  if (i.can.is_open()) {
     i.in_epoll = true;
     i.mask = EPOLLIN;
     i.retry_at = kNever;
     apply_bus_model(i, io::kernel_link(i.can.name()));
-    const char* model = i.real_can ? "paced by its controller"
-                        : core_.bus_model(i.bus) == io::BusModel::kTimed ? "timed bus" : "ideal bus";
+    std::string model = i.real_can                                       ? "paced by its controller"
+                        : core_.bus_model(i.bus) == io::BusModel::kIdeal ? "ideal bus"
+                        : core_.bus_pacer(i.bus) == io::Pacer::kAhead
+                            ? fmt::format("timed bus paced by the kernel ({}, delta {} µs)", i.can.pacing().why,
+                                          i.can.pacing().delta_ns / 1000)
+                            : "timed bus paced by the loop (" + i.can.pacing().why + ")";
     if (i.reported_down)
-      spdlog::info("{}: interface is back, {} node(s) on the bus again", i.can.name(), core_.node_count(i.bus));
-    else
-      spdlog::info("{}: open, {} kbit/s, {}", i.can.name(), i.bit_rate_kbit, model);
+      spdlog::info("{}: interface is back, {} node(s) on the bus again, {}", i.can.name(), core_.node_count(i.bus),
+                   model);
+    else spdlog::info("{}: open, {} kbit/s, {}", i.can.name(), i.bit_rate_kbit, model);
     i.reported_down = false;
     take_controller_reports(i, now);
     return;
@@ -307,16 +428,62 @@ void Daemon::try_open(Interface& i, TimeUs now) {
   i.retry_at = now + kRetryPeriod;
   if (!i.reported_down || now - i.last_down_log >= kDownReminder) {
     spdlog::warn("{}: {}; its {} node(s) keep running off the bus, retrying every second", i.can.name(),
-                 i.can.error(), core_.node_count(i.bus));
+                 refused.empty() ? i.can.error() : refused, core_.node_count(i.bus));
     i.reported_down = true;
     i.last_down_log = now;
   }
 }
 
+// A socketcand bus listens (docs/socketcand.md). At start a failure is
+// fatal (READY=1 would announce a bus nobody can reach); later, as a
+// missing kernel interface, it is retried every second.
+void Daemon::try_listen(Interface& i, TimeUs now) {
+  const auto subject = LogSubject::interface(i.can.name());
+  if (!i.tcp->listen()) {
+    if (starting_) throw std::runtime_error(i.can.name() + ": cannot listen on " + i.tcp->error());
+    i.retry_at = now + kRetryPeriod;
+    if (!i.reported_down || now - i.last_down_log >= kDownReminder) {
+      spdlog::warn("{}: cannot listen on {}; its {} node(s) keep running off the bus, retrying every second",
+                   i.can.name(), i.tcp->error(), core_.node_count(i.bus));
+      i.reported_down = true;
+      i.last_down_log = now;
+    }
+    return;
+  }
+  i.retry_at = kNever;
+  i.reported_down = false;
+  const char* model = core_.bus_model(i.bus) == io::BusModel::kTimed ? "timed bus" : "ideal bus";
+  const std::string where = endpoint(i.tcp->host(), i.tcp->port());
+  spdlog::info("{}: socketcand on {}, {} kbit/s, {}", i.can.name(), where, i.bit_rate_kbit, model);
+  if (!config::is_loopback_address(i.tcp->host()))
+    spdlog::warn(
+        "{}: socketcand on {} serves anyone who reaches it (allow_remote: true): the protocol has no "
+        "authentication",
+        i.can.name(), where);
+}
+
+void Daemon::write_address_file() const {
+  if (settings_.address_file.empty()) return;
+  const std::string tmp = settings_.address_file + ".tmp";
+  {
+    std::ofstream f(tmp, std::ios::trunc);
+    for (const auto& i : interfaces_)
+      if (i->configured && i->tcp && i->tcp->listening())
+        f << i->can.name() << ' ' << i->tcp->host() << ' ' << i->tcp->port() << '\n';
+    if (!f) {
+      spdlog::error("{}: cannot write the address file", tmp);
+      return;
+    }
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, settings_.address_file, ec);
+  if (ec) spdlog::error("{}: cannot write the address file: {}", settings_.address_file, ec.message());
+}
+
 void Daemon::housekeeping(TimeUs now) {
   for (auto& ip : interfaces_) {
     Interface& i = *ip;
-    if (i.retry_at <= now && i.configured && !i.can.is_open()) try_open(i, now);
+    if (i.retry_at <= now && i.configured && !i.up()) try_open(i, now);
     if (i.drain_at <= now) {
       std::uint64_t before = i.can.stats().tx;
       i.can.drain();
@@ -331,13 +498,20 @@ void Daemon::housekeeping(TimeUs now) {
     next_watchdog_ = now + TimeUs(watchdog_us_ / 4);
   }
   if (now >= next_status_) report_status(now);
+  if (now >= trim_at_) trim_at_ = free_memory_.release() ? kNever : now + kTrimDelay;
+}
+
+void Daemon::trim_later() {
+  if (trim_at_ == kNever) trim_at_ = clock_now() + kTrimDelay;
 }
 
 TimeUs Daemon::housekeeping_deadline() const {
-  TimeUs t = std::min(next_status_, watchdog_us_ ? next_watchdog_ : kNever);
+  TimeUs t = std::min({next_status_, watchdog_us_ ? next_watchdog_ : kNever, trim_at_});
   for (const auto& i : interfaces_) {
-    if (i->configured && !i->can.is_open()) t = std::min(t, i->retry_at);
+    if (i->configured && !i->up()) t = std::min(t, i->retry_at);
     t = std::min(t, i->drain_at);
+    if (i->tcp) t = std::min(t, i->tcp->next_deadline());
+    t = std::min(t, i->scheduled.next());
   }
   return t;
 }
@@ -354,24 +528,39 @@ void Daemon::report_status(TimeUs now) {
   std::size_t up = 0;
   for (const auto& i : interfaces_) {
     if (!i->configured) continue;
-    up += i->can.is_open();
-    const std::uint64_t frames = i->can.stats().rx + i->can.stats().tx;
-    // 111 bits per 8-byte frame without stuffing (bus_load.hpp).
-    if (dt > 0 && i->bit_rate_kbit) i->measured_load = double(frames - i->last_frames) * 111.0 / dt / (i->bit_rate_kbit * 1000.0);
-    i->last_frames = frames;
+    up += i->up();
     std::uint64_t drops = i->can.take_new_drops();
     const auto subject = LogSubject::interface(i->can.name());
     if (drops && i->can.is_open())
       spdlog::warn("{}: {} frame(s) dropped in the last {:.0f} s (kernel queue full)", i->can.name(), drops, dt);
+    const io::CanStats& cs = i->can.stats();
+    if (cs.tx_resent > i->resent_reported)
+      spdlog::warn(
+          "{}: the kernel released {} frame(s) too late in the last {:.0f} s (its timers lagged by more than "
+          "the ETF qdisc's delta of {} µs) and dropped them: sent again at once, after their place",
+          i->can.name(), cs.tx_resent - i->resent_reported, dt, i->can.pacing().delta_ns / 1000);
+    if (cs.tx_late > i->late_reported)
+      spdlog::info(
+          "{}: {} frame(s) reached the kernel after their time in the last {:.0f} s (a late loop pass): "
+          "the bus slipped",
+          i->can.name(), cs.tx_late - i->late_reported, dt);
+    i->resent_reported = cs.tx_resent;
+    i->late_reported = cs.tx_late;
     const io::BusLoad load = core_.bus_load(i->bus);
     if (load.dropped > i->bus_drops_reported)
-      spdlog::warn("{}: {} frame(s) dropped in the last {:.0f} s: the bus's queue of {} frames was full (offered {:.0f} % "
-                   "of {} kbit/s over 10 s)",
-                   i->can.name(), load.dropped - i->bus_drops_reported, dt, load.queue_capacity, load.offered_10s * 100,
-                   i->bit_rate_kbit);
+      spdlog::warn(
+          "{}: {} frame(s) dropped in the last {:.0f} s: the bus's queue of {} frames was full (offered {:.0f} % "
+          "of {} kbit/s over 10 s)",
+          i->can.name(), load.dropped - i->bus_drops_reported, dt, load.queue_capacity, load.offered_10s * 100,
+          i->bit_rate_kbit);
     i->bus_drops_reported = load.dropped;
+    report_ignored_error_frames(*i, now);
+    if (i->controller_lines.summary_due(now))
+      spdlog::warn("{}: CAN controller {} now{}", i->can.name(), io::can_state_name(i->can.controller_state()),
+                   i->controller_lines.take_held());
   }
-  std::size_t configured = std::count_if(interfaces_.begin(), interfaces_.end(), [](const auto& i) { return i->configured; });
+  std::size_t configured =
+      std::count_if(interfaces_.begin(), interfaces_.end(), [](const auto& i) { return i->configured; });
   char buf[160];
   std::snprintf(buf, sizeof buf, "STATUS=%zu node(s), %zu/%zu interface(s) up, %.0f frames/s out, %.0f in",
                 core_.node_count(), up, configured, frames_per_s_, in_per_s);
@@ -379,13 +568,17 @@ void Daemon::report_status(TimeUs now) {
   spdlog::debug("{}", buf + 7);
 }
 
-void Daemon::check_bus_load() {
+Traffic Daemon::offered(const Interface& i) const {
+  Traffic t;
+  for (const std::string& key : i.node_keys) t += estimate_traffic(core_.node(nodes_.at(key).ref));
+  return t;
+}
+
+void Daemon::check_bus_load(const std::set<Interface*>& only) {
   for (const auto& ip : interfaces_) {
-    if (!ip->configured) continue;
+    if (!ip->configured || (!only.empty() && !only.count(ip.get()))) continue;
     const auto subject = LogSubject::interface(ip->can.name());
-    Traffic t;
-    for (const auto& [key, e] : nodes_)
-      if (core_.bus_of(e.ref) == ip->bus) t += estimate_traffic(core_.node(e.ref));
+    const Traffic t = offered(*ip);
     double capacity = double(ip->bit_rate_kbit) * 1000.0;
     double load = capacity > 0 ? t.bits_per_s / capacity : 0;
     double worst = capacity > 0 ? t.stuffed_bits_per_s / capacity : 0;
@@ -415,14 +608,31 @@ void Daemon::check_ready() {
   for (const auto& [bus, mark] : ready_marks_)
     if (core_.bus_holds_before(bus, mark)) return;
   ready_pending_ = false;
+  write_address_file();
   notify("READY=1");
 }
 
 // ---------------------------------------------------------------- fleet changes
 
+// A running bus keeps its transport and listen address: the loop core's bus
+// holds its transport (throws config::ConfigError, changing nothing).
+void Daemon::check_transports(const std::vector<config::InterfaceConfig>& interfaces, const std::string& file) const {
+  for (const auto& ic : interfaces)
+    for (const auto& i : interfaces_) {
+      if (i->can.name() != ic.name) continue;
+      const bool moved = i->tcp && (i->tcp->host() != ic.listen_host ||
+                                    (ic.listen_port != 0 && i->tcp->listening() && i->tcp->port() != ic.listen_port));
+      if (bool(i->tcp) != ic.socketcand() || moved)
+        throw config::ConfigError(file + ": interfaces." + ic.name +
+                                  ": its transport and listen address stay as cansimd started them (restart cansimd "
+                                  "to change them)");
+    }
+}
+
 struct Daemon::Pending {
   const config::NodeConfig* cfg;
   std::unique_ptr<Application> app;
+  std::uint64_t source = kFileSource;
 };
 
 void Daemon::remove_node(NodeEntry& e) {
@@ -430,87 +640,146 @@ void Daemon::remove_node(NodeEntry& e) {
   e.ref = io::kNoNode;
 }
 
-void Daemon::apply(config::FleetConfig cfg, TimeUs now) {
-  const std::uint64_t seed = settings_.seed.value_or(cfg.seed);
-  // Phase 1 (may throw): decide what changes and build the new applications,
-  // so an invalid reload leaves the running fleet untouched.
-  std::set<std::string> wanted;
-  std::vector<Pending> to_add = plan(cfg, seed, wanted);
-  // Phase 2: interfaces, removals, additions.
+Daemon::Interface* Daemon::interface_named(const std::string& name) {
+  for (auto& i : interfaces_)
+    if (i->can.name() == name) return i.get();
+  return nullptr;
+}
+
+std::uint64_t Daemon::fleet_seed() const { return settings_.seed.value_or(file_config_.seed); }
+
+// The whole fleet, as at start, at every reload and at a reset (`erase`:
+// the stored parameters that go, every node rebuilt): every node is checked
+// against what runs (its digest, seed, interface and bus rate).
+void Daemon::apply(Combined cfg, TimeUs now, const std::set<std::string>* erase) {
+  if (settings_.socketcand) serve_as_socketcand(cfg.interfaces);
+  const std::uint64_t seed = fleet_seed();
+  const config::PlantsConfig& plants = file_config_.plants;  // only the file has them
+  // Phase 1 (may throw): decide what changes and build the new plants and
+  // applications, so an invalid reload leaves the running fleet untouched.
+  // Plants change with their section or the seed (a Reset starts them
+  // afresh too, as every node); the nodes that read them restart with them.
+  std::unique_ptr<physics::PlantSet> new_plants;
+  std::unique_ptr<physics::PlantSetResolver> new_resolver;
+  if (!plants_built_ || erase || plants.fingerprint != plants_.config().fingerprint || seed != plants_seed_) {
+    new_plants = PlantWiring::build(plants, seed);
+    new_resolver = std::make_unique<physics::PlantSetResolver>(*new_plants);
+  }
+  check_transports(cfg.interfaces, file_config_.file);
+  const std::uint64_t generation = ++generation_;
+  std::vector<Pending> to_add = plan(cfg, seed, generation, erase != nullptr,
+                                     new_resolver ? new_resolver.get() : plants_.resolver(), new_plants != nullptr);
+  // Phase 2: interfaces, removals, plants, additions.
+  plants_.detach(core_.now());
+  std::set<Interface*> touched;
   for (auto& i : interfaces_) i->configured = false;
-  for (const auto& ic : cfg.interfaces) ensure_interface(ic);
-  const auto [removed, changed] = remove_stale(wanted, to_add);
+  for (const auto& ic : cfg.interfaces) {
+    const bool fresh = !interface_named(ic.name);
+    Interface& i = ensure_interface(ic);
+    if (fresh) touched.insert(&i);
+  }
+  declare_all();
+  index_ = std::move(cfg.index);
+  for (const Pending& p : to_add)
+    if (auto it = nodes_.find(p.cfg->key); it != nodes_.end()) it->second.restart = true;
+  std::size_t removed = 0, restarted = 0;
+  for (auto it = nodes_.begin(); it != nodes_.end();) {
+    if (!it->second.restart && it->second.seen == generation) {
+      ++it;
+      continue;
+    }
+    (it->second.restart ? restarted : removed) += 1;
+    if (Interface* i = interface_named(it->second.cfg.interface); i && i->configured) touched.insert(i);
+    it = drop_node(it, it->second.restart ? "changed, restarting" : "removed");
+  }
+  (void)now;
+  if (erase)
+    for (const std::string& key : *erase) erase_stored(key);
+  if (new_plants) {
+    plants_.replace(std::move(new_plants), plants);
+    plants_seed_ = seed;
+    plants_built_ = true;
+  }
+  start_nodes(to_add, seed, restarted, removed, cfg.interfaces.size());
+  for (const Pending& p : to_add) touched.insert(interface_named(p.cfg->interface));
+  if (!touched.empty()) check_bus_load(touched);
+}
+
+// Adds the planned nodes, binds the plants' inputs again, opens new
+// interfaces, powers the nodes on and says what changed. `restarted` of them
+// replace running nodes.
+void Daemon::start_nodes(std::vector<Pending>& to_add, std::uint64_t seed, std::size_t restarted, std::size_t removed,
+                         std::size_t interfaces) {
   std::vector<io::NodeRef> fresh;
   std::vector<BitRateMismatch> mismatched;  // (re)started nodes at another rate than their bus: one warning per entry
   for (Pending& p : to_add) fresh.push_back(add_node(p, seed, mismatched));
+  attach_plants(core_.now());
   close_unconfigured_interfaces();
   // Open new interfaces now, so the boot-up frames reach the bus. Building
   // the nodes took time: they power on now, not when the reload began (their
   // heartbeat would come early by as much).
-  now = clock_now();
+  const TimeUs now = clock_now();
   for (auto& i : interfaces_)
-    if (i->configured && !i->can.is_open() && i->retry_at <= now) try_open(*i, now);
+    if (i->configured && !i->up() && i->retry_at <= now) try_open(*i, now);
   for (io::NodeRef ref : fresh) core_.power_on(ref, now);
-  spdlog::info("fleet: {} node(s) on {} interface(s); {} started, {} restarted, {} removed", nodes_.size(),
-               cfg.interfaces.size(), fresh.size() - changed, changed, removed);
+  spdlog::info("fleet: {} node(s) on {} interface(s); {} started, {} restarted, {} removed", nodes_.size(), interfaces,
+               fresh.size() - restarted, restarted, removed);
   for (const BitRateMismatch& m : mismatched) {
     const auto subject = LogSubject::interface(m.interface);
     spdlog::warn("{}", describe(m));
   }
-  check_bus_load();
 }
 
-// The nodes of `cfg` that are new or changed, with their applications built;
-// `wanted` receives every key of `cfg`.
-std::vector<Daemon::Pending> Daemon::plan(const config::FleetConfig& cfg, std::uint64_t seed,
-                                          std::set<std::string>& wanted) {
-  auto bus_rate = [&](const std::string& iface) {
-    return config::bit_rate_selector(resolve_bit_rate(*cfg.interface(iface)));
-  };
+// The nodes of `cfg` that are new or changed (all of them for a `rebuild`,
+// and those that read plants when the plants are replaced), with their
+// applications built; every running node `cfg` keeps is marked seen in
+// `generation`.
+std::vector<Daemon::Pending> Daemon::plan(const Combined& cfg, std::uint64_t seed, std::uint64_t generation,
+                                          bool rebuild, const physics::PlantResolver* plants, bool plants_replaced) {
+  std::map<std::string, std::uint8_t> bus_rates;  // each interface asked once (the kernel's rate)
+  for (const auto& ic : cfg.interfaces) bus_rates[ic.name] = config::bit_rate_selector(resolve_bit_rate(ic));
   std::vector<Pending> to_add;
-  for (const auto& n : cfg.nodes) {
-    wanted.insert(n.key);
+  for (const auto& [node, source] : cfg.nodes) {
+    const config::NodeConfig& n = *node;
     auto it = nodes_.find(n.key);
-    if (it != nodes_.end() && it->second.cfg.fingerprint == n.fingerprint && it->second.seed == seed &&
-        it->second.cfg.interface == n.interface && it->second.bus_rate == bus_rate(n.interface))
+    // A node built on the plants that go would read freed plants.
+    if (!rebuild && it != nodes_.end() && it->second.cfg.fingerprint == n.fingerprint && it->second.seed == seed &&
+        it->second.cfg.interface == n.interface && it->second.bus_rate == bus_rates.at(n.interface) &&
+        !(plants_replaced && config::reads_plant(*n.profile))) {
+      it->second.seen = generation;
       continue;
-    to_add.push_back({&n, make_node_application(n, seed, settings_.state_dir)});
+    }
+    to_add.push_back({&n, make_node_application(n, seed, settings_.state_dir, plants), source});
   }
   return to_add;
 }
 
-// Removes the running nodes that are no longer wanted or are about to be
-// replaced; returns how many of each.
-std::pair<std::size_t, std::size_t> Daemon::remove_stale(const std::set<std::string>& wanted,
-                                                         const std::vector<Pending>& to_add) {
-  std::size_t removed = 0, changed = 0;
-  for (auto it = nodes_.begin(); it != nodes_.end();) {
-    bool replaced = std::any_of(to_add.begin(), to_add.end(), [&](const Pending& p) { return p.cfg->key == it->first; });
-    if (!wanted.count(it->first) || replaced) {
-      const auto subject = LogSubject::node(it->first);
-      spdlog::info("{}: node 0x{:02X} {}", it->first, it->second.cfg.node_id, replaced ? "changed, restarting" : "removed");
-      (replaced ? changed : removed) += 1;
-      if (control_) control_->node_removed(it->first);
-      remove_node(it->second);
-      it = nodes_.erase(it);
-    } else {
-      ++it;
-    }
+// The node falls silent and leaves the loop, the control API and its
+// interface; returns the next entry.
+std::map<std::string, Daemon::NodeEntry>::iterator Daemon::drop_node(std::map<std::string, NodeEntry>::iterator it,
+                                                                     const char* why) {
+  {
+    const auto subject = LogSubject::node(it->first);
+    spdlog::info("{}: node 0x{:02X} {}", it->first, it->second.cfg.node_id, why);
   }
-  return {removed, changed};
+  if (control_) control_->node_removed(it->first);
+  remove_node(it->second);
+  if (Interface* i = interface_named(it->second.cfg.interface)) i->node_keys.erase(it->first);
+  index_.erase(it->second.cfg);
+  trim_later();
+  return nodes_.erase(it);
 }
 
 // Adds a planned node to the loop and the control API (not yet powered).
 io::NodeRef Daemon::add_node(Pending& p, std::uint64_t seed, std::vector<BitRateMismatch>& mismatched) {
   const config::NodeConfig& n = *p.cfg;
-  Interface* iface = nullptr;
-  for (auto& i : interfaces_)
-    if (i->can.name() == n.interface) iface = i.get();
+  Interface* iface = interface_named(n.interface);
   const NodeSetup setup = node_setup(n);
   auto storage = std::make_unique<FileStorage>(settings_.state_dir, n.key);
   NodeEntry e;
   e.cfg = n;
   e.seed = seed;
+  e.source = p.source;
   e.bus_rate = config::bit_rate_selector(iface->bit_rate_kbit);
   e.ref = core_.add_node(iface->bus, setup, std::move(p.app), std::move(storage));
   if (setup.bit_rate_index != e.bus_rate) add_mismatch(mismatched, n, iface->bit_rate_kbit);
@@ -524,6 +793,8 @@ io::NodeRef Daemon::add_node(Pending& p, std::uint64_t seed, std::vector<BitRate
   e.handle.app = core_.app(e.ref);
   e.handle.emcy_codes = &e.cfg.profile->emcy_codes;
   NodeEntry& stored = nodes_[n.key] = std::move(e);
+  iface->node_keys.insert(n.key);
+  index_.insert(n);
   {
     const auto subject = LogSubject::node(n.key);
     spdlog::debug("{}: node 0x{:02X} ({}, {})", n.key, n.node_id, n.profile->name, n.profile->personality);
@@ -532,21 +803,206 @@ io::NodeRef Daemon::add_node(Pending& p, std::uint64_t seed, std::vector<BitRate
   return stored.ref;
 }
 
-void Daemon::close_unconfigured_interfaces() {
-  for (auto& i : interfaces_)
-    if (!i->configured && i->can.is_open()) {
-      const auto subject = LogSubject::interface(i->can.name());
-      spdlog::info("{}: no longer configured, closed", i->can.name());
-      i->can.close();
-      i->in_epoll = false;
-    }
+// The plants' inputs bound to the running nodes and interfaces.
+void Daemon::attach_plants(TimeUs now) {
+  plants_.attach(
+      [this](const std::string& key) {
+        auto it = nodes_.find(key);
+        return it == nodes_.end() ? io::kNoNode : it->second.ref;
+      },
+      [this](const std::string& name, io::BusId& bus) {
+        for (const auto& i : interfaces_)
+          if (i->configured && i->can.name() == name) return bus = i->bus, true;
+        return false;
+      },
+      now);
 }
 
-config::FleetConfig Daemon::combined() const {
-  config::FleetConfig cfg = file_config_;
-  std::erase_if(cfg.nodes, [&](const config::NodeConfig& n) { return removed_.count(n.key) > 0; });
-  for (const config::FleetConfig& extra : added_) config::merge_fleet(cfg, extra);
+// An interface no configuration declares any more closes; without nodes it
+// is forgotten with its bus (queue, meter and dispatch memory go back).
+void Daemon::close_unconfigured_interfaces() {
+  for (auto it = interfaces_.begin(); it != interfaces_.end();) {
+    Interface& i = **it;
+    if (i.configured) {
+      ++it;
+      continue;
+    }
+    if (i.up()) {
+      const auto subject = LogSubject::interface(i.can.name());
+      spdlog::info("{}: no longer configured, closed", i.can.name());
+      if (i.tcp) i.tcp->close();
+      i.can.close();
+      i.in_epoll = false;
+      i.retry_at = 0;  // opened again when configured again
+    }
+    if (!i.node_keys.empty()) {
+      ++it;
+      continue;
+    }
+    std::erase_if(ready_marks_, [&](const auto& mark) { return mark.first == i.bus; });
+    core_.remove_bus(i.bus);
+    it = interfaces_.erase(it);
+  }
+}
+
+Daemon::Combined Daemon::combined() const {
+  Combined cfg;
+  std::set<std::string> declared;
+  const auto add = [&](const config::FleetConfig& part, std::uint64_t source) {
+    if (source != kFileSource) cfg.index.check(part);  // throws what merge_fleet throws
+    for (const auto& n : part.nodes)
+      if (source != kFileSource || !removed_.count(n.key)) {
+        cfg.nodes.emplace_back(&n, source);
+        cfg.index.insert(n);
+      }
+    for (const auto& ic : part.interfaces)
+      if (declared.insert(ic.name).second) cfg.interfaces.push_back(ic);
+  };
+  add(file_config_, kFileSource);
+  for (const auto& [id, extra] : added_) add(extra, id);
   return cfg;
+}
+
+// ---- who declares each interface (the file, AddNodes fragments)
+
+void Daemon::declare_all() {
+  declared_.clear();
+  for (const auto& ic : file_config_.interfaces) declared_[ic.name].emplace(kFileSource, ic);
+  for (const auto& [id, extra] : added_)
+    for (const auto& ic : extra.interfaces) declared_[ic.name].emplace(id, ic);
+}
+
+std::vector<config::InterfaceConfig> Daemon::running_interfaces() const {
+  std::vector<config::InterfaceConfig> out;
+  out.reserve(declared_.size());
+  for (const auto& [name, by] : declared_) out.push_back(by.begin()->second);
+  return out;
+}
+
+// A new fragment's interfaces: the first to declare one sets it up, as
+// combined() keeps the first declaration.
+void Daemon::declare(std::uint64_t source, const std::vector<config::InterfaceConfig>& interfaces) {
+  for (const auto& ic : interfaces) {
+    auto& by = declared_[ic.name];
+    const bool first = by.empty();
+    by.emplace(source, ic);
+    if (first) ensure_interface(ic);
+  }
+}
+
+// A fragment's interfaces once its last node left: an interface nobody
+// declares any more closes; one whose first declaration this was takes the
+// next one's settings, and its nodes whose bus rate that changes restart.
+// Returns those nodes' planned restarts.
+std::vector<Daemon::Pending> Daemon::undeclare(std::uint64_t source,
+                                               const std::vector<config::InterfaceConfig>& interfaces) {
+  std::vector<Pending> restarts;
+  for (const auto& ic : interfaces) {
+    auto d = declared_.find(ic.name);
+    if (d == declared_.end()) continue;
+    const bool was_first = d->second.begin()->first == source;
+    d->second.erase(source);
+    Interface* iface = interface_named(ic.name);
+    if (d->second.empty()) {
+      declared_.erase(d);
+      if (iface) iface->configured = false;
+      continue;
+    }
+    if (!was_first || !iface) continue;
+    ensure_interface(d->second.begin()->second);
+    const std::uint8_t rate = config::bit_rate_selector(iface->bit_rate_kbit);
+    for (const std::string& key : iface->node_keys) {
+      const NodeEntry& e = nodes_.at(key);
+      if (e.bus_rate != rate) restarts.push_back({&e.cfg, nullptr, e.source});
+    }
+  }
+  return restarts;
+}
+
+// ---- control calls: each costs what its own nodes cost
+
+std::vector<std::string> Daemon::add_nodes(const std::string& yaml) {
+  const std::uint64_t id = ++fragments_;
+  const std::string label = "<AddNodes #" + std::to_string(id) + ">";
+  config::ProfileSearch search = profile_search(settings_.config_file);
+  search.strict = settings_.strict;
+  search.strict_eds = settings_.strict_eds;
+  search.confined_to = profile_folders();
+  search.store = &profile_store_;  // the same profile file: the same Profile for every call
+  config::FleetConfig extra =
+      config::parse_fleet_fragment(yaml, label, search, running_interfaces(), nodes_.size(), file_config_.plants);
+  for (const std::string& w : load_warnings(extra)) spdlog::warn("{}", w);
+  index_.check(extra);  // throws on a collision
+  if (settings_.socketcand) serve_as_socketcand(extra.interfaces);
+  std::vector<config::InterfaceConfig> fresh_interfaces;  // an interface declared before keeps its first settings
+  for (const auto& ic : extra.interfaces)
+    if (!declared_.count(ic.name)) fresh_interfaces.push_back(ic);
+  check_transports(fresh_interfaces, file_config_.file);
+  const auto [it, fresh] = added_.emplace(id, std::move(extra));
+  const config::FleetConfig& stored = it->second;
+  const std::uint64_t seed = fleet_seed();
+  std::vector<Pending> to_add;
+  try {
+    for (const auto& n : stored.nodes)
+      to_add.push_back({&n, make_node_application(n, seed, settings_.state_dir, plants_.resolver()), id});
+  } catch (...) {
+    added_.erase(it);
+    throw;
+  }
+  declare(id, stored.interfaces);
+  start_nodes(to_add, seed, 0, 0, declared_.size());
+  std::vector<std::string> keys;
+  std::set<Interface*> touched;
+  for (const auto& n : stored.nodes) {
+    keys.push_back(n.key);
+    touched.insert(interface_named(n.interface));
+  }
+  check_bus_load(touched);
+  spdlog::info("control: added {} node(s)", keys.size());
+  return keys;
+}
+
+void Daemon::remove_node(const std::string& key) {
+  auto it = nodes_.find(key);
+  if (it == nodes_.end()) return;
+  const std::uint64_t source = it->second.source;
+  const std::string interface = it->second.cfg.interface;
+  plants_.detach(core_.now());  // bound again once the fleet is (restart())
+  drop_node(it, "removed");
+  std::vector<Pending> restarts;
+  if (source == kFileSource) {
+    removed_.insert(key);  // until the next reload
+  } else if (auto f = added_.find(source); f != added_.end()) {
+    std::erase_if(f->second.nodes, [&](const config::NodeConfig& n) { return n.key == key; });
+    if (f->second.nodes.empty()) {  // and its profiles and interfaces
+      restarts = undeclare(source, f->second.interfaces);
+      added_.erase(f);
+    }
+  }
+  restart(restarts, 1);
+  if (Interface* i = interface_named(interface); i && i->configured) check_bus_load({i});
+}
+
+// Restarts running nodes with their configuration as it is (their bus's
+// rate changed) and says what changed (`removed` nodes left before).
+void Daemon::restart(std::vector<Pending>& planned, std::size_t removed) {
+  const std::uint64_t seed = fleet_seed();
+  std::vector<config::NodeConfig> configs;  // copies: dropping a node destroys its entry
+  configs.reserve(planned.size());
+  for (Pending& p : planned) configs.push_back(*p.cfg);
+  try {
+    for (std::size_t i = 0; i < planned.size(); ++i) {
+      planned[i].cfg = &configs[i];
+      planned[i].app = make_node_application(configs[i], seed, settings_.state_dir, plants_.resolver());
+    }
+  } catch (const std::exception& e) {  // they run on at the old rate until the next reload
+    spdlog::error("fleet: {} node(s) not restarted at their bus's new bit rate: {}", planned.size(), e.what());
+    planned.clear();
+    configs.clear();
+  }
+  plants_.detach(core_.now());  // bound again as they start
+  for (const auto& n : configs) drop_node(nodes_.find(n.key), "changed, restarting");
+  start_nodes(planned, seed, planned.size(), removed, declared_.size());
 }
 
 void Daemon::reload(TimeUs now) {
@@ -573,6 +1029,7 @@ void Daemon::reload() {
     }
   } ready{*this};
   config::FleetConfig fresh = settings_.load();
+  profile_store_.put_all(fresh);
   std::swap(file_config_, fresh);
   std::set<std::string> removed;
   std::swap(removed_, removed);  // the file's nodes come back
@@ -581,7 +1038,38 @@ void Daemon::reload() {
   } catch (...) {
     std::swap(file_config_, fresh);
     std::swap(removed_, removed);
+    declare_all();
     throw;
+  }
+}
+
+// Throws config::ConfigError with the running fleet untouched.
+void Daemon::reset() {
+  std::set<std::string> keys;  // whose stored parameters go: the running nodes and the file's
+  for (const auto& [key, e] : nodes_) keys.insert(key);
+  for (const auto& n : file_config_.nodes) keys.insert(n.key);
+  std::map<std::uint64_t, config::FleetConfig> added;
+  std::set<std::string> removed;
+  std::swap(added_, added);
+  std::swap(removed_, removed);
+  try {
+    apply(combined(), clock_now(), &keys);
+  } catch (...) {
+    std::swap(added_, added);
+    std::swap(removed_, removed);
+    declare_all();
+    throw;
+  }
+  spdlog::info("control: fleet reset to power-on: {} node(s), stored parameters erased", nodes_.size());
+}
+
+// A node's stored parameters, erased (Reset): its next load finds none.
+void Daemon::erase_stored(const std::string& key) {
+  std::error_code ec;
+  const std::string path = FileStorage(settings_.state_dir, key).path();
+  if (!std::filesystem::remove(path, ec) && ec) {
+    const auto subject = LogSubject::node(key);
+    spdlog::warn("{}: cannot erase its stored parameters {}: {}", key, path, ec.message());
   }
 }
 
@@ -597,38 +1085,6 @@ std::vector<const control::NodeHandle*> Daemon::nodes() const {
 const control::NodeHandle* Daemon::find(const std::string& key) const {
   auto it = nodes_.find(key);
   return it == nodes_.end() ? nullptr : &it->second.handle;
-}
-
-std::vector<std::string> Daemon::add_nodes(const std::string& yaml) {
-  const std::string label = "<AddNodes #" + std::to_string(++fragments_) + ">";
-  config::FleetConfig running = combined();
-  config::ProfileSearch search = profile_search(settings_.config_file);
-  search.strict = settings_.strict;
-  search.strict_eds = settings_.strict_eds;
-  search.confined_to = profile_folders();
-  config::FleetConfig extra = config::parse_fleet_fragment(yaml, label, search, running);
-  for (const std::string& w : load_warnings(extra)) spdlog::warn("{}", w);
-  config::merge_fleet(running, extra);  // throws on a collision
-  added_.push_back(extra);
-  try {
-    apply(std::move(running), clock_now());
-  } catch (...) {
-    added_.pop_back();
-    throw;
-  }
-  std::vector<std::string> keys;
-  for (const auto& n : extra.nodes) keys.push_back(n.key);
-  spdlog::info("control: added {} node(s)", keys.size());
-  return keys;
-}
-
-void Daemon::remove_node(const std::string& key) {
-  bool runtime = false;
-  for (config::FleetConfig& extra : added_)
-    runtime |= std::erase_if(extra.nodes, [&](const config::NodeConfig& n) { return n.key == key; }) > 0;
-  if (!runtime) removed_.insert(key);
-  std::erase_if(added_, [](const config::FleetConfig& f) { return f.nodes.empty(); });  // and their profiles
-  apply(combined(), clock_now());
 }
 
 // Where AddNodes may take profiles from: the profile search folders, the
@@ -653,13 +1109,19 @@ std::vector<control::BusStatistics> Daemon::buses() const {
     if (!i.configured) continue;
     control::BusStatistics b;
     b.name = i.can.name();
-    b.up = i.can.is_open();
+    b.up = i.up();
     b.bit_rate_kbit = i.bit_rate_kbit;
-    b.frames_in = i.can.stats().rx;
-    b.frames_out = i.can.stats().tx;
-    b.drops = i.can.stats().tx_dropped;
+    b.frames_in = i.frames_in();
+    b.frames_out = i.frames_out();
+    b.drops = i.tcp ? i.tcp->stats().frames_lost : i.can.stats().tx_dropped;
     b.offline = i.can.stats().tx_offline;
-    b.measured_load = i.measured_load;
+    if (i.tcp) {
+      b.transport = "socketcand";
+      b.listen_host = i.tcp->host();
+      b.listen_port = i.tcp->listening() ? i.tcp->port() : 0;
+      b.clients = i.tcp->clients();
+    }
+    b.measured_load = core_.bus_load(i.bus).carried_10s;  // the one figure: at most 100 %
     b.model = i.real_can ? "controller" : core_.bus_model(i.bus) == io::BusModel::kTimed ? "timed" : "ideal";
     b.state = i.can.controller_state();
     b.load = core_.bus_load(i.bus);
@@ -674,9 +1136,7 @@ std::vector<control::BusStatistics> Daemon::bus_statistics() const {
     const Interface* i = nullptr;
     for (const auto& ip : interfaces_)
       if (ip->configured && ip->can.name() == b.name) i = ip.get();
-    Traffic t;
-    for (const auto& [key, e] : nodes_)
-      if (core_.bus_of(e.ref) == i->bus) t += estimate_traffic(core_.node(e.ref));
+    const Traffic t = offered(*i);
     b.offered_load = i->bit_rate_kbit ? t.bits_per_s / (i->bit_rate_kbit * 1000.0) : 0;
   }
   return out;
@@ -684,8 +1144,25 @@ std::vector<control::BusStatistics> Daemon::bus_statistics() const {
 
 bool Daemon::interface_up(const std::string& name) const {
   for (const auto& i : interfaces_)
-    if (i->configured && i->can.name() == name) return i->can.is_open();
+    if (i->configured && i->can.name() == name) return i->up();
   return false;
+}
+
+std::size_t Daemon::queue_frames(const std::string& interface, const std::vector<control::ScheduledFrame>& frames) {
+  for (auto& i : interfaces_) {
+    if (!i->configured || i->can.name() != interface) continue;
+    std::size_t taken = 0;
+    while (taken < frames.size() && i->scheduled.push(frames[taken].at, frames[taken].frame)) ++taken;
+    return taken;
+  }
+  throw std::out_of_range("no interface '" + interface + "' in the fleet");
+}
+
+// The queued frames whose time has come go to their buses, as an outside
+// participant's (a timed bus arbitrates them with the nodes' frames).
+void Daemon::release_scheduled(TimeUs now) {
+  for (auto& i : interfaces_)
+    i->scheduled.release(now, [&](const CanFrame& f) { core_.submit(i->bus, f, io::kReplayParticipant, now); });
 }
 
 void Daemon::log_action(const control::ActionRecord& r) {
@@ -695,7 +1172,13 @@ void Daemon::log_action(const control::ActionRecord& r) {
 
 void Daemon::start_control() {
   control_ = std::make_unique<control::ControlService>(*this);
-  core_.set_observer(control_.get());
+  // The plants see what masters write into the nodes first, then the control API.
+  plants_.set_next(control_.get());
+  core_.set_observer(&plants_);
+  plants_.set_fault_listener([this](const std::string& plant, physics::FaultHandle id, physics::FaultKind kind,
+                                    const std::string& target, bool started, TimeUs t) {
+    control_->plant_fault_edge(plant, id, std::uint8_t(kind), target, started, t);
+  });
   endpoints_ = std::make_unique<control::ControlEndpoints>(loop_, *control_, settings_.max_clients);
   if (settings_.control_socket != "none") {
     const std::string path =
@@ -721,12 +1204,12 @@ void Daemon::start_control() {
 // profile's `at: 10 s` (faults, ramps, tables) means 10 s after cansimd started.
 TimeUs Daemon::clock_now() const { return io::monotonic_now() - epoch_; }
 
-int Daemon::run() {
+void Daemon::start() {
   epoch_ = io::monotonic_now();
-  loop_.watch_signals({SIGINT, SIGTERM, SIGHUP});
   TimeUs now = clock_now();
   last_status_ = now;
   file_config_ = settings_.load();
+  profile_store_.put_all(file_config_);
   start_control();
   apply(combined(), now);
   now = clock_now();
@@ -736,11 +1219,19 @@ int Daemon::run() {
   flush(now);         // the boot-ups are on the bus before READY=1
   sweep_interfaces(now);
   report_status(now);
+  starting_ = false;
   ready_when_sent();
+}
+
+int Daemon::run() {
+  if (!loop_.watch_signals({SIGINT, SIGTERM, SIGHUP})) throw std::runtime_error(loop_.error());
+  start();
   int signal = 0;
   for (;;) {
-    now = clock_now();
+    TimeUs now = clock_now();
     core_.run_due(now);
+    release_scheduled(now);
+    plants_.run_due(core_.now());
     // Control calls act here, between two passes: atomically with respect to
     // frames. What the nodes sent before is on the wire before any answer.
     if (endpoints_->connections()) flush(now);
@@ -752,20 +1243,28 @@ int Daemon::run() {
     housekeeping(now);
     sweep_interfaces(now);
     if (ready_pending_) check_ready();
-    TimeUs next = std::min(core_.next_deadline(), housekeeping_deadline());
+    TimeUs next = std::min({core_.next_deadline(), housekeeping_deadline(), plants_.next_deadline()});
     if (control_at != kNever) next = std::min(next, control_at - epoch_);
     endpoints_->before_sleep(next == kNever ? kNever : next + epoch_);
-    loop_.arm_timer(next == kNever ? kNever : next + epoch_);
+    const bool armed = loop_.arm_timer(next == kNever ? kNever : next + epoch_);
+    if (loop_.woke_at()) {  // 0 before the first wait: start-up is no pass
+      const TimeUs end = io::monotonic_now();
+      passes_.pass(end, end - loop_.woke_at());
+      pass_cpu_.pass(end, io::thread_cpu_now() - loop_.woke_cpu());
+    }
     bool timer = false;
-    loop_.wait(-1, timer, signal);
+    if (!armed || loop_.wait(-1, timer, signal) < 0) throw std::runtime_error(loop_.error());
     if (signal == SIGHUP) reload(clock_now());
     else if (signal == SIGTERM || signal == SIGINT) break;
   }
   notify("STOPPING=1");
   spdlog::info("{}: stopping, {} node(s) fall silent", strsignal(signal), nodes_.size());
+  plants_.detach(core_.now());
   for (auto& [key, e] : nodes_) remove_node(e);
   nodes_.clear();
   endpoints_.reset();
+  std::error_code ec;
+  if (!settings_.address_file.empty()) std::filesystem::remove(settings_.address_file, ec);
   return 0;
 }
 

@@ -3,6 +3,7 @@
 #include <map>
 
 #include "config/dbc_writer.hpp"
+#include "core/protocol.hpp"
 #include "daemon/daemon.hpp"
 #include "personalities/pdo_view.hpp"
 
@@ -13,6 +14,28 @@ namespace {
 struct NoBus : FrameSink {
   void send(const CanFrame&) override {}
 };
+
+// The EMCY codes the CiA 301 services of `node` may send (its options and
+// objects say which), as CiA 301 Table 21 names them.
+std::map<std::uint16_t, std::string> core_emcy_codes(const Node& node) {
+  const NodeOptions& o = node.options();
+  const bool consumer = node.od().find(0x1016, 1) || node.od().find(0x100C, 0);  // heartbeat consumer, guarding
+  const bool rpdos = !node.pdo().rpdos().empty();
+  const std::pair<std::int64_t, const char*> codes[] = {
+      {o.can_overrun_emcy, "CAN overrun (objects lost)"},
+      {o.error_passive_emcy, "CAN in error passive mode"},
+      {o.bus_off_recovery_emcy, "recovered from bus off"},
+      {consumer ? o.heartbeat_consumer_emcy : 0, "life guard error or heartbeat error"},
+      {rpdos ? emcy::kPdoLength : 0, "PDO not processed due to length error"},
+      {rpdos && o.rpdo_length_exceeded_emcy ? emcy::kPdoLengthExceeded : 0, "PDO length exceeded"},
+      {rpdos ? emcy::kRpdoTimeout : 0, "RPDO timeout"},
+      {node.od().find(0x1005, 0) && !o.sync_accept_any_dlc ? emcy::kSyncLength : 0, "unexpected SYNC data length"},
+  };
+  std::map<std::uint16_t, std::string> out;
+  for (const auto& [code, name] : codes)
+    if (code != 0) out.emplace(std::uint16_t(code), name);
+  return out;
+}
 
 std::string chosen_interface(const config::FleetConfig& fleet, const std::string& wanted) {
   std::string names;
@@ -49,7 +72,8 @@ std::string export_dbc(const config::FleetConfig& fleet, const std::string& inte
     d.profile = n.profile->name;
     d.node_id = node.node_id();
     d.pdos = personalities::pdo_views(node);
-    d.emcy_codes = n.profile->emcy_codes;
+    d.emcy_codes = n.profile->emcy_codes;       // the device's names first
+    d.emcy_codes.merge(core_emcy_codes(node));  // then its CiA 301 services' codes it does not name
     bus.nodes.push_back(std::move(d));
   }
   return config::write_dbc(bus);

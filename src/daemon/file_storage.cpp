@@ -8,9 +8,11 @@
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
+#include <string>
 
 #include "config/limits.hpp"
 #include "core/can_frame.hpp"
+#include "core/crc32.hpp"
 #include "daemon/logging.hpp"
 
 namespace cansim::daemon {
@@ -49,15 +51,6 @@ bool write_all(int fd, const std::uint8_t* p, std::size_t n) {
 
 }  // namespace
 
-std::uint32_t crc32(std::span<const std::uint8_t> data) {
-  std::uint32_t crc = 0xFFFFFFFFu;
-  for (std::uint8_t b : data) {
-    crc ^= b;
-    for (int i = 0; i < 8; ++i) crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
-  }
-  return ~crc;
-}
-
 std::string FileStorage::file_name(const std::string& key) {
   std::string out;
   for (char c : key) {
@@ -76,24 +69,36 @@ std::string FileStorage::file_name(const std::string& key) {
 FileStorage::FileStorage(std::string dir, const std::string& key)
     : key_(key), dir_(std::move(dir)), path_(dir_ + "/" + file_name(key)) {}
 
-// Read as the loop may: without blocking (O_NONBLOCK, a regular file only:
-// a FIFO would wait for a writer, a device never end), at most
-// limits::kParameterFileBytes, and a symbolic link only into the state folder.
+// What a state file must be to be read or written through: a regular file
+// of the daemon's own with no other name ("" when it is), checked on the
+// descriptor, after an open that neither followed a link nor waited.
+const char* FileStorage::unfit(int fd) {
+  struct stat st {};
+  if (::fstat(fd, &st) != 0) return "cannot stat it";
+  if (!S_ISREG(st.st_mode)) return "not a regular file";
+  if (st.st_uid != ::geteuid()) return "not owned by cansimd's user";
+  if (st.st_nlink > 1) return "a file with another name (a hard link)";
+  if (std::size_t(st.st_size) > limits::kParameterFileBytes) return "larger than any cansimd parameter file";
+  return nullptr;
+}
+
+// Read as the loop may: without blocking (O_NONBLOCK: a FIFO would wait for
+// a writer, a device never end), never through a symbolic link (O_NOFOLLOW),
+// a regular file of the daemon's own only, at most limits::kParameterFileBytes.
 bool FileStorage::read_file() {
   cached_ = true;
   cache_.clear();
   error_.clear();
   ::unlink((path_ + ".tmp").c_str());  // a save a kill interrupted: the file itself is whole
-  struct stat st{};
-  if (::lstat(path_.c_str(), &st) != 0) return reject(errno == ENOENT ? "" : std::strerror(errno));
-  if (S_ISLNK(st.st_mode) && !link_stays_inside()) return reject("a symbolic link out of the state folder");
-  const int fd = ::open(path_.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
-  if (fd < 0) return reject(std::strerror(errno));
+  const int fd = ::open(path_.c_str(), O_RDONLY | O_NONBLOCK | O_NOFOLLOW | O_CLOEXEC | O_NOCTTY);
+  if (fd < 0) {
+    if (errno == ENOENT) return reject("");
+    return reject(errno == ELOOP ? "a symbolic link (state files are never followed)" : std::strerror(errno));
+  }
   std::vector<std::uint8_t> raw;
-  const char* why = nullptr;
-  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) why = "not a regular file";
-  else if (std::size_t(st.st_size) > limits::kParameterFileBytes) why = "larger than any cansimd parameter file";
-  else raw = read_all(fd, std::size_t(st.st_size));
+  const char* why = unfit(fd);
+  struct stat st {};
+  if (!why && ::fstat(fd, &st) == 0) raw = read_all(fd, std::size_t(st.st_size));
   ::close(fd);
   if (why) return reject(why);
   if (raw.size() < kHeader || std::memcmp(raw.data(), kMagic, 4) != 0 || get_u32(raw.data() + 4) != kVersion ||
@@ -109,16 +114,6 @@ bool FileStorage::read_file() {
 bool FileStorage::reject(const std::string& why) {
   if (!why.empty()) error_ = path_ + ": " + why + " (ignored: the node starts with its defaults)";
   return why.empty();
-}
-
-bool FileStorage::link_stays_inside() const {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  const fs::path target = fs::canonical(path_, ec);
-  const fs::path dir = fs::canonical(dir_, ec);
-  if (target.empty() || dir.empty()) return false;
-  const fs::path rel = target.lexically_relative(dir);
-  return !rel.empty() && *rel.begin() != "..";
 }
 
 bool FileStorage::load(std::vector<std::uint8_t>& blob) {
@@ -147,10 +142,17 @@ bool FileStorage::save(std::span<const std::uint8_t> blob) {
   put_u32(file.data() + 12, crc32(blob));
   if (!blob.empty()) std::memcpy(file.data() + kHeader, blob.data(), blob.size());
 
-  std::string tmp = path_ + ".tmp";
-  int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  bool ok = fd >= 0 && write_all(fd, file.data(), file.size()) && ::fsync(fd) == 0;
+  // The temp file is always a new one (O_EXCL: whatever had its name, a
+  // FIFO or a link, is gone or the save fails), opened without following or
+  // waiting; the rename replaces `.params` itself, never what it points at.
+  const std::string tmp = path_ + ".tmp";
+  ::unlink(tmp.c_str());
+  const int fd =
+      ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC | O_NOCTTY, 0644);
   int err = errno;
+  const char* why = fd >= 0 ? unfit(fd) : nullptr;
+  bool ok = fd >= 0 && !why && write_all(fd, file.data(), file.size()) && ::fsync(fd) == 0;
+  if (fd >= 0 && !why && !ok) err = errno;
   if (fd >= 0) ::close(fd);
   if (ok && ::rename(tmp.c_str(), path_.c_str()) != 0) {
     ok = false;
@@ -158,7 +160,7 @@ bool FileStorage::save(std::span<const std::uint8_t> blob) {
   }
   const auto subject = LogSubject::node(key_);
   if (!ok) {
-    error_ = path_ + ": cannot store parameters: " + std::strerror(err);
+    error_ = path_ + ": cannot store parameters: " + (why ? std::string(tmp + ": ") + why : std::strerror(err));
     spdlog::error("{}", error_);
     ::unlink(tmp.c_str());
     return false;

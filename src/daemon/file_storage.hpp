@@ -4,9 +4,12 @@
 // file, fsync, rename, fsync of the directory): a kill at any moment leaves
 // either the old or the new file (the `.tmp` such a kill leaves is removed at
 // the next start). The blob is cached in memory because the core calls load()
-// at every reset. Reading never blocks the loop: a regular file only (a
-// symbolic link only into the state folder), at most limits::kParameterFileBytes;
-// anything else is ignored with a warning naming the file and why.
+// at every reset. Neither reading nor writing blocks the loop or goes through
+// a link: `.params` and `.params.tmp` are opened O_NOFOLLOW | O_NONBLOCK, and
+// used only as regular files owned by the daemon's user with one name
+// (st_nlink 1), at most limits::kParameterFileBytes; the temp file is created
+// afresh (O_EXCL) and renamed over `.params`. Anything else is ignored with a
+// warning naming the file and why (a store fails, the old file stays).
 //
 // File layout: "CSNS" u32 version=1, u32 length, u32 CRC-32 of the blob, blob.
 #pragma once
@@ -36,7 +39,7 @@ class FileStorage : public NodeStorage {
  private:
   bool read_file();
   bool reject(const std::string& why);
-  bool link_stays_inside() const;
+  static const char* unfit(int fd);
 
   std::string key_;
   std::string dir_;
@@ -46,7 +49,5 @@ class FileStorage : public NodeStorage {
   bool cached_ = false;
   bool rejected_ = false;  // the node dropped the cached blob (warned)
 };
-
-std::uint32_t crc32(std::span<const std::uint8_t> data);
 
 }  // namespace cansim::daemon

@@ -61,7 +61,8 @@ std::vector<std::string> journal_fields(spdlog::level::level_enum level, std::st
   f.push_back("MESSAGE=" + std::string(message));
   f.push_back("PRIORITY=" + std::to_string(syslog_priority(level)));
   f.push_back("SYSLOG_IDENTIFIER=cansimd");
-  if (!LogSubject::current_interface().empty()) f.push_back("CANSIM_IFACE=" + std::string(LogSubject::current_interface()));
+  if (!LogSubject::current_interface().empty())
+    f.push_back("CANSIM_IFACE=" + std::string(LogSubject::current_interface()));
   if (!LogSubject::current_node().empty()) f.push_back("CANSIM_NODE=" + std::string(LogSubject::current_node()));
   if (!LogSubject::current_caller_uid().empty())
     f.push_back("CANSIM_CALLER_UID=" + std::string(LogSubject::current_caller_uid()));
@@ -78,7 +79,7 @@ bool journal_stream_matches(const char* journal_stream, dev_t dev, ino_t ino) {
 
 void setup_logging(const std::string& level) {
   std::shared_ptr<spdlog::logger> logger;
-  struct stat st{};
+  struct stat st {};
   if (::fstat(STDERR_FILENO, &st) == 0 && journal_stream_matches(std::getenv("JOURNAL_STREAM"), st.st_dev, st.st_ino)) {
     logger = std::make_shared<spdlog::logger>("cansimd", std::make_shared<JournalSink>());
     logger->set_pattern("%v");  // journald adds time, unit and priority
@@ -89,6 +90,28 @@ void setup_logging(const std::string& level) {
   logger->set_level(spdlog::level::from_str(level));
   logger->flush_on(spdlog::level::info);
   spdlog::set_default_logger(logger);
+}
+
+bool LineBudget::allow(std::int64_t now) {
+  if (!open_ || now - opened_ >= period_) {
+    open_ = true;
+    opened_ = now;
+    used_ = 0;
+  }
+  if (used_ < burst_) {
+    ++used_;
+    return true;
+  }
+  ++held_;
+  return false;
+}
+
+std::string LineBudget::take_held() {
+  if (held_ == 0) return {};
+  const std::string out = " (and " + std::to_string(held_) + " more such line(s) held back in the " +
+                          std::to_string(period_ / 1'000'000) + " s before)";
+  held_ = 0;
+  return out;
 }
 
 }  // namespace cansim::daemon

@@ -13,12 +13,36 @@
 #include <spdlog/common.h>
 #include <sys/types.h>
 
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
 
 namespace cansim::daemon {
+
+// At most `burst` lines in each `period` (a window that opens with the first
+// line after the last one closed); the lines held back beyond are counted,
+// and the next line let through (or the owner's summary) says how many.
+class LineBudget {
+ public:
+  LineBudget(int burst, std::int64_t period_us) : burst_(burst), period_(period_us) {}
+  // True when a line may go out at `now` (µs, monotonic); else it is counted.
+  bool allow(std::int64_t now);
+  // " (and N more such lines held back in the last 10 s)", or "" when none;
+  // the count starts again.
+  std::string take_held();
+  // Lines are held back and their window has closed: time for a summary.
+  bool summary_due(std::int64_t now) const { return held_ > 0 && now - opened_ >= period_; }
+
+ private:
+  int burst_;
+  std::int64_t period_;
+  std::int64_t opened_ = 0;
+  int used_ = 0;
+  bool open_ = false;
+  std::uint64_t held_ = 0;
+};
 
 // level: trace, debug, info, warn, error, critical, off.
 void setup_logging(const std::string& level);

@@ -146,6 +146,8 @@ int main(int argc, char** argv) {
                                      : control::BusChoice::kAuto;
     settings.control_socket = o.control_socket;
     settings.max_clients = o.max_clients;
+    settings.address_file = o.address_file;
+    settings.socketcand = o.socketcand;
     spdlog::info("cansimd {} starting, stored parameters in {}", CANSIM_VERSION, o.state_dir);
     daemon::Daemon d(std::move(settings));
     return d.run();

@@ -4,7 +4,8 @@
 
 namespace cansim::io {
 
-ArbitrationQueue::ArbitrationQueue(std::size_t capacity) : pool_(std::max<std::size_t>(capacity, 1)), buckets_(kBuckets) {
+ArbitrationQueue::ArbitrationQueue(std::size_t capacity)
+    : pool_(std::max<std::size_t>(capacity, 1)), buckets_(kBuckets) {
   for (std::size_t i = pool_.size(); i-- > 0;) {
     pool_[i].next = free_;
     free_ = std::uint32_t(i);
@@ -33,7 +34,8 @@ bool ArbitrationQueue::push(const QueuedFrame& q) {
   if (q.frame.extended()) {
     pool_[i].seq = seq_++;
     extended_.push_back(i);
-    std::push_heap(extended_.begin(), extended_.end(), [this](std::uint32_t a, std::uint32_t b) { return extended_less(b, a); });
+    std::push_heap(extended_.begin(), extended_.end(),
+                   [this](std::uint32_t a, std::uint32_t b) { return extended_less(b, a); });
     return true;
   }
   const std::uint32_t b = key(q.frame) >> 19;
@@ -65,9 +67,22 @@ std::uint32_t ArbitrationQueue::find_top() const {
 void ArbitrationQueue::pop() {
   if (pool_[top_].q.frame.extended()) pop_extended();
   else pop_standard();
-  if (--size_ == 0) return;
+  if (size_ == 0) return;
   top_ = find_top();
   top_key_ = key(pool_[top_].q.frame);
+}
+
+void ArbitrationQueue::release(std::uint32_t i) {
+  pool_[i].queued = false;
+  pool_[i].next = free_;
+  free_ = i;
+  --size_;
+}
+
+void ArbitrationQueue::unlink_bucket(std::uint32_t b) {
+  buckets_[b].head = buckets_[b].tail = kNone;
+  words_[b / 64] &= ~(std::uint64_t(1) << (b % 64));
+  if (words_[b / 64] == 0) summary_ &= ~(std::uint64_t(1) << (b / 64));
 }
 
 void ArbitrationQueue::pop_standard() {
@@ -76,23 +91,16 @@ void ArbitrationQueue::pop_standard() {
   Fifo& fifo = buckets_[b];
   const std::uint32_t i = fifo.head;
   fifo.head = pool_[i].next;
-  if (fifo.head == kNone) {
-    fifo.tail = kNone;
-    words_[w] &= ~(std::uint64_t(1) << (b % 64));
-    if (words_[w] == 0) summary_ &= ~(std::uint64_t(1) << w);
-  }
-  pool_[i].queued = false;
-  pool_[i].next = free_;
-  free_ = i;
+  if (fifo.head == kNone) unlink_bucket(b);
+  release(i);
 }
 
 void ArbitrationQueue::pop_extended() {
-  std::pop_heap(extended_.begin(), extended_.end(), [this](std::uint32_t a, std::uint32_t b) { return extended_less(b, a); });
+  std::pop_heap(extended_.begin(), extended_.end(),
+                [this](std::uint32_t a, std::uint32_t b) { return extended_less(b, a); });
   const std::uint32_t i = extended_.back();
   extended_.pop_back();
-  pool_[i].queued = false;
-  pool_[i].next = free_;
-  free_ = i;
+  release(i);
 }
 
 }  // namespace cansim::io

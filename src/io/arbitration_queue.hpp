@@ -11,6 +11,7 @@
 // frames, rare in CANopen, sit in a small binary heap beside it.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <vector>
 
@@ -20,10 +21,11 @@ namespace cansim::io {
 
 struct QueuedFrame {
   CanFrame frame;
-  TimeUs queued_at = 0;   // when its node sent it
-  std::uint32_t from = 0;  // the sender's NodeRef
-  std::uint16_t bits = 0;  // wire_bits(frame)
-  std::uint64_t order = 0;  // TimedBus: frames it took before this one
+  TimeUs queued_at = 0;         // when its node sent it
+  std::uint32_t from = 0;       // the sender's NodeRef
+  std::uint16_t bits = 0;       // wire_bits(frame)
+  std::uint8_t controller = 0;  // FrameSink::kOwn, or the node's twin
+  std::uint64_t order = 0;      // TimedBus: frames it took before this one
 };
 
 class ArbitrationQueue {
@@ -47,6 +49,10 @@ class ArbitrationQueue {
   // The frame that wins arbitration now. Only when !empty().
   const QueuedFrame& top() const { return pool_[top_].q; }
   void pop();
+  // Takes out every frame for which pred(const QueuedFrame&) is true (the
+  // others keep their order); returns how many. O(size + buckets in use).
+  template <typename Pred>
+  std::size_t remove_if(Pred&& pred);
   // Calls fn(QueuedFrame&) for every queued frame (any order).
   template <typename Fn>
   void for_each(Fn&& fn) {
@@ -74,6 +80,8 @@ class ArbitrationQueue {
 
   std::uint32_t find_top() const;
   std::uint32_t take_free();
+  void release(std::uint32_t i);
+  void unlink_bucket(std::uint32_t b);
   void pop_standard();
   void pop_extended();
   bool extended_less(std::uint32_t a, std::uint32_t b) const;
@@ -84,10 +92,45 @@ class ArbitrationQueue {
   std::uint32_t top_ = kNone;  // the winner, kept by push and pop
   std::uint32_t top_key_ = 0;
   std::vector<Fifo> buckets_;
-  std::uint64_t summary_ = 0;            // bit w: words_[w] != 0
+  std::uint64_t summary_ = 0;                // bit w: words_[w] != 0
   std::uint64_t words_[kBuckets / 64] = {};  // bit b of word w: bucket 64 w + b not empty
-  std::vector<std::uint32_t> extended_;  // binary heap of pool indices
+  std::vector<std::uint32_t> extended_;      // binary heap of pool indices
   std::uint64_t seq_ = 0;
 };
+
+template <typename Pred>
+std::size_t ArbitrationQueue::remove_if(Pred&& pred) {
+  const std::size_t before = size_;
+  for (std::size_t w = 0; w < kBuckets / 64; ++w)
+    for (std::uint64_t bits = words_[w]; bits; bits &= bits - 1) {
+      const auto b = std::uint32_t(w * 64 + unsigned(__builtin_ctzll(bits)));
+      std::uint32_t kept_tail = kNone;
+      for (std::uint32_t i = buckets_[b].head, next; i != kNone; i = next) {
+        next = pool_[i].next;
+        if (pred(static_cast<const QueuedFrame&>(pool_[i].q))) {
+          release(i);
+          continue;
+        }
+        if (kept_tail == kNone) buckets_[b].head = i;
+        else pool_[kept_tail].next = i;
+        pool_[i].next = kNone;
+        kept_tail = i;
+      }
+      buckets_[b].tail = kept_tail;
+      if (kept_tail == kNone) unlink_bucket(b);
+    }
+  std::erase_if(extended_, [&](std::uint32_t i) {
+    if (!pred(static_cast<const QueuedFrame&>(pool_[i].q))) return false;
+    release(i);
+    return true;
+  });
+  std::make_heap(extended_.begin(), extended_.end(),
+                 [this](std::uint32_t a, std::uint32_t b) { return extended_less(b, a); });
+  if (size_ > 0) {
+    top_ = find_top();
+    top_key_ = key(pool_[top_].q.frame);
+  }
+  return before - size_;
+}
 
 }  // namespace cansim::io

@@ -5,6 +5,7 @@
 #include <linux/can/netlink.h>
 #include <linux/can/raw.h>
 #include <linux/if_link.h>
+#include <linux/net_tstamp.h>
 #include <linux/netlink.h>
 #include <linux/rtnetlink.h>
 #include <net/if.h>
@@ -12,8 +13,12 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <ctime>
+
+#include "io/netlink.hpp"
 
 namespace cansim::io {
 
@@ -38,6 +43,54 @@ void to_socketcan(const CanFrame& in, ::can_frame& out) {
   if (in.rtr()) out.can_id |= CAN_RTR_FLAG;
   out.len = in.dlc > 8 ? 8 : in.dlc;
   if (!in.rtr()) std::memcpy(out.data, in.data, out.len);
+}
+
+::can_frame error_frame(BusError e) {
+  ::can_frame f;
+  std::memset(&f, 0, sizeof f);
+  f.len = CAN_ERR_DLC;
+  f.can_id = CAN_ERR_FLAG;
+  auto counters = [&](std::uint8_t tx) {
+    f.can_id |= CAN_ERR_CNT;
+    f.data[6] = tx;
+  };
+  switch (e) {
+    case BusError::kWarning:
+      f.can_id |= CAN_ERR_CRTL;
+      f.data[1] = CAN_ERR_CRTL_TX_WARNING;
+      counters(96);
+      break;
+    case BusError::kPassive:
+      f.can_id |= CAN_ERR_CRTL;
+      f.data[1] = CAN_ERR_CRTL_TX_PASSIVE;
+      counters(128);
+      break;
+    case BusError::kActive:
+      f.can_id |= CAN_ERR_CRTL;
+      f.data[1] = CAN_ERR_CRTL_ACTIVE;
+      counters(0);
+      break;
+    case BusError::kBusOff:
+      f.can_id |= CAN_ERR_BUSOFF;
+      counters(255);
+      break;
+    case BusError::kRestarted: f.can_id |= CAN_ERR_RESTARTED; break;
+    case BusError::kStuff:
+      f.can_id |= CAN_ERR_PROT | CAN_ERR_BUSERROR;
+      f.data[2] = CAN_ERR_PROT_STUFF;
+      f.data[3] = CAN_ERR_PROT_LOC_DATA;
+      break;
+    case BusError::kForm:
+      f.can_id |= CAN_ERR_PROT | CAN_ERR_BUSERROR;
+      f.data[2] = CAN_ERR_PROT_FORM;
+      f.data[3] = CAN_ERR_PROT_LOC_EOF;
+      break;
+    case BusError::kAck:
+      f.can_id |= CAN_ERR_ACK | CAN_ERR_BUSERROR;
+      f.data[3] = CAN_ERR_PROT_LOC_ACK;
+      break;
+  }
+  return f;
 }
 
 const char* can_state_name(CanState s) {
@@ -113,12 +166,15 @@ bool CanInterface::open() {
   if (::bind(fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr) < 0) return fail("bind", errno);
   can_err_mask_t errors = CAN_ERR_TX_TIMEOUT | CAN_ERR_CRTL | CAN_ERR_BUSOFF | CAN_ERR_RESTARTED;
   ::setsockopt(fd_, SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &errors, sizeof errors);
+  setup_pacing();
   error_.clear();
   interest_changed_ = true;
   // A controller that was bus-off or passive when we last saw it may have
   // restarted meanwhile (down / up): its state now is the kernel's.
-  const int kernel = kernel_link(name_).can_state;
-  const CanState now = kernel == CAN_STATE_BUS_OFF       ? CanState::kBusOff
+  const KernelLink link = kernel_link(name_);
+  has_controller_ = link.real_can();
+  const int kernel = has_controller_ ? link.can_state : -1;
+  const CanState now = kernel == CAN_STATE_BUS_OFF         ? CanState::kBusOff
                        : kernel == CAN_STATE_ERROR_PASSIVE ? CanState::kErrorPassive
                        : kernel == CAN_STATE_ERROR_WARNING ? CanState::kErrorWarning
                                                            : CanState::kErrorActive;
@@ -133,15 +189,38 @@ bool CanInterface::open() {
   return true;
 }
 
+// SO_TXTIME with CLOCK_TAI and error reports (resend_dropped()); the
+// priority of the ETF band.
+void CanInterface::setup_pacing() {
+  pacing_ = {};
+  last_launch_tai_ = 0;
+  if (!pacing_wanted_) return;
+  pacing_ = kernel_pacing(name_);
+  if (!pacing_.available) return;
+  const sock_txtime txtime{CLOCK_TAI, SOF_TXTIME_REPORT_ERRORS};
+  const bool ok = (pacing_.priority < 0 ||
+                   ::setsockopt(fd_, SOL_SOCKET, SO_PRIORITY, &pacing_.priority, sizeof pacing_.priority) == 0) &&
+                  ::setsockopt(fd_, SOL_SOCKET, SO_TXTIME, &txtime, sizeof txtime) == 0;
+  if (ok) return;
+  pacing_.available = false;
+  pacing_.why = std::string("SO_TXTIME: ") + std::strerror(errno);
+}
+
 void CanInterface::report(const ControllerReport& r) {
   if (r.event.state_changed) state_ = r.event.state;
   if (report_count_ == kReports) {
-    // Full: the oldest report goes, its losses folded into the next one.
+    // Full: the oldest report goes, folded into the next one: its losses and
+    // the state before it (a change there and back is no change).
     ControllerReport& next = reports_[(report_head_ + 1) % kReports];
     const ControllerReport& oldest = reports_[report_head_];
     next.event.frames_lost |= oldest.event.frames_lost;
-    next.event.state_changed |= oldest.event.state_changed;
+    next.rx_overflow |= oldest.rx_overflow;
+    next.tx_overflow |= oldest.tx_overflow;
+    next.tx_timeout |= oldest.tx_timeout;
+    next.restarted |= oldest.restarted;
     next.before = oldest.before;
+    next.event.state_changed = next.event.state != next.before;
+    next.merged += oldest.merged + 1;
     report_head_ = (report_head_ + 1) % kReports;
     --report_count_;
   }
@@ -160,6 +239,10 @@ int CanInterface::accept(const ::can_frame* in, std::size_t n, CanFrame* out) {
   int kept = 0;
   for (std::size_t i = 0; i < n; ++i) {
     if (in[i].can_id & CAN_ERR_FLAG) {
+      if (!has_controller_) {
+        ++stats_.error_frames_ignored;
+        continue;
+      }
       ++stats_.error_frames;
       const ControllerReport r = decode_error_frame(in[i], state_);
       stats_.tx_timeouts += r.tx_timeout;
@@ -182,20 +265,19 @@ void CanInterface::close() {
   kernel_full_ = false;
 }
 
-void CanInterface::enqueue(const CanFrame& frame) {
+void CanInterface::enqueue(const Outgoing& out) {
   if (queued_ == queue_.size()) {
     ++stats_.tx_dropped;
     return;
   }
   if (queued_ == 0) interest_changed_ = true;
-  queue_[(head_ + queued_) % queue_.size()] = frame;
+  queue_[(head_ + queued_) % queue_.size()] = out;
   ++queued_;
   ++stats_.tx_queued;
 }
 
-bool CanInterface::send_now(const CanFrame& frame, bool& again) {
-  ::can_frame cf;
-  to_socketcan(frame, cf);
+bool CanInterface::send_now(const Outgoing& out, bool& again) {
+  const ::can_frame cf = out.raw();
   again = false;
   ssize_t n = ::write(fd_, &cf, sizeof cf);
   if (n == ssize_t(sizeof cf)) {
@@ -210,29 +292,79 @@ bool CanInterface::send_now(const CanFrame& frame, bool& again) {
   return false;
 }
 
-void CanInterface::transmit(const CanFrame& frame) {
+::can_frame CanInterface::Outgoing::raw() const {
+  ::can_frame cf;
+  if (error) std::memcpy(&cf, &frame, sizeof cf);
+  else to_socketcan(frame, cf);
+  return cf;
+}
+
+void CanInterface::transmit(const CanFrame& frame) { put({frame, kAsap}); }
+
+void CanInterface::error(BusError e) {
+  static_assert(sizeof(CanFrame) >= sizeof(::can_frame));
+  Outgoing out{};
+  const ::can_frame cf = error_frame(e);
+  std::memcpy(static_cast<void*>(&out.frame), &cf, sizeof cf);
+  out.error = true;
+  out.launch_ns = kAsap;
+  ++errors_written_;
+  put(out);
+}
+
+void CanInterface::transmit_at(const CanFrame& frame, std::int64_t end_ns, std::int64_t length_ns) {
+  put({frame, paces() ? end_ns : kAsap, length_ns});
+}
+
+void CanInterface::put(const Outgoing& out) {
   if (fd_ < 0) {
     ++stats_.tx_offline;  // interface down: the frame goes nowhere
     return;
   }
-  if (deferred_) {
+  // A paced socket writes every frame with a launch time, in sendmmsg batches.
+  if (deferred_ || pacing_.available) {
     if (queued_ == queue_.size()) drain();  // a burst larger than the queue
     if (queued_ < queue_.size()) {
-      queue_[(head_ + queued_++) % queue_.size()] = frame;
+      queue_[(head_ + queued_++) % queue_.size()] = out;
       // A full sendmmsg batch leaves at once: in a long pass the first
       // nodes' frames do not wait for the last nodes' (the same syscalls).
-      if (queued_ >= kBatch && !kernel_full_) drain();
+      if ((queued_ >= kBatch || !deferred_) && !kernel_full_) drain();
       return;
     }
   }
   if (queued_ > 0) {  // keep the order: behind what already waits
-    enqueue(frame);
+    enqueue(out);
     return;
   }
   bool again = false;
-  if (send_now(frame, again)) return;
-  if (again) enqueue(frame);
+  if (send_now(out, again)) return;
+  if (again) enqueue(out);
   else ++stats_.tx_dropped;
+}
+
+namespace {
+std::int64_t clock_ns(clockid_t id) {
+  timespec ts;
+  clock_gettime(id, &ts);
+  return std::int64_t(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
+}  // namespace
+
+// ETF takes a frame whose launch time is not before the clock nor before the
+// last one it released, and releases it `delta` before it (io/kernel_pacing.hpp):
+// a frame is launched at its end + delta, one without a time at now + delta.
+// A frame that reaches the kernel after its end (a slow loop pass) leaves
+// as soon as it can, and the frames after it keep their spacing from it:
+// the bus slips here too rather than releasing them at once.
+std::uint64_t CanInterface::launch_tai(const Outgoing& out, std::int64_t tai_now, std::int64_t tai_minus_core) {
+  std::int64_t at = std::max(tai_now + pacing_.delta_ns, last_launch_tai_);
+  if (out.launch_ns != kAsap) {
+    const std::int64_t scheduled = out.launch_ns + tai_minus_core + pacing_.delta_ns;
+    if (scheduled < at) ++stats_.tx_late;
+    at = std::max({at, scheduled, last_launch_tai_ + out.length_ns});
+  }
+  last_launch_tai_ = at;
+  return std::uint64_t(at);
 }
 
 bool CanInterface::drain() {
@@ -240,13 +372,27 @@ bool CanInterface::drain() {
     ::can_frame frames[kBatch];
     mmsghdr msgs[kBatch];
     iovec iov[kBatch];
+    alignas(cmsghdr) char control[kBatch][CMSG_SPACE(sizeof(std::uint64_t))];
+    const bool paced = pacing_.available;
+    const std::int64_t tai_now = paced ? clock_ns(CLOCK_TAI) : 0;
+    const std::int64_t tai_minus_core = paced ? tai_now - clock_ns(CLOCK_MONOTONIC) + clock_base_ns_ : 0;
     std::size_t n = std::min(queued_, kBatch);
     for (std::size_t i = 0; i < n; ++i) {
-      to_socketcan(queue_[(head_ + i) % queue_.size()], frames[i]);
+      const Outgoing& out = queue_[(head_ + i) % queue_.size()];
+      frames[i] = out.raw();
       iov[i] = {&frames[i], sizeof frames[i]};
       msgs[i] = {};
       msgs[i].msg_hdr.msg_iov = &iov[i];
       msgs[i].msg_hdr.msg_iovlen = 1;
+      if (!paced) continue;
+      msgs[i].msg_hdr.msg_control = control[i];
+      msgs[i].msg_hdr.msg_controllen = sizeof control[i];
+      cmsghdr* c = CMSG_FIRSTHDR(&msgs[i].msg_hdr);
+      c->cmsg_level = SOL_SOCKET;
+      c->cmsg_type = SCM_TXTIME;
+      c->cmsg_len = CMSG_LEN(sizeof(std::uint64_t));
+      const std::uint64_t at = launch_tai(out, tai_now, tai_minus_core);
+      std::memcpy(CMSG_DATA(c), &at, sizeof at);
     }
     int sent = ::sendmmsg(fd_, msgs, unsigned(n), MSG_DONTWAIT);
     if (sent < 0) {
@@ -262,6 +408,26 @@ bool CanInterface::drain() {
   }
   if (queued_ == 0) interest_changed_ = true;
   return fd_ >= 0;
+}
+
+int CanInterface::resend_dropped() {
+  int n = 0;
+  for (; fd_ >= 0; ++n) {
+    ::can_frame cf;
+    alignas(cmsghdr) char control[256];
+    iovec iov{&cf, sizeof cf};
+    msghdr m{};
+    m.msg_iov = &iov;
+    m.msg_iovlen = 1;
+    m.msg_control = control;
+    m.msg_controllen = sizeof control;
+    if (::recvmsg(fd_, &m, MSG_ERRQUEUE | MSG_DONTWAIT) < ssize_t(sizeof cf)) break;
+    CanFrame f;
+    if (!from_socketcan(cf, f)) continue;
+    ++stats_.tx_resent;
+    put({f, kAsap});
+  }
+  return n;
 }
 
 int CanInterface::read_batch(CanFrame* out, std::size_t max) {
@@ -302,15 +468,20 @@ const rtattr* find_attr(const rtattr* a, int len, unsigned short type) {
 void read_link(const nlmsghdr* h, KernelLink& out) {
   const auto* ifi = static_cast<const ifinfomsg*>(NLMSG_DATA(h));
   int len = int(h->nlmsg_len) - int(NLMSG_LENGTH(sizeof *ifi));
+  out.flags = ifi->ifi_flags;
+  if (const rtattr* q = find_attr(IFLA_RTA(ifi), len, IFLA_TXQLEN); q && RTA_PAYLOAD(q) >= sizeof(std::uint32_t))
+    std::memcpy(&out.tx_queue_len, RTA_DATA(q), sizeof out.tx_queue_len);
   const rtattr* info = find_attr(IFLA_RTA(ifi), len, IFLA_LINKINFO);
   if (!info) return;
   const auto* nested = static_cast<const rtattr*>(RTA_DATA(info));
   if (const rtattr* kind = find_attr(nested, int(RTA_PAYLOAD(info)), IFLA_INFO_KIND))
-    out.kind.assign(static_cast<const char*>(RTA_DATA(kind)), strnlen(static_cast<const char*>(RTA_DATA(kind)), RTA_PAYLOAD(kind)));
+    out.kind.assign(static_cast<const char*>(RTA_DATA(kind)),
+                    strnlen(static_cast<const char*>(RTA_DATA(kind)), RTA_PAYLOAD(kind)));
   const rtattr* data = find_attr(nested, int(RTA_PAYLOAD(info)), IFLA_INFO_DATA);
   if (!data) return;
   const auto* can = static_cast<const rtattr*>(RTA_DATA(data));
-  if (const rtattr* st = find_attr(can, int(RTA_PAYLOAD(data)), IFLA_CAN_STATE); st && RTA_PAYLOAD(st) >= sizeof(std::uint32_t)) {
+  if (const rtattr* st = find_attr(can, int(RTA_PAYLOAD(data)), IFLA_CAN_STATE);
+      st && RTA_PAYLOAD(st) >= sizeof(std::uint32_t)) {
     std::uint32_t v;
     std::memcpy(&v, RTA_DATA(st), sizeof v);
     out.can_state = int(v);
@@ -326,30 +497,14 @@ void read_link(const nlmsghdr* h, KernelLink& out) {
 
 KernelLink kernel_link(const std::string& ifname) {
   KernelLink link;
-  unsigned index = if_nametoindex(ifname.c_str());
+  const unsigned index = if_nametoindex(ifname.c_str());
   if (index == 0) return link;
-  int fd = ::socket(AF_NETLINK, SOCK_RAW | SOCK_CLOEXEC, NETLINK_ROUTE);
-  if (fd < 0) return link;
-  struct {
-    nlmsghdr h;
-    ifinfomsg i;
-  } req{};
-  req.h.nlmsg_len = NLMSG_LENGTH(sizeof req.i);
-  req.h.nlmsg_type = RTM_GETLINK;
-  req.h.nlmsg_flags = NLM_F_REQUEST;
-  req.h.nlmsg_seq = 1;
-  req.i.ifi_family = AF_UNSPEC;
-  req.i.ifi_index = int(index);
-  timeval tv{1, 0};
-  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
-  if (::send(fd, &req, req.h.nlmsg_len, 0) >= 0) {
-    alignas(nlmsghdr) char buf[16384];
-    ssize_t n = ::recv(fd, buf, sizeof buf, 0);
-    int len = int(n);
-    for (auto* h = reinterpret_cast<nlmsghdr*>(buf); n > 0 && NLMSG_OK(h, len); h = NLMSG_NEXT(h, len))
-      if (h->nlmsg_type == RTM_NEWLINK) read_link(h, link);
-  }
-  ::close(fd);
+  ifinfomsg i{};
+  i.ifi_family = AF_UNSPEC;
+  i.ifi_index = int(index);
+  netlink_route_query(RTM_GETLINK, false, i, [&](const nlmsghdr* h) {
+    if (h->nlmsg_type == RTM_NEWLINK) read_link(h, link);
+  });
   return link;
 }
 

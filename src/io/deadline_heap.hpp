@@ -48,14 +48,10 @@ class DeadlineHeap {
   };
   // Bitwise, not short-circuit: the compiler can select without branching
   // (equal deadlines are the rule in a fleet, so the branches mispredict).
-  static bool less(const Entry& a, const Entry& b) {
-    return (a.key < b.key) | ((a.key == b.key) & (a.slot < b.slot));
-  }
+  static bool less(const Entry& a, const Entry& b) { return (a.key < b.key) | ((a.key == b.key) & (a.slot < b.slot)); }
   bool run_first() const { return run_size_ > 0 && (heap_.empty() || less(run_[run_head_], heap_.front())); }
   // The key as well: a 32-bit sequence number wraps after ~10 h of a busy fleet.
-  bool live(const Entry& e) const {
-    return where_[e.slot] == kInRun && seq_[e.slot] == e.seq && key_[e.slot] == e.key;
-  }
+  bool live(const Entry& e) const { return where_[e.slot] == kInRun && seq_[e.slot] == e.seq && key_[e.slot] == e.key; }
 
   void remove(std::uint32_t slot);
   bool append_to_run(const Entry& e);
@@ -70,11 +66,11 @@ class DeadlineHeap {
   void sift_up(std::size_t i, Entry e);
   void sift_down(std::size_t i, Entry e);
 
-  std::vector<TimeUs> key_;          // slot -> deadline, valid unless where_ is kAbsent
-  std::vector<std::uint32_t> where_; // slot -> heap index, kInRun or kAbsent
-  std::vector<std::uint32_t> seq_;   // slot -> sequence number of its live run entry
-  std::vector<Entry> heap_;          // heap-ordered; the children of i are kArity * i + 1 ...
-  std::vector<Entry> run_;           // ring, capacity a power of two >= 2 x slots
+  std::vector<TimeUs> key_;           // slot -> deadline, valid unless where_ is kAbsent
+  std::vector<std::uint32_t> where_;  // slot -> heap index, kInRun or kAbsent
+  std::vector<std::uint32_t> seq_;    // slot -> sequence number of its live run entry
+  std::vector<Entry> heap_;           // heap-ordered; the children of i are kArity * i + 1 ...
+  std::vector<Entry> run_;            // ring, capacity a power of two >= 2 x slots
   std::size_t run_head_ = 0, run_size_ = 0, run_live_ = 0;
   std::uint32_t next_seq_ = 0;
 };

@@ -2,17 +2,13 @@
 
 #include <algorithm>
 
+#include "core/protocol.hpp"
+
 namespace cansim::io {
 
-namespace {
-constexpr std::uint32_t kRxExtended = 0x80000000u;  // CAN_EFF_FLAG position
-constexpr std::uint32_t kCobFrame29 = 0x20000000u;  // CiA 301 COB-ID bit 29
-constexpr std::uint32_t kId29Mask = 0x1FFFFFFFu;
-}  // namespace
-
 std::uint32_t RxDispatch::key_of(std::uint32_t rx_id) {
-  std::uint32_t id = rx_id & kId29Mask;
-  bool extended = (rx_id & (kRxExtended | kCobFrame29)) || id > 0x7FF;
+  std::uint32_t id = rx_id & cob::kId29Mask;
+  bool extended = (rx_id & (cob::kRxIdExtended | cob::kFrame29Bit)) || id > cob::kId11Mask;
   return extended ? (id | kExtendedKey) : id;
 }
 
@@ -49,9 +45,10 @@ void RxDispatch::remove(std::uint32_t slot) {
 }
 
 std::span<const std::uint32_t> RxDispatch::lookup(const CanFrame& frame) const {
-  if (!frame.extended()) return frame.id <= 0x7FF ? std::span<const std::uint32_t>(standard_[frame.id])
-                                                  : std::span<const std::uint32_t>();
-  auto it = extended_.find((frame.id & kId29Mask) | kExtendedKey);
+  if (!frame.extended())
+    return frame.id <= cob::kId11Mask ? std::span<const std::uint32_t>(standard_[frame.id])
+                                      : std::span<const std::uint32_t>();
+  auto it = extended_.find((frame.id & cob::kId29Mask) | kExtendedKey);
   if (it == extended_.end()) return {};
   return it->second;
 }

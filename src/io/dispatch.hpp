@@ -6,7 +6,7 @@
 // every node's set, so their lists hold every node of the bus.
 //
 // Identifier encoding in the rx sets is the services' (SocketCAN style): bit 31
-// (CAN_EFF_FLAG, cob_id.hpp kRxIdExtended) marks a 29-bit identifier. A CiA 301
+// (CAN_EFF_FLAG, protocol.hpp cob::kRxIdExtended) marks a 29-bit identifier. A CiA 301
 // COB-ID with bit 29 set, or an identifier above 0x7FF, is taken as 29-bit too.
 #pragma once
 

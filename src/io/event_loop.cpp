@@ -5,28 +5,28 @@
 #include <sys/timerfd.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
-#include <cstring>
 #include <ctime>
-#include <stdexcept>
 #include <string>
+
+#include "io/failure.hpp"
 
 namespace cansim::io {
 
 namespace {
-[[noreturn]] void sys_fail(const char* what) {
-  throw std::runtime_error(std::string(what) + ": " + std::strerror(errno));
-}
 // Marker pointers for the loop's own descriptors.
 FdHandler* const kTimerTag = reinterpret_cast<FdHandler*>(std::uintptr_t(1));
 FdHandler* const kSignalTag = reinterpret_cast<FdHandler*>(std::uintptr_t(2));
 FdHandler* const kDeferredTag = reinterpret_cast<FdHandler*>(std::uintptr_t(3));
 
-void epoll_control(int epoll, int op, int fd, std::uint32_t events, void* ptr) {
+bool epoll_control(int epoll, int op, int fd, std::uint32_t events, void* ptr, std::string& error) {
   epoll_event ev{};
   ev.events = events;
   ev.data.ptr = ptr;
-  if (epoll_ctl(epoll, op, fd, &ev) < 0) sys_fail(op == EPOLL_CTL_ADD ? "epoll_ctl(ADD)" : "epoll_ctl(MOD)");
+  if (epoll_ctl(epoll, op, fd, &ev) == 0) return true;
+  error = failure(op == EPOLL_CTL_ADD ? "epoll_ctl(ADD)" : "epoll_ctl(MOD)", errno);
+  return false;
 }
 }  // namespace
 
@@ -36,15 +36,22 @@ TimeUs monotonic_now() {
   return TimeUs(ts.tv_sec) * 1000000 + ts.tv_nsec / 1000;
 }
 
-EventLoop::EventLoop() {
-  epoll_ = epoll_create1(EPOLL_CLOEXEC);
-  if (epoll_ < 0) sys_fail("epoll_create1");
-  timer_ = timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC);
-  if (timer_ < 0) sys_fail("timerfd_create");
-  add(timer_, EPOLLIN, kTimerTag);
-  deferred_ = epoll_create1(EPOLL_CLOEXEC);
-  if (deferred_ < 0) sys_fail("epoll_create1");
-  add(deferred_, 0, kDeferredTag);
+TimeUs thread_cpu_now() {
+  timespec ts;
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return TimeUs(ts.tv_sec) * 1000000 + ts.tv_nsec / 1000;
+}
+
+bool EventLoop::fail(const char* what) {
+  error_ = failure(what, errno);
+  return false;
+}
+
+bool EventLoop::open() {
+  if ((epoll_ = epoll_create1(EPOLL_CLOEXEC)) < 0) return fail("epoll_create1");
+  if ((timer_ = timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC)) < 0) return fail("timerfd_create");
+  if ((deferred_ = epoll_create1(EPOLL_CLOEXEC)) < 0) return fail("epoll_create1");
+  return add(timer_, EPOLLIN, kTimerTag) && add(deferred_, 0, kDeferredTag);
 }
 
 EventLoop::~EventLoop() {
@@ -54,32 +61,34 @@ EventLoop::~EventLoop() {
   if (epoll_ >= 0) ::close(epoll_);
 }
 
-void EventLoop::add(int fd, std::uint32_t events, FdHandler* handler) {
-  epoll_control(epoll_, EPOLL_CTL_ADD, fd, events, handler);
+bool EventLoop::add(int fd, std::uint32_t events, FdHandler* handler) {
+  return epoll_control(epoll_, EPOLL_CTL_ADD, fd, events, handler, error_);
 }
 
-void EventLoop::modify(int fd, std::uint32_t events, FdHandler* handler) {
-  epoll_control(epoll_, EPOLL_CTL_MOD, fd, events, handler);
+bool EventLoop::modify(int fd, std::uint32_t events, FdHandler* handler) {
+  return epoll_control(epoll_, EPOLL_CTL_MOD, fd, events, handler, error_);
 }
 
 void EventLoop::remove(int fd) { epoll_ctl(epoll_, EPOLL_CTL_DEL, fd, nullptr); }
 
-void EventLoop::add_deferred(int fd, std::uint32_t events, FdHandler* handler) {
-  epoll_control(deferred_, EPOLL_CTL_ADD, fd, events, handler);
+bool EventLoop::add_deferred(int fd, std::uint32_t events, FdHandler* handler) {
   deferred_maybe_ready_ = true;
+  return epoll_control(deferred_, EPOLL_CTL_ADD, fd, events, handler, error_);
 }
 
-void EventLoop::modify_deferred(int fd, std::uint32_t events, FdHandler* handler) {
-  epoll_control(deferred_, EPOLL_CTL_MOD, fd, events, handler);
+bool EventLoop::modify_deferred(int fd, std::uint32_t events, FdHandler* handler) {
   deferred_maybe_ready_ = true;
+  return epoll_control(deferred_, EPOLL_CTL_MOD, fd, events, handler, error_);
 }
 
 void EventLoop::remove_deferred(int fd) { epoll_ctl(deferred_, EPOLL_CTL_DEL, fd, nullptr); }
 
-void EventLoop::allow_deferred_wakeup(bool allow) {
-  if (allow == deferred_wakes_) return;
-  epoll_control(epoll_, EPOLL_CTL_MOD, deferred_, allow ? std::uint32_t(EPOLLIN) : 0u, kDeferredTag);
+bool EventLoop::allow_deferred_wakeup(bool allow) {
+  if (allow == deferred_wakes_) return true;
+  if (!epoll_control(epoll_, EPOLL_CTL_MOD, deferred_, allow ? std::uint32_t(EPOLLIN) : 0u, kDeferredTag, error_))
+    return false;
   deferred_wakes_ = allow;
+  return true;
 }
 
 int EventLoop::poll_deferred() {
@@ -89,15 +98,15 @@ int EventLoop::poll_deferred() {
   int n = epoll_wait(deferred_, events, 64, 0);
   if (n < 0) {
     if (errno == EINTR) return 0;
-    sys_fail("epoll_wait");
+    fail("epoll_wait");
+    return -1;
   }
   for (int i = 0; i < n; ++i) static_cast<FdHandler*>(events[i].data.ptr)->on_events(events[i].events);
   return n;
 }
 
-void EventLoop::arm_timer(TimeUs at) {
-  if (at == timer_at_) return;
-  timer_at_ = at;
+bool EventLoop::arm_timer(TimeUs at) {
+  if (at == timer_at_) return true;
   itimerspec spec{};
   if (at != kNever) {
     // 0 would disarm: an already-past deadline fires at the next tick instead.
@@ -105,17 +114,18 @@ void EventLoop::arm_timer(TimeUs at) {
     spec.it_value.tv_sec = t / 1000000;
     spec.it_value.tv_nsec = long(t % 1000000) * 1000;
   }
-  if (timerfd_settime(timer_, TFD_TIMER_ABSTIME, &spec, nullptr) < 0) sys_fail("timerfd_settime");
+  if (timerfd_settime(timer_, TFD_TIMER_ABSTIME, &spec, nullptr) < 0) return fail("timerfd_settime");
+  timer_at_ = at;
+  return true;
 }
 
-void EventLoop::watch_signals(std::initializer_list<int> signals) {
+bool EventLoop::watch_signals(std::initializer_list<int> signals) {
   sigset_t set;
   sigemptyset(&set);
   for (int s : signals) sigaddset(&set, s);
-  if (sigprocmask(SIG_BLOCK, &set, nullptr) < 0) sys_fail("sigprocmask");
-  signal_ = signalfd(-1, &set, SFD_NONBLOCK | SFD_CLOEXEC);
-  if (signal_ < 0) sys_fail("signalfd");
-  add(signal_, EPOLLIN, kSignalTag);
+  if (sigprocmask(SIG_BLOCK, &set, nullptr) < 0) return fail("sigprocmask");
+  if ((signal_ = signalfd(-1, &set, SFD_NONBLOCK | SFD_CLOEXEC)) < 0) return fail("signalfd");
+  return add(signal_, EPOLLIN, kSignalTag);
 }
 
 int EventLoop::wait(int timeout_ms, bool& timer_fired, int& signal) {
@@ -124,9 +134,12 @@ int EventLoop::wait(int timeout_ms, bool& timer_fired, int& signal) {
   if (!deferred_wakes_) deferred_maybe_ready_ = true;  // nothing tells while we sleep
   epoll_event events[64];
   int n = epoll_wait(epoll_, events, 64, timeout_ms);
+  woke_at_ = monotonic_now();
+  woke_cpu_ = thread_cpu_now();
   if (n < 0) {
     if (errno == EINTR) return 0;
-    sys_fail("epoll_wait");
+    fail("epoll_wait");
+    return -1;
   }
   for (int i = 0; i < n; ++i) {
     auto* h = static_cast<FdHandler*>(events[i].data.ptr);
@@ -146,6 +159,24 @@ int EventLoop::wait(int timeout_ms, bool& timer_fired, int& signal) {
     }
   }
   return n;
+}
+
+void PassMeter::pass(TimeUs now, TimeUs length) {
+  const TimeUs second = now / 1'000'000;
+  const int at = int(second % kWindows);
+  if (second_[at] != second) {
+    second_[at] = second;
+    longest_[at] = 0;
+  }
+  longest_[at] = std::max(longest_[at], length);
+}
+
+TimeUs PassMeter::longest(TimeUs now) const {
+  const TimeUs second = now / 1'000'000;
+  TimeUs out = 0;
+  for (int i = 0; i < kWindows; ++i)
+    if (second - second_[i] < kWindows) out = std::max(out, longest_[i]);
+  return out;
 }
 
 }  // namespace cansim::io

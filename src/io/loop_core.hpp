@@ -16,6 +16,14 @@
 // bus's bit rate: then next_deadline() includes the end of the frame on the
 // wire, and a bus due at `now` leaves what its nodes send at `now` to
 // arbitration among themselves.
+//
+// Frames from outside come two ways. receive(): a frame another device
+// already put on the wire (a kernel CAN socket read it); it occupies a timed
+// bus from its arrival and never loses arbitration. submit(): a frame an
+// outside participant wants to send where cansimd is the wire (a socketcand
+// client, a replay); it is queued and arbitrated with the nodes' frames as
+// theirs are, and reaches the nodes and the transport (transmit_from, which
+// does not echo it to its sender) when it ends on the wire.
 #pragma once
 
 #include <algorithm>
@@ -46,10 +54,21 @@ class LoopObserver {
   virtual ~LoopObserver() = default;
   virtual void on_nmt_state(NodeRef, NmtState /*old*/, NmtState /*now*/, TimeUs) {}
   virtual void on_boot_up(NodeRef, TimeUs) {}
-  virtual void on_emcy(NodeRef, std::uint16_t /*code*/, std::uint8_t /*reg*/, const std::uint8_t /*vendor*/[5], TimeUs) {}
+  virtual void on_emcy(NodeRef, std::uint16_t /*code*/, std::uint8_t /*reg*/, const std::uint8_t /*vendor*/[5],
+                       TimeUs) {}
   virtual void on_remote_write(NodeRef, const OdEntry&, WriteVia, TimeUs) {}
   virtual void on_power(NodeRef, bool /*powered*/, TimeUs) {}
   virtual void on_pdo_config(NodeRef, TimeUs) {}
+};
+
+// Sees the frames on a bus whose CAN-ID it asked for (LoopCore::tap_ids):
+// from the wire as they are received, and local nodes' frames as they go on
+// the wire, before any node handles them. Plants decode the controller's
+// commands here (docs/plants.md), whatever the transport.
+class FrameTap {
+ public:
+  virtual ~FrameTap() = default;
+  virtual void on_frame(BusId bus, const CanFrame& frame, TimeUs now) = 0;
 };
 
 enum class BusModel : std::uint8_t {
@@ -65,15 +84,17 @@ struct BusLoad {
   double offered_1s = 0, offered_10s = 0;
   double carried_1s = 0, carried_10s = 0;
   TimeUs delay_p50 = 0, delay_p99 = 0, delay_max = 0;  // µs from queued to start, last 10 s
-  std::size_t queued = 0, queue_capacity = 0;           // timed: frames waiting now, bound
-  std::uint64_t dropped = 0;                            // timed: frames lost to a full queue
+  TimeUs slip_p99 = 0, slip_max = 0;                   // µs a frame left later than its schedule, last 10 s
+  std::size_t queued = 0, queue_capacity = 0;          // timed: frames waiting now, bound
+  std::uint64_t dropped = 0;                           // timed: frames lost to a full queue
 };
 
 struct LoopStats {
-  std::uint64_t frames_in = 0;      // frames received from transports
-  std::uint64_t frames_out = 0;     // frames nodes sent
+  std::uint64_t frames_in = 0;         // frames received from transports
+  std::uint64_t frames_out = 0;        // frames nodes sent
   std::uint64_t local_deliveries = 0;  // frames delivered to listening local nodes
-  std::uint64_t wakeups = 0;        // advance() calls
+  std::uint64_t wakeups = 0;           // advance() calls
+  std::uint64_t passes = 0;            // run_due() calls (the loop's wake-ups)
 };
 
 class LoopCore {
@@ -92,6 +113,12 @@ class LoopCore {
   static constexpr std::size_t kDefaultBusQueue = 1024;
   void set_bus_model(BusId bus, BusModel model, std::size_t queue_frames = kDefaultBusQueue);
   BusModel bus_model(BusId bus) const { return buses_[bus]->timed ? BusModel::kTimed : BusModel::kIdeal; }
+  // A timed bus is paced by the loop (a wake-up per frame end), or, when
+  // its transport paces (Transport::paces(): SO_TXTIME with the ETF qdisc),
+  // handed to it ahead in batches. The transport says which when the bus
+  // becomes timed; update_pacer() asks it again (an interface reopened).
+  void update_pacer(BusId bus);
+  Pacer bus_pacer(BusId bus) const;
   // The bus's traffic figures at now().
   BusLoad bus_load(BusId bus) const;
   // Timed buses: a mark of the frames taken so far, and whether one taken
@@ -100,7 +127,11 @@ class LoopCore {
   bool bus_holds_before(BusId bus, std::uint64_t mark) const {
     return buses_[bus]->timed && buses_[bus]->timed->holds_before(mark);
   }
-  std::size_t bus_count() const { return buses_.size(); }
+  // The bus is gone (its interface is no longer configured): its queue,
+  // meter and dispatch table are freed; frames waiting for its local nodes
+  // are dropped. It must have no nodes. Its BusId may be reused.
+  void remove_bus(BusId bus);
+  bool bus_valid(BusId bus) const { return bus < buses_.size() && buses_[bus]; }
   // Builds a node (not powered yet). The core owns app and storage.
   NodeRef add_node(BusId bus, NodeSetup setup, std::unique_ptr<Application> app = nullptr,
                    std::unique_ptr<NodeStorage> storage = nullptr);
@@ -112,6 +143,11 @@ class LoopCore {
   // Every node's events, present and future ones, go to `observer` (null:
   // none; then the nodes have no observer at all).
   void set_observer(LoopObserver* observer);
+  // The frames of the CAN-IDs given per bus go to `tap` (null: none). An
+  // identifier flagged cob::kRxIdExtended is a 29-bit one. Replaces what
+  // the bus had tapped.
+  void set_frame_tap(FrameTap* tap) { tap_ = tap; }
+  void tap_ids(BusId bus, const std::vector<std::uint32_t>& ids);
 
   Node& node(NodeRef ref) { return *slots_[ref]->node; }
   const Node& node(NodeRef ref) const { return *slots_[ref]->node; }
@@ -124,6 +160,11 @@ class LoopCore {
   // ---- running (no allocation in steady state)
   // A frame received from the bus's transport (another device on the wire).
   void receive(BusId bus, const CanFrame& frame, TimeUs now);
+  // A frame outside participant `from` sends at `now`: on an ideal bus it is
+  // on the wire at once; on a timed bus it waits and arbitrates with the
+  // nodes' frames. False when the timed bus's queue was full (dropped and
+  // counted, as a node's frame would be).
+  bool submit(BusId bus, const CanFrame& frame, Participant from, TimeUs now);
   // The bus's CAN controller changed state or lost frames: every node on it
   // reacts as its device does (Node::set_can_state, Node::can_overrun). The
   // state stays the bus's: nodes added later start in it.
@@ -160,7 +201,12 @@ class LoopCore {
     std::unique_ptr<Application> app;
     std::unique_ptr<NodeStorage> storage;
     std::unique_ptr<Node> node;
-    void send(const CanFrame& frame) override { core->on_send(ref, frame); }
+    void send(const CanFrame& frame) override { core->on_send(ref, frame, kOwn); }
+    void send_from(const CanFrame& frame, std::uint8_t controller) override { core->on_send(ref, frame, controller); }
+    void withdraw(const FrameFilter& filter, std::uint8_t controller) override {
+      core->on_withdraw(ref, filter, controller);
+    }
+    void error(BusError e) override { core->on_error(bus, e); }
     void on_nmt_state(Node&, NmtState old, NmtState now, TimeUs t) override {
       core->observer_->on_nmt_state(ref, old, now, t);
     }
@@ -183,27 +229,39 @@ class LoopCore {
     std::unique_ptr<TimedBus> timed;  // null: ideal
     BusMeter meter;
     CanState controller = CanState::kErrorActive;
+    // Tapped CAN-IDs: a bit per 11-bit identifier, a sorted list of 29-bit ones.
+    std::vector<std::uint64_t> tapped_std;
+    std::vector<std::uint32_t> tapped_ext;
+    bool tapped(const CanFrame& f) const;
   };
   struct Pending {
     BusId bus;
     NodeRef from;
     CanFrame frame;
   };
+  // A sender is a local node (its NodeRef) or an outside participant (tagged).
+  static constexpr NodeRef kOutside = 0x80000000u;
+  static bool outside(NodeRef from) { return from != kNoNode && (from & kOutside); }
 
-  void on_send(NodeRef from, const CanFrame& frame);
+  void on_send(NodeRef from, const CanFrame& frame, std::uint8_t controller);
+  void on_withdraw(NodeRef from, const FrameFilter& filter, std::uint8_t controller);
+  void on_error(BusId bus, BusError e);
   // A frame is on the wire: to the transport and the other local nodes.
   void put_on_wire(BusId bus, NodeRef from, const CanFrame& frame);
+  bool heard_locally(const Bus& b, NodeRef from, const CanFrame& frame) const;
   // Timed buses: frames that ended by now_ leave (TimedBus::settle).
   void settle_buses(TimedBus::Phase phase);
   void settle_bus(BusId bus, TimedBus::Phase phase);
   void update_bus_next();
+  // from kNoNode: a frame from outside (Node::on_frame's from_outside).
   void deliver(BusId bus, NodeRef from, const CanFrame& frame, TimeUs now);
   void after(NodeRef ref);
   void rebuild_dirty();
   void flush(TimeUs now);
   void push_pending(const Pending& p);
 
-  std::vector<std::unique_ptr<Bus>> buses_;
+  std::vector<std::unique_ptr<Bus>> buses_;  // null: removed
+  std::vector<BusId> free_buses_;
   std::vector<std::unique_ptr<Slot>> slots_;
   std::vector<NodeRef> free_;
   std::vector<NodeRef> dirty_;
@@ -222,6 +280,7 @@ class LoopCore {
   std::int64_t bus_due_ns_ = std::numeric_limits<std::int64_t>::max();
   bool bus_next_stale_ = false;
   LoopObserver* observer_ = nullptr;
+  FrameTap* tap_ = nullptr;
   std::size_t live_ = 0;
   TimeUs now_ = 0;
   bool flushing_ = false;

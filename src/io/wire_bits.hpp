@@ -25,6 +25,9 @@
 namespace cansim::io {
 
 constexpr int kIntermissionBits = 3;
+// An error frame (§10.4.4): a 6-bit error flag superposed by the other
+// nodes' (up to 12 bits, taken as 9), the 8-bit delimiter, intermission.
+constexpr int kErrorFrameBits = 9 + 8 + kIntermissionBits;
 // CRC delimiter, ACK slot, ACK delimiter and EOF: fixed form, never stuffed.
 constexpr int kFrameTailBits = 1 + 2 + 7;
 

@@ -73,16 +73,15 @@ const OdEntry* Cia404Builder::entry(std::uint16_t index, std::uint8_t sub) const
   return e;
 }
 
-ChannelConfig Cia404Builder::channel(std::uint8_t sub, std::optional<QuantityKind> kind) const {
+ChannelConfig Cia404Builder::channel(std::uint8_t sub, std::optional<physics::Channel> quantity) const {
   ChannelConfig c;
   c.sub = sub;
-  c.kind = QuantityKind::kPressure;
-  if (kind) {
-    c.kind = *kind;
+  c.source = physics::Channel::Pressure;
+  if (quantity) {
+    c.source = *quantity;
   } else if (const OdEntry* e = entry(0x6131, sub); e && e->default_bytes.size() >= 4) {
-    if (auto u = builtin_unit(decode_u(DataType::kUnsigned32, e->default_bytes.data()))) c.kind = u->kind;
+    if (auto u = builtin_unit(decode_u(DataType::kUnsigned32, e->default_bytes.data()))) c.source = u->kind;
   }
-  c.source = c.kind == QuantityKind::kPressure ? physics::Channel::Pressure : physics::Channel::Temperature;
   for (const RoleInfo& r : kRoles) {
     Param& p = c.params[std::size_t(r.role)];
     p.difference = r.difference;
@@ -103,7 +102,7 @@ void Cia404Builder::default_units(ChannelConfig& c) {
     u.scale = *named_unit(name, &u.code);
     c.units.push_back(u);
   };
-  if (c.kind == QuantityKind::kPressure)
+  if (c.source == physics::Channel::Pressure)
     for (const char* n : kPressure) add(n);
   else
     for (const char* n : kTemperature) add(n);

@@ -17,11 +17,11 @@
 #include "core/node_options.hpp"
 #include "core/od.hpp"
 #include "core/sdo_abort.hpp"
+#include "model/cia404_settings.hpp"
 #include "model/units.hpp"
 #include "physics/sensor.hpp"
 
 namespace cansim::model {
-
 
 // What an OD entry is to the chain.
 enum class Role : std::uint8_t {
@@ -83,46 +83,16 @@ struct UnitChoice {
 
 struct ChannelConfig {
   std::uint8_t sub = 1;
-  QuantityKind kind = QuantityKind::kPressure;
-  physics::Channel source = physics::Channel::Pressure;
+  physics::Channel source = physics::Channel::Pressure;  // what it measures; its units are of this quantity
   Param params[kRoleCount];
-  std::vector<Param> extras;       // profile-listed unit-dependent objects
+  std::vector<Param> extras;          // profile-listed unit-dependent objects
   std::uint32_t dependent_roles = 0;  // bit per Role converted on a unit change
-  std::vector<UnitChoice> units;   // accepted 0x6131 values
-  UnitChoice fixed_unit;           // unit when 0x6131 is absent
+  std::vector<UnitChoice> units;      // accepted 0x6131 values
+  UnitChoice fixed_unit;              // unit when 0x6131 is absent
   // Holds the autozero correction in fixed_unit (persisted like any entry);
   // null: the correction lives in RAM until the next reset node.
   const OdEntry* zero_object = nullptr;
   const Param& param(Role r) const { return params[std::size_t(r)]; }
-};
-
-enum class DigitsOnUnitChange : std::uint8_t { kKeep, kReject, kClamp, kAdjust };
-
-// Chain settings (profile `vendor: cia404:`), default = CiA 404 behaviour.
-struct Cia404Settings {
-  TimeUs event_check_period_us = 0;  // 0: the channel's sample period
-  ByteSet event_tpdo_types = types_254_255();  // TPDO types whose mapped PVs get delta/limit events
-  ByteSet change_event_tpdo_types;   // TPDO types whose mapped PVs get an event on every change
-  bool events_all_channels = false;  // check delta / limits on every channel, mapped or not
-  std::uint8_t filter_type_without_object = 0;  // 0x61A0 value assumed when the profile has none
-  bool limit_level = false;          // false: one event per crossing (edge)
-  bool span_compares_input = false;  // status compares the value before the offset
-  bool unit_informational = false;   // 0x6131 accepts any code and converts nothing
-  DigitsOnUnitChange digits_on_unit_change = DigitsOnUnitChange::kKeep;
-  std::uint32_t autozero_signature = 0x6F72657A;  // "zero"
-  bool autozero_to_correction = false;  // autozero: hidden correction instead of the offset object
-  SdoAbort bad_unit_abort = SdoAbort::kInvalidValue;
-  SdoAbort bad_autozero_abort = SdoAbort::kInvalidValue;
-  SdoAbort digits_abort = SdoAbort::kValueTooHigh;
-  SdoAbort unit_digits_abort = SdoAbort::kParamIncompatible;
-  SdoAbort negative_abort = SdoAbort::kValueTooLow;  // negative delta / hysteresis
-
-  static ByteSet types_254_255() {
-    ByteSet s;
-    s.add(254);
-    s.add(255);
-    return s;
-  }
 };
 
 // The chain's view of a profile.
@@ -162,8 +132,8 @@ class Cia404Builder {
   // single-channel device. Null when there is none.
   const OdEntry* entry(std::uint16_t index, std::uint8_t sub) const;
   // A channel with the CiA 404 views of `sub` and every valued role unit
-  // dependent; kind from the default of 0x6131 (pressure without one).
-  ChannelConfig channel(std::uint8_t sub, std::optional<QuantityKind> kind = std::nullopt) const;
+  // dependent; its quantity from the default of 0x6131 (pressure without one).
+  ChannelConfig channel(std::uint8_t sub, std::optional<physics::Channel> quantity = std::nullopt) const;
   // The units a channel of this kind accepts by default.
   static void default_units(ChannelConfig& c);
   // fixed_unit = the unit matching 0x6131's default, else the first unit.

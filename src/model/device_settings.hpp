@@ -30,23 +30,23 @@ struct DpsSettings {
 
 // `danfoss-p92c`.
 struct P92cSettings {
-  std::uint8_t serial_part1 = 11;      // 0x4E00:01
-  std::uint16_t serial_part3 = 5566;   // 0x4E00:03
-  bool overload_counters = true;       // 0x3000-0x3003
-  bool sensor_fault_emcy = true;       // 0xF011 / 0x4000 while a channel is invalid
-  bool overload_emcy = false;          // ... and while it is overloaded
-  bool boot_emcys = true;              // 0x6161 / 0x6363 / 0x6300 after the boot-up
+  std::uint8_t serial_part1 = 11;     // 0x4E00:01
+  std::uint16_t serial_part3 = 5566;  // 0x4E00:03
+  bool overload_counters = true;      // 0x3000-0x3003
+  bool sensor_fault_emcy = true;      // 0xF011 / 0x4000 while a channel is invalid
+  bool overload_emcy = false;         // ... and while it is overloaded
+  bool boot_emcys = true;             // 0x6161 / 0x6363 / 0x6300 after the boot-up
   TimeUs monitor_period_us = 10000;
 };
 
 // `gems-9000` (manual 562293 Issue A).
 struct GemsSettings {
-  std::uint32_t pin = 0x00001234;       // 0x20FF value that unlocks 0x2800-0x2FFF
-  bool direct_nvm = true;               // experienced_area_direct_nvm
-  bool autostart_on_nmt_reset = false;  // 0x2813 = 0 also skips the boot-up at NMT resets
-  bool boot_alias_2813 = false;         // 'boot' written to 0x2813 is a bootloader request
-  bool manual_error_register = true;    // emcy_register_mode: manual (Fig. 28) | cia301
-  TimeUs supervision_period_us = 10000; // max / min, counters, EMCY checks
+  std::uint32_t pin = 0x00001234;        // 0x20FF value that unlocks 0x2800-0x2FFF
+  bool direct_nvm = true;                // experienced_area_direct_nvm
+  bool autostart_on_nmt_reset = false;   // 0x2813 = 0 also skips the boot-up at NMT resets
+  bool boot_alias_2813 = false;          // 'boot' written to 0x2813 is a bootloader request
+  bool manual_error_register = true;     // emcy_register_mode: manual (Fig. 28) | cia301
+  TimeUs supervision_period_us = 10000;  // max / min, counters, EMCY checks
 };
 
 // `adz-smc` (manual EI-000038-DD v1826).
@@ -75,6 +75,15 @@ struct CmpSettings {
   bool timer_repeats_beyond_limits = true;  // the core timer does not send type 254
 };
 
-using DeviceSettings = std::variant<GenericSettings, DpsSettings, P92cSettings, GemsSettings, SmcSettings, CmpSettings>;
+// `cia401-analog-output`: the actuator stand-in (profiles/actuator-401.yaml):
+// CiA 401 analogue outputs whose actual value follows the command.
+struct AnalogOutputSettings {
+  static constexpr unsigned kMaxChannels = 8;
+  unsigned channels = 4;             // 0x6411:01.. and 0x6401:01..
+  TimeUs response_time_us = 200000;  // first-order time constant of the actual value
+};
+
+using DeviceSettings = std::variant<GenericSettings, DpsSettings, P92cSettings, GemsSettings, SmcSettings, CmpSettings,
+                                    AnalogOutputSettings>;
 
 }  // namespace cansim::model

@@ -38,7 +38,7 @@ struct Quirk {
 };
 
 struct Profile {
-  std::string file;                     // where it was loaded from
+  std::string file;  // where it was loaded from
   std::string name;
   std::string description;
   std::string personality = "generic";  // behaviour module (matches `device`)
@@ -63,8 +63,8 @@ struct Profile {
   std::shared_ptr<const OdLayout> faithful_layout;
   std::vector<OdEntry> strict_objects;
   std::vector<std::pair<std::string, std::string>> quirks;  // name -> manual reference
-  bool quirks_checked = false;     // has a `quirks:` map (checked against the deviations)
-  std::vector<Quirk> setting_quirks;  // chain / device settings strict mode changes
+  bool quirks_checked = false;                              // has a `quirks:` map (checked against the deviations)
+  std::vector<Quirk> setting_quirks;                        // chain / device settings strict mode changes
 
   // What the loader repaired in the file, "file:line: ..." (EDS / DCF:
   // config/eds_reader.hpp); `cansimd --check` and the start log show them.

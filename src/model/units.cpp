@@ -15,15 +15,15 @@ struct Named {
 };
 // The first spelling of a code is its name.
 constexpr Named kNamed[] = {
-    {"Pa", make_unit(0, unit_code::kPascal)},     {"hPa", make_unit(2, unit_code::kPascal)},
-    {"kPa", make_unit(3, unit_code::kPascal)},    {"MPa", make_unit(6, unit_code::kPascal)},
-    {"bar", make_unit(0, unit_code::kBar)},       {"mbar", make_unit(-3, unit_code::kBar)},
-    {"dbar", make_unit(-1, unit_code::kBar)},     {"cbar", make_unit(-2, unit_code::kBar)},
-    {"dpsi", make_unit(-1, unit_code::kPsi)},     {"cpsi", make_unit(-2, unit_code::kPsi)},
-    {"mpsi", make_unit(-3, unit_code::kPsi)},
-    {"psi", make_unit(0, unit_code::kPsi)},       {"degC", make_unit(0, unit_code::kCelsius)},
-    {"°C", make_unit(0, unit_code::kCelsius)},    {"degF", make_unit(0, unit_code::kFahrenheit)},
-    {"°F", make_unit(0, unit_code::kFahrenheit)}, {"K", make_unit(0, unit_code::kKelvin)},
+    {"Pa", make_unit(0, unit_code::kPascal)},       {"hPa", make_unit(2, unit_code::kPascal)},
+    {"kPa", make_unit(3, unit_code::kPascal)},      {"MPa", make_unit(6, unit_code::kPascal)},
+    {"bar", make_unit(0, unit_code::kBar)},         {"mbar", make_unit(-3, unit_code::kBar)},
+    {"dbar", make_unit(-1, unit_code::kBar)},       {"cbar", make_unit(-2, unit_code::kBar)},
+    {"dpsi", make_unit(-1, unit_code::kPsi)},       {"cpsi", make_unit(-2, unit_code::kPsi)},
+    {"mpsi", make_unit(-3, unit_code::kPsi)},       {"psi", make_unit(0, unit_code::kPsi)},
+    {"degC", make_unit(0, unit_code::kCelsius)},    {"°C", make_unit(0, unit_code::kCelsius)},
+    {"degF", make_unit(0, unit_code::kFahrenheit)}, {"°F", make_unit(0, unit_code::kFahrenheit)},
+    {"K", make_unit(0, unit_code::kKelvin)},
 };
 
 std::string_view name_of(std::uint32_t code) {
@@ -33,13 +33,13 @@ std::string_view name_of(std::uint32_t code) {
 }
 
 UnitScale pressure(double pa_per_unit, std::string_view name = {}) {
-  return {QuantityKind::kPressure, pa_per_unit, 0.0, name};
+  return {physics::Channel::Pressure, pa_per_unit, 0.0, name};
 }
 
 UnitScale temperature(physics::TemperatureUnit u) {
   double zero = physics::to_kelvin(0.0, u);
   double per = physics::delta_to_kelvin(1.0, u);
-  return {QuantityKind::kTemperature, per, zero, physics::to_string(u)};
+  return {physics::Channel::Temperature, per, zero, physics::to_string(u)};
 }
 
 std::optional<UnitScale> builtin_scale(std::uint32_t code) {

@@ -10,9 +10,9 @@
 #include <optional>
 #include <string_view>
 
-namespace cansim::model {
+#include "physics/channel.hpp"
 
-enum class QuantityKind : std::uint8_t { kPressure, kTemperature };
+namespace cansim::model {
 
 // CiA 303-2 unit codes (bits 23-16) used by pressure / temperature sensors.
 namespace unit_code {
@@ -31,9 +31,9 @@ constexpr std::int8_t unit_prefix(std::uint32_t unit) { return std::int8_t(unit 
 
 // value_in_unit = (si - si_zero) / si_per_unit.
 struct UnitScale {
-  QuantityKind kind = QuantityKind::kPressure;
-  double si_per_unit = 1.0;  // Pa or K per one unit (prefix included)
-  double si_zero = 0.0;      // SI value of 0 units (273.15 K for degC)
+  physics::Channel kind = physics::Channel::Pressure;  // the quantity it measures
+  double si_per_unit = 1.0;                            // Pa or K per one unit (prefix included)
+  double si_zero = 0.0;                                // SI value of 0 units (273.15 K for degC)
   // As the control API names it ("bar", "mbar", "kPa", "degC", ...); "" for a
   // code without a name of its own (a rare prefix, a user-scaled unit).
   std::string_view name;

@@ -1,5 +1,6 @@
 #include "personalities/catalog.hpp"
 
+#include "personalities/analog_output.hpp"
 #include "personalities/cmp.hpp"
 #include "personalities/dps.hpp"
 #include "personalities/gems9000.hpp"
@@ -26,6 +27,7 @@ const PersonalityInfo kPersonalities[] = {
     {"danfoss-p92c", defaults<model::P92cSettings>, nothing},
     {"adz-smc", defaults<model::SmcSettings>, smc::requirements},
     {"honeywell-dps", defaults<model::DpsSettings>, dps::requirements},
+    {"cia401-analog-output", defaults<model::AnalogOutputSettings>, analog_output::requirements},
 };
 
 }  // namespace

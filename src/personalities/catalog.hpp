@@ -17,13 +17,14 @@ namespace cansim::personalities {
 struct RequiredObject {
   std::uint16_t index;
   std::uint8_t first_sub, last_sub;
-  const char* purpose;  // "the input scaling (§5)"
+  const char* purpose;     // "the input scaling (§5)"
+  std::uint8_t hooks = 0;  // kHookRead / kHookWrite the behaviour needs on it
 };
 
 struct Requirements {
   std::span<const RequiredObject> objects;
-  std::size_t channels = 0;            // CiA 404 channels at least
-  const char* channels_purpose = "";   // what they are for
+  std::size_t channels = 0;           // CiA 404 channels at least
+  const char* channels_purpose = "";  // what they are for
 };
 
 struct PersonalityInfo {

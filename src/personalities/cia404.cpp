@@ -74,7 +74,32 @@ Cia404Chain::EntryScale Cia404Chain::entry_scale(const Node& node, const OdEntry
   const bool in_unit = b.role == Role::kPv || model::is_valued(b.role);
   if (!in_unit || b.channel >= state_.size()) return {};
   const double scale = is_real(e.type) ? 1.0 : std::pow(10.0, -digits(node, b.channel));
-  return {scale, unit(b.channel).name};
+  EntryScale out{scale, 0.0, unit(b.channel).name};
+  if (const std::optional<CountScaling> c = count_scaling(b.channel)) {
+    out.counts = true;
+    out.count_scale = scale;
+    out.scale = scale * c->factor;
+    out.offset = model::role_info(b.role).difference ? 0.0 : c->offset;  // a delta or hysteresis has no zero
+  }
+  return out;
+}
+
+std::optional<Cia404Chain::CountScaling> Cia404Chain::count_scaling(std::size_t ch) const {
+  const std::optional<LinearInput>& in = state_[ch].input;
+  if (!in) return std::nullopt;
+  // PV = gain x (FV - input offset) + pv1, FV = (si - si_min) / (si_max - si_min) x span
+  // (clamping aside): the engineering value is affine in the PV.
+  const UnitScale& u = unit(ch);
+  const double si_per_count = (in->si_max - in->si_min) / in->field_span;
+  const double factor = si_per_count / double(in->gain) / u.si_per_unit;
+  const double at_pv1 = u.from_si(in->si_min + double(in->offset) * si_per_count);
+  if (!std::isfinite(factor) || !std::isfinite(at_pv1)) return CountScaling{NAN, NAN};
+  const CountScaling s{factor, at_pv1 - factor * double(in->pv1)};
+  const double span = std::fabs(u.delta_from_si(in->si_max - in->si_min));
+  constexpr double kFloatResolution = 1e-5;  // gain and pv1 are REAL32
+  if (std::fabs(s.factor - 1.0) <= kFloatResolution && std::fabs(s.offset) <= kFloatResolution * span)
+    return std::nullopt;
+  return s;
 }
 
 double Cia404Chain::param_value(const Node& node, const Param& p, int dd) const {
@@ -141,8 +166,15 @@ const Cia404Chain::ChannelParams& Cia404Chain::params(const Node& node, std::siz
 }
 
 Cia404Chain::Measurement Cia404Chain::measure(Node& node, std::size_t ch, TimeUs now) {
+  if (meaning_changed_) {
+    // What the PV means changed (counts or not, another scaling): what the
+    // node's PDOs carry did too (the control API's PdoMappingChanged).
+    meaning_changed_ = false;
+    if (node.observer()) node.observer()->on_pdo_config(node, now);
+  }
   ChannelState& st = state_[ch];
   if (st.measured_at != now || st.measured_epoch != config_epoch_) {
+    note_read(node, now);
     st.measured = evaluate(node, ch, now);
     st.measured_at = now;
     st.measured_epoch = config_epoch_;
@@ -169,8 +201,9 @@ Cia404Chain::Measurement Cia404Chain::evaluate(const Node& node, std::size_t ch,
   Measurement m;
   m.raw = s.raw;
   if (const std::optional<double>& reported = override_si_[std::size_t(c.source)]) {
-    // Reported as it is: the input is what gives that PV with the offset.
-    m.pv = st.unit.scale.from_si(*reported);
+    // Reported as it is (through the device's input chain: in counts where
+    // its PV is counts): the input is what gives that PV with the offset.
+    m.pv = st.input ? st.input->scale(st.input->field_value(*reported)) : st.unit.scale.from_si(*reported);
     m.input = m.pv - p.offset;
     m.status = status_bits(ch, p, m, 0);
   } else {
@@ -181,10 +214,39 @@ Cia404Chain::Measurement Cia404Chain::evaluate(const Node& node, std::size_t ch,
   return m;
 }
 
+void Cia404Chain::note_read(Node& node, TimeUs now) {
+  if (!wake_on_read_) return;
+  wake_on_read_ = false;
+  node.wake_app(now);
+}
+
+TimeUs Cia404Chain::status_steady_until(const Node& node, std::size_t ch, TimeUs now, std::uint8_t& status) {
+  const ChannelConfig& c = profile_->channels[ch];
+  const ChannelState& st = state_[ch];
+  const ChannelParams& p = params(node, ch);
+  if (const std::optional<double>& reported = override_si_[std::size_t(c.source)]) {
+    Measurement m;
+    m.pv = st.unit.scale.from_si(*reported);
+    m.input = m.pv - p.offset;
+    status = status_bits(ch, p, m, 0);
+    return kNever;  // until the override changes (a new epoch)
+  }
+  const physics::Steadiness s = source_->steady(c.source, now);
+  if (s.until <= now) return now;
+  // The chain's steps after the source are monotone in the value.
+  Measurement lo, hi;
+  const double zero = st.unit.scale.delta_from_si(st.zero_si);
+  const double a = input_value(ch, {s.lo, 0, 0}) + zero, b = input_value(ch, {s.hi, 0, 0}) + zero;
+  lo.input = std::min(a, b), hi.input = std::max(a, b);
+  lo.pv = lo.input + p.offset, hi.pv = hi.input + p.offset;
+  status = status_bits(ch, p, lo, s.status);
+  return status_bits(ch, p, hi, s.status) == status ? s.until : now;
+}
+
 // 0x6150: bit 0 from the sensor; overload against the span objects when
 // the profile has them, else the sensor's own range check.
 std::uint8_t Cia404Chain::status_bits(std::size_t ch, const ChannelParams& p, const Measurement& m,
-                                            std::uint8_t sensor_status) const {
+                                      std::uint8_t sensor_status) const {
   const ChannelConfig& c = profile_->channels[ch];
   std::uint8_t status = sensor_status & physics::kStatusInvalid;
   const bool start = c.param(Role::kSpanStart).present();
@@ -202,7 +264,7 @@ std::uint8_t Cia404Chain::status_bits(std::size_t ch, const ChannelParams& p, co
 void Cia404Chain::apply_filter(Node& node, std::size_t ch) {
   const ChannelConfig& c = profile_->channels[ch];
   const OdEntry* type = c.param(Role::kFilterType).views[0];
-  const std::uint64_t fallback = profile_->settings.filter_type_without_object;
+  const auto fallback = std::uint64_t(profile_->settings.filter_type_without_object);
   if (!type && fallback == 0) return;
   const OdEntry* constant = c.param(Role::kFilterConstant).views[0];
   physics::FilterSpec f;
@@ -224,7 +286,8 @@ void Cia404Chain::on_reset(Node& node, ResetKind kind, TimeUs now) {
     ChannelState& st = state_[ch];
     st.unit = c.fixed_unit;
     if (const OdEntry* u = c.param(Role::kUnit).views[0]; u && !profile_->settings.unit_informational) {
-      if (const UnitChoice* found = find_unit(c, std::uint32_t(node.values().get_u(*u)))) st.unit = resolve(node, *found);
+      if (const UnitChoice* found = find_unit(c, std::uint32_t(node.values().get_u(*u))))
+        st.unit = resolve(node, *found);
     }
     if (c.zero_object) st.zero_si = c.fixed_unit.scale.delta_to_si(node.values().get_f(*c.zero_object));
     if (kind != ResetKind::kCommunication) {
@@ -322,7 +385,8 @@ SdoAbort Cia404Chain::check_write(Node& node, const OdEntry& e, std::span<const 
       return SdoAbort::kNone;
     }
     case Role::kDigits: {
-      if (st.unit.max_digits >= 0 && std::int64_t(decode_u(e.type, data.data())) > st.unit.max_digits) return s.digits_abort;
+      if (st.unit.max_digits >= 0 && std::int64_t(decode_u(e.type, data.data())) > st.unit.max_digits)
+        return s.digits_abort;
       capture(node, b.channel);
       return SdoAbort::kNone;
     }
@@ -330,14 +394,10 @@ SdoAbort Cia404Chain::check_write(Node& node, const OdEntry& e, std::span<const 
       // CiA 404: only the signature "zero" (0x6F72657A) triggers the autozero.
       return decode_u(e.type, data.data()) == s.autozero_signature ? SdoAbort::kNone : s.bad_autozero_abort;
     case Role::kDelta:
-    case Role::kHysteresis:
-      return decode_data(e, data, dd) < 0 ? s.negative_abort : SdoAbort::kNone;
-    case Role::kFilterType:
-      return decode_u(e.type, data.data()) > 2 ? SdoAbort::kInvalidValue : SdoAbort::kNone;
-    case Role::kFilterConstant:
-      return decode_u(e.type, data.data()) == 0 ? SdoAbort::kValueTooLow : SdoAbort::kNone;
-    default:
-      return SdoAbort::kNone;
+    case Role::kHysteresis: return decode_data(e, data, dd) < 0 ? s.negative_abort : SdoAbort::kNone;
+    case Role::kFilterType: return decode_u(e.type, data.data()) > 2 ? SdoAbort::kInvalidValue : SdoAbort::kNone;
+    case Role::kFilterConstant: return decode_u(e.type, data.data()) == 0 ? SdoAbort::kValueTooLow : SdoAbort::kNone;
+    default: return SdoAbort::kNone;
   }
 }
 
@@ -515,6 +575,7 @@ void Cia404Chain::set_linear_input(std::size_t ch, const std::optional<LinearInp
   if (state_[ch].input == input) return;
   state_[ch].input = input;
   invalidate();  // the PV of this instant changes too
+  meaning_changed_ = true;
 }
 
 void Cia404Chain::raise_events(Node& node, std::size_t ch, unsigned events) {

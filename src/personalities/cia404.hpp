@@ -44,7 +44,6 @@ using model::Cia404Settings;
 using model::DigitsOnUnitChange;
 using model::kRoleCount;
 using model::Param;
-using model::QuantityKind;
 using model::Role;
 using model::UnitChoice;
 using model::UnitScale;
@@ -67,8 +66,8 @@ class EventRoute {
  public:
   EventRoute() = default;
   template <class F>
-    requires(!std::is_same_v<std::remove_cv_t<F>, EventRoute>)
-  EventRoute(F& f)  // NOLINT: implicit, like std::function_ref
+  requires(!std::is_same_v<std::remove_cv_t<F>, EventRoute>)
+      EventRoute(F& f)  // NOLINT: implicit, like std::function_ref
       : obj_(&f), call_([](void* o, std::size_t ch, unsigned events) { (*static_cast<F*>(o))(ch, events); }) {}
   explicit operator bool() const { return call_ != nullptr; }
   void operator()(std::size_t ch, unsigned events) const { call_(obj_, ch, events); }
@@ -88,7 +87,7 @@ struct LinearInput {
   float offset = 0.0f;             // input offset (field value counts)
   float cmin = 0.0f, cmax = 0.0f;  // output clamp
   double field_value(double si) const { return (si - si_min) / (si_max - si_min) * field_span; }
-  float scale(double fv) const;    // PV of a field value: offset, scaling, clamping
+  float scale(double fv) const;  // PV of a field value: offset, scaling, clamping
   bool operator==(const LinearInput&) const = default;
 };
 
@@ -145,18 +144,43 @@ class Cia404Chain {
   // Evaluates channel `ch` (index into profile().channels) at `now` and
   // stores the live objects (PV views, FV, status).
   Measurement measure(Node& node, std::size_t ch, TimeUs now);
+  // Until when channel `ch`'s status (0x6150) is sure to be `status` at a
+  // measurement, without measuring (now: nothing is sure). Sure until the
+  // next read of the source, change of a parameter, of the model or of the
+  // fault schedule: wake_app_on_read() tells of the first.
+  TimeUs status_steady_until(const Node& node, std::size_t ch, TimeUs now, std::uint8_t& status);
+  // The next measurement (or look at the true value) wakes the application
+  // (Node::wake_app), once.
+  void wake_app_on_read() { wake_on_read_ = true; }
+  // Changes with every change a measurement depends on (parameters, model,
+  // faults, overrides).
+  std::uint32_t config_epoch() const { return config_epoch_; }
   // A logical value in the channel's current unit (0 when the object is absent).
   double get(const Node& node, std::size_t ch, Role role) const;
   void set(Node& node, std::size_t ch, Role role, double value);
   const UnitScale& unit(std::size_t ch) const { return state_[ch].unit.scale; }
   // What a raw value of entry `e` means: a valued object of a channel (PV,
   // offset, span, limits) is in the channel's current unit, its integer views
-  // x 10^digits (0x6132); anything else has no unit (scale 1, unit "").
+  // x 10^digits (0x6132); anything else has no unit (scale 1, unit ""). On a
+  // channel whose PV is in counts (count_scaling), the raw value is counts
+  // and the engineering value is derived with the device's own scaling.
   struct EntryScale {
-    double scale = 1.0;        // engineering value = raw value x scale
-    std::string_view unit;     // as the control API names it ("bar", "degC"); "" for none
+    double scale = 1.0;  // engineering value = raw value x scale + offset
+    double offset = 0.0;
+    std::string_view unit;  // as the control API names it ("bar", "degC"); "" for none
+    bool counts = false;    // the device's value is raw x count_scale counts, not in `unit`
+    double count_scale = 1.0;
   };
   EntryScale entry_scale(const Node& node, const OdEntry& e) const;
+  // How channel `ch`'s PV relates to its 0x6131 unit: nullopt when the PV is
+  // in that unit (CiA 404). A vendor input chain (set_linear_input) whose
+  // scaling maps the field value anywhere else makes the PV counts (the SMC's
+  // default, manual §6.2.3: 0x6131 is informational): engineering value =
+  // PV x factor + offset, in the unit (NaN when the scaling has no inverse).
+  struct CountScaling {
+    double factor = 1.0, offset = 0.0;
+  };
+  std::optional<CountScaling> count_scaling(std::size_t ch) const;
   const Cia404Profile& profile() const { return *profile_; }
   MeasurementSource& source() { return *source_; }
   const MeasurementSource& source() const { return *source_; }
@@ -183,7 +207,7 @@ class Cia404Chain {
   }
 
   // ---- runtime control: the chain's side of the control API
-  // (docs/control-api.md, measurement_control.hpp). A physics channel is
+  // (docs/control-api.md, MeasurementControl). A physics channel is
   // served by the first chain channel with that source. Each change acts at
   // `now` and wakes the node, so PV reads, event TPDOs and change events
   // follow as for a sensor change.
@@ -196,17 +220,13 @@ class Cia404Chain {
   // Throws std::invalid_argument, changing nothing, on invalid terms.
   bool set_process(Node& node, physics::Channel ch, const std::vector<physics::TermSpec>& terms, TimeUs now);
   bool restore_process(Node& node, physics::Channel ch, TimeUs now);  // back to the profile's model
-  // The control verbs: the true value stays at its present level / is `si` /
-  // ramps linearly from its present level to `si` over `seconds` (>= 0).
-  bool hold(Node& node, physics::Channel ch, TimeUs now);
-  bool step(Node& node, physics::Channel ch, double si, TimeUs now);
-  bool ramp(Node& node, physics::Channel ch, double si, double seconds, TimeUs now);
   // The process model's value, Pa / K (NaN without a process model).
   double true_value_si(physics::Channel ch, TimeUs now);
 
   struct ChannelView {
     double true_value = std::numeric_limits<double>::quiet_NaN();  // in `unit`
-    double reported = std::numeric_limits<double>::quiet_NaN();    // the PV the node answers
+    double reported = std::numeric_limits<double>::quiet_NaN();    // what the PV the node answers means, in `unit`
+    double counts = std::numeric_limits<double>::quiet_NaN();  // that PV when it is counts (count_scaling), else NaN
     std::string_view unit;    // the channel's current 0x6131 unit; "" without the channel
     std::uint8_t status = 0;  // 0x6150
   };
@@ -253,9 +273,9 @@ class Cia404Chain {
     TimeUs measured_at = -1;
     std::uint32_t measured_epoch = 0;
     Measurement measured;
-    bool rendered = false;  // the live objects hold `measured`
-    std::optional<LinearInput> input;       // set_linear_input
-    std::optional<double> hysteresis;       // set_limit_hysteresis
+    bool rendered = false;             // the live objects hold `measured`
+    std::optional<LinearInput> input;  // set_linear_input
+    std::optional<double> hysteresis;  // set_limit_hysteresis
   };
   const UnitChoice* find_unit(const ChannelConfig& c, std::uint32_t code) const;
   UnitChoice resolve(const Node& node, const UnitChoice& u) const;
@@ -274,7 +294,9 @@ class Cia404Chain {
   double input_value(std::size_t ch, const MeasurementSource::Sample& s) const;
   const ChannelParams& params(const Node& node, std::size_t ch);
   Measurement evaluate(const Node& node, std::size_t ch, TimeUs now);
-  std::uint8_t status_bits(std::size_t ch, const ChannelParams& p, const Measurement& m, std::uint8_t sensor_status) const;
+  void note_read(Node& node, TimeUs now);
+  std::uint8_t status_bits(std::size_t ch, const ChannelParams& p, const Measurement& m,
+                           std::uint8_t sensor_status) const;
   void control_changed(Node& node, TimeUs now);
 
   std::shared_ptr<const Cia404Profile> profile_;
@@ -282,10 +304,12 @@ class Cia404Chain {
   std::optional<double> override_si_[2];  // per physics::Channel
   std::vector<ChannelState> state_;
   std::uint32_t config_epoch_ = 1;  // bumped by every change that can alter a measurement
-  std::uint32_t event_channels_ = 0;  // bit per channel mapped into an event TPDO
+  bool meaning_changed_ = false;    // a linear input changed what the PV means: observers hear it at the next measure()
+  std::uint32_t event_channels_ = 0;   // bit per channel mapped into an event TPDO
   std::uint32_t change_channels_ = 0;  // subset mapped into a change-event TPDO
-  bool rescan_ = true;  // the event channels follow the TPDO configuration
-  TimeUs next_check_ = 0;  // the next point of the event-check grid (anchored at reset)
+  bool rescan_ = true;                 // the event channels follow the TPDO configuration
+  TimeUs next_check_ = 0;              // the next point of the event-check grid (anchored at reset)
+  bool wake_on_read_ = false;
 };
 
 }  // namespace cansim::personalities

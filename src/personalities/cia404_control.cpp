@@ -17,7 +17,7 @@ std::optional<std::size_t> Cia404Chain::chain_channel(physics::Channel ch) const
 }
 
 bool Cia404Chain::set_process(Node& node, physics::Channel ch, const std::vector<physics::TermSpec>& terms,
-                                    TimeUs now) {
+                              TimeUs now) {
   if (!source_.sensor()) return false;
   source_.sensor()->set_process(ch, terms, now);
   control_changed(node, now);
@@ -31,18 +31,6 @@ bool Cia404Chain::restore_process(Node& node, physics::Channel ch, TimeUs now) {
   return true;
 }
 
-bool Cia404Chain::hold(Node& node, physics::Channel ch, TimeUs now) {
-  return step(node, ch, true_value_si(ch, now), now);
-}
-
-bool Cia404Chain::step(Node& node, physics::Channel ch, double si, TimeUs now) {
-  return set_process(node, ch, physics::constant_terms(si), now);
-}
-
-bool Cia404Chain::ramp(Node& node, physics::Channel ch, double si, double seconds, TimeUs now) {
-  return set_process(node, ch, physics::ramp_terms(true_value_si(ch, now), si, 0.0, seconds), now);
-}
-
 double Cia404Chain::true_value_si(physics::Channel ch, TimeUs now) {
   return source_.sensor() ? source_.sensor()->true_value(ch, now) : std::numeric_limits<double>::quiet_NaN();
 }
@@ -54,6 +42,10 @@ Cia404Chain::ChannelView Cia404Chain::view(Node& node, physics::Channel ch, Time
   const Measurement m = measure(node, *c, now);
   v.true_value = unit(*c).from_si(true_value_si(ch, now));
   v.reported = m.pv;
+  if (const std::optional<CountScaling> counts = count_scaling(*c)) {
+    v.counts = m.pv;
+    v.reported = m.pv * counts->factor + counts->offset;
+  }
   v.unit = unit(*c).name;
   v.status = m.status;
   return v;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 
+#include "personalities/network_faults.hpp"
 #include "physics/random.hpp"
 
 namespace cansim::personalities {
@@ -35,6 +36,7 @@ physics::FaultHandle handle_of(const physics::FaultSet& faults, const physics::F
 }  // namespace
 
 void CommFaultDriver::apply_levels(Node& node, physics::FaultSet& faults, TimeUs now) {
+  apply_network_faults(node, faults, now);
   node.set_muted(faults.active(FaultKind::Silent, now));
   node.set_bus_off(faults.active(FaultKind::BusOff, now), now);
   node.heartbeat().set_producer_stopped(faults.active(FaultKind::HeartbeatStop, now));
@@ -47,8 +49,7 @@ void CommFaultDriver::apply_levels(Node& node, physics::FaultSet& faults, TimeUs
   if (drop)
     node.sdo().set_block_drop(drop->drop_every_n, drop->drop_probability,
                               physics::derive_seed(seed_, 0x5D0B10C0ull ^ drop->id));
-  else
-    node.sdo().set_block_drop(0, 0.0, 0);
+  else node.sdo().set_block_drop(0, 0.0, 0);
 }
 
 }  // namespace cansim::personalities

@@ -16,10 +16,6 @@ constexpr std::uint64_t kCounterMax = 0xFFFFFFFF;  // UNSIGNED32 counters 0x2004
 
 }  // namespace
 
-DpsApplication::DpsApplication(std::shared_ptr<const Cia404Profile> profile, std::unique_ptr<MeasurementSource> source,
-                               const Settings& settings, std::uint32_t node_index)
-    : chain_(std::move(profile), std::move(source)), device_(DevicePart::seed_of(node_index)), settings_(settings) {}
-
 void DpsApplication::on_reset(Node& node, ResetKind kind, TimeUs now) {
   SensorApplication::on_reset(node, kind, now);
   OdValues& v = node.values();
@@ -28,7 +24,7 @@ void DpsApplication::on_reset(Node& node, ResetKind kind, TimeUs now) {
   state_ = State{};
   state_.overflows = node.od().find(0x2004, 0);
   state_.underflows = node.od().find(0x2005, 0);
-  if (kind != ResetKind::kCommunication && DevicePart::boot_data_error(node, chain_, now))
+  if (kind != ResetKind::kCommunication && DevicePart::boot_data_error(node, chain_.fault_set(), now))
     node.emcy().raise(kEmcyEeprom, kManufacturerBit, now);
   node.wake_app(now);
 }
@@ -44,7 +40,8 @@ void DpsApplication::after_write(Node& node, const OdEntry& e, TimeUs now) {
   const double before = chain_.get(node, b.channel, Role::kOffset);
   chain_.after_write(node, e, now);
   const double delta = chain_.get(node, b.channel, Role::kOffset) - before;
-  for (Role r : {Role::kSpanStart, Role::kSpanEnd}) chain_.set(node, b.channel, r, chain_.get(node, b.channel, r) + delta);
+  for (Role r : {Role::kSpanStart, Role::kSpanEnd})
+    chain_.set(node, b.channel, r, chain_.get(node, b.channel, r) + delta);
 }
 
 // Span over/underflow: EMCY 0x3201 and the counters 0x2004 / 0x2005.
@@ -58,24 +55,14 @@ TimeUs DpsApplication::process(Node& node, TimeUs now) {
 // of error is removed").
 void DpsApplication::check_span(Node& node, TimeUs now) {
   const Cia404Chain::Measurement m = chain_.measure(node, 0, now);
-  follow_emcy(node, state_.sensor_failed, m.status & physics::kStatusInvalid, kEmcySensorFailure, 0, now);
-  const Span before = state_.span.span;
+  node.emcy().follow(kEmcySensorFailure, m.status & physics::kStatusInvalid, 0, now);
   if (!state_.span.move_to(SpanMonitor::of_status(m.status))) return;
   const Span s = state_.span.span;
   if (s == Span::kOver) saturating_count(node, state_.overflows, kCounterMax);
   if (s == Span::kUnder) saturating_count(node, state_.underflows, kCounterMax);
-  if (settings_.span_overflow_emcy) {
-    if (before == Span::kInside) node.emcy().raise(kEmcySpanOverflow, 0, now);
-    else if (s == Span::kInside) node.emcy().clear(kEmcySpanOverflow, now);
-  }
+  if (settings_.span_overflow_emcy) node.emcy().follow(kEmcySpanOverflow, s != Span::kInside, 0, now);
 }
 
-Requirements requirements() {
-  return {{}, 1, "its span and sensor supervision (§5.4)"};
-}
-
-std::unique_ptr<Application> make(const model::Profile& profile, const Settings& settings, const NodeContext& ctx) {
-  return std::make_unique<DpsApplication>(profile.cia404, make_sensor_source(profile, ctx), settings, ctx.index);
-}
+Requirements requirements() { return {{}, 1, "its span and sensor supervision (§5.4)"}; }
 
 }  // namespace cansim::personalities::dps

@@ -9,46 +9,33 @@
 
 #include <memory>
 
-#include "personalities/registry.hpp"
+#include "personalities/catalog.hpp"
 #include "personalities/sensor_application.hpp"
 
 namespace cansim::personalities::dps {
 
-using Settings = model::DpsSettings;  // the `vendor:` keys (config/vendor_settings.cpp)
+using Settings = model::DpsSettings;
 
-class DpsApplication final : public SensorApplication {
+class DpsApplication final : public VendorApplication<DpsApplication, Settings> {
  public:
-  DpsApplication(std::shared_ptr<const Cia404Profile> profile, std::unique_ptr<MeasurementSource> source,
-                 const Settings& settings, std::uint32_t node_index = 0);
-
-  Cia404Chain& chain() override { return chain_; }
-  const Cia404Chain& chain() const override { return chain_; }
-  DevicePart& device() override { return device_; }
+  using VendorApplication::VendorApplication;
 
   void on_reset(Node& node, ResetKind kind, TimeUs now) override;
   void after_write(Node& node, const OdEntry& e, TimeUs now) override;
   TimeUs process(Node& node, TimeUs now) override;
-  std::unique_ptr<Application> snapshot() const override { return snapshot_of(*this); }
-  void restore(const Application& snapshot) override { restore_from(*this, snapshot); }
 
  private:
   struct State {
     const OdEntry* overflows = nullptr;   // 0x2004
     const OdEntry* underflows = nullptr;  // 0x2005
     SpanMonitor span;
-    bool sensor_failed = false;           // EMCY 0x2201 reported
   };
   void check_span(Node& node, TimeUs now);
 
-  Cia404Chain chain_;
-  DevicePart device_;
-  Settings settings_;
   State state_;
 };
 
 // The objects and channels the behaviour needs (personalities/catalog.hpp).
 Requirements requirements();
-
-std::unique_ptr<Application> make(const model::Profile& profile, const Settings& settings, const NodeContext& ctx);
 
 }  // namespace cansim::personalities::dps

@@ -39,11 +39,9 @@ constexpr char kZero[4] = {'z', 'e', 'r', 'o'};
 // Per channel (0 pressure, 1 temperature), §4.6.2.
 constexpr std::uint16_t kOverflowCounter[2] = {0x2006, 0x2008};
 constexpr std::uint16_t kUnderflowCounter[2] = {0x2007, 0x2009};
-constexpr double kSpanHysteresis = 0.005;  // of the span, so noise at a limit counts once
+constexpr double kSpanHysteresis = 0.005;           // of the span, so noise at a limit counts once
 constexpr std::uint16_t kReferenceCounts = 0x8000;  // 0x7100:03, mid-scale
 constexpr std::uint64_t kCounterMax = 0xFFFF;       // UNSIGNED16 counters 0x2006-0x2009
-
-bool experienced(std::uint16_t index) { return index >= kExperiencedFirst && index <= kExperiencedLast; }
 
 double real_of(std::span<const std::uint8_t> data) {
   return data.size() >= 4 ? decode_f(DataType::kReal32, data.data()) : std::nan("");
@@ -67,11 +65,6 @@ std::size_t format_value(double v, int digits, char (&out)[9]) {
 
 }  // namespace
 
-GemsApplication::GemsApplication(std::shared_ptr<const Cia404Profile> profile,
-                                 std::unique_ptr<MeasurementSource> source, const Settings& settings,
-                                 std::uint32_t node_index)
-    : chain_(std::move(profile), std::move(source)), device_(DevicePart::seed_of(node_index)), settings_(settings) {}
-
 void GemsApplication::on_reset(Node& node, ResetKind kind, TimeUs now) {
   SensorApplication::on_reset(node, kind, now);
   state_.sensor_failed[0] = state_.sensor_failed[1] = state_.math_error = false;  // the EMCY producer forgot them
@@ -83,7 +76,7 @@ void GemsApplication::on_reset(Node& node, ResetKind kind, TimeUs now) {
       if (ch < chain_.profile().channels.size()) apply_vendor_filter(node, ch);
     }
     if (kind == ResetKind::kPowerOn) state_.powered_at = now;
-    if (DevicePart::boot_data_error(node, chain_, now))
+    if (DevicePart::boot_data_error(node, chain_.fault_set(), now))
       node.emcy().raise(kEmcyNvm, settings_.manual_error_register ? kRegMaths : 0, now);
   }
   // §3.2.1 / §4.6.3: 0x2813 = 0 enters OPERATIONAL "when excitation is
@@ -110,19 +103,42 @@ void GemsApplication::apply_vendor_filter(Node& node, std::size_t ch) {
   chain_.source().set_filter(c.source, f);
 }
 
-void GemsApplication::refresh(Node& node, const OdEntry& e, TimeUs now) {
-  const std::size_t ch = e.sub >= 1 && e.sub <= chain_.profile().channels.size() ? e.sub - 1u : 0u;
-  switch (e.index) {
-    case kString: return write_string(node, e, now);
-    case kMaximum:
-    case kMinimum: return track_peaks(node, ch, chain_.measure(node, ch, now).pv, false);
-    case kSeconds: node.values().set_u(e, std::uint64_t((now - state_.powered_at) / 1000000)); return;
-    case kFieldValue: node.values().set_u(e, kReferenceCounts); return;
-    default: return chain_.refresh(node, e, now);
-  }
+// ---- the vendor objects (gems9000.hpp: kObjectHooks); the others are the chain's
+
+using Gems = GemsApplication;
+constexpr ObjectHook<Gems> GemsApplication::kObjectRows[] = {
+    object<Gems>(kSeconds, &Gems::read_seconds),
+    object<Gems>(kFilter, nullptr, &Gems::check_filter, &Gems::written_filter),
+    object<Gems>(kPeakControl, nullptr, nullptr, &Gems::written_peak_control),
+    object<Gems>(kUserUnit, nullptr, &Gems::check_user_unit),
+    object<Gems>(kPin, nullptr, &Gems::check_pin),
+    area<Gems>(kExperiencedFirst, kExperiencedLast, nullptr, &Gems::check_experienced, &Gems::written_experienced),
+    object<Gems>(kOverflowControl, nullptr, &Gems::check_overflow_control, &Gems::written_overflow_control),
+    object<Gems>(kBootLoad, nullptr, &Gems::check_boot_load, &Gems::written_boot_load),
+    object<Gems>(kNetwork, nullptr, nullptr, &Gems::written_network),
+    object<Gems>(kMaximum, &Gems::read_peak),
+    object<Gems>(kMinimum, &Gems::read_peak),
+    object<Gems>(kString, &Gems::read_string),
+    object<Gems>(kFieldValue, &Gems::read_field_value),
+};
+constexpr ObjectHooks<Gems> GemsApplication::kObjectHooks{kObjectRows};
+
+std::size_t GemsApplication::channel_of(const OdEntry& e) const {
+  return e.sub >= 1 && e.sub <= chain_.profile().channels.size() ? e.sub - 1u : 0u;
 }
 
-void GemsApplication::write_string(Node& node, const OdEntry& e, TimeUs now) {
+// ---- reads
+
+void GemsApplication::read_seconds(Node& node, const OdEntry& e, TimeUs now) {
+  node.values().set_u(e, std::uint64_t((now - state_.powered_at) / 1000000));
+}
+
+void GemsApplication::read_peak(Node& node, const OdEntry& e, TimeUs now) {
+  const std::size_t ch = channel_of(e);
+  track_peaks(node, ch, chain_.measure(node, ch, now).pv, false);
+}
+
+void GemsApplication::read_string(Node& node, const OdEntry& e, TimeUs now) {
   const std::size_t ch = e.sub - 1u;
   if (ch >= chain_.profile().channels.size()) return;
   char text[9];
@@ -130,62 +146,80 @@ void GemsApplication::write_string(Node& node, const OdEntry& e, TimeUs now) {
   node.values().set_string(e, std::string_view(text, n));
 }
 
+void GemsApplication::read_field_value(Node& node, const OdEntry& e, TimeUs) {
+  node.values().set_u(e, kReferenceCounts);
+}
+
+// ---- write checks
+
+SdoAbort GemsApplication::check_pin(Node&, const OdEntry&, std::span<const std::uint8_t> data, TimeUs) {
+  state_.unlocked = data.size() >= 4 && decode_u(DataType::kUnsigned32, data.data()) == settings_.pin;
+  return state_.unlocked ? SdoAbort::kNone : SdoAbort::kDataTransfer;
+}
+
+SdoAbort GemsApplication::check_filter(Node&, const OdEntry&, std::span<const std::uint8_t> data, TimeUs) {
+  const double tau = real_of(data);
+  return std::isfinite(tau) && tau >= 0 ? SdoAbort::kNone : SdoAbort::kInvalidValue;
+}
+
+SdoAbort GemsApplication::check_user_unit(Node&, const OdEntry&, std::span<const std::uint8_t> data, TimeUs) {
+  const double m = real_of(data);
+  return std::isfinite(m) && m > 0 ? SdoAbort::kNone : SdoAbort::kInvalidValue;
+}
+
 // §4.6.1: the experienced user area is writable after the PIN only; the
 // abort code is not documented (spec §11 #24: 0x08000020).
-SdoAbort GemsApplication::check_experienced(const OdEntry& e, std::span<const std::uint8_t> data) {
-  if (!state_.unlocked) return SdoAbort::kDataTransfer;
-  switch (e.index) {
-    case kOverflowControl:
-      return data.size() == 4 && std::memcmp(data.data(), kZero, 4) == 0 ? SdoAbort::kNone : SdoAbort::kDataTransfer;
-    case kBootLoad:
-      return data.size() >= 4 && decode_u(DataType::kUnsigned32, data.data()) == kBootSignature
-                 ? SdoAbort::kNone
-                 : SdoAbort::kDataTransfer;
-    default:
-      return SdoAbort::kNone;
-  }
+SdoAbort GemsApplication::check_experienced(Node&, const OdEntry&, std::span<const std::uint8_t>, TimeUs) {
+  return state_.unlocked ? SdoAbort::kNone : SdoAbort::kDataTransfer;
 }
 
-SdoAbort GemsApplication::check_write(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now) {
-  if (experienced(e.index)) return check_experienced(e, data);
-  switch (e.index) {
-    case kPin:
-      state_.unlocked = data.size() >= 4 && decode_u(DataType::kUnsigned32, data.data()) == settings_.pin;
-      return state_.unlocked ? SdoAbort::kNone : SdoAbort::kDataTransfer;
-    case kFilter: {
-      const double tau = real_of(data);
-      return std::isfinite(tau) && tau >= 0 ? SdoAbort::kNone : SdoAbort::kInvalidValue;
-    }
-    case kUserUnit: {
-      const double m = real_of(data);
-      return std::isfinite(m) && m > 0 ? SdoAbort::kNone : SdoAbort::kInvalidValue;
-    }
-    default:
-      return chain_.check_write(node, e, data, now);
-  }
+SdoAbort GemsApplication::check_overflow_control(Node& node, const OdEntry& e, std::span<const std::uint8_t> data,
+                                                 TimeUs now) {
+  if (SdoAbort a = check_experienced(node, e, data, now); !ok(a)) return a;
+  return data.size() == 4 && std::memcmp(data.data(), kZero, 4) == 0 ? SdoAbort::kNone : SdoAbort::kDataTransfer;
 }
 
-void GemsApplication::after_write(Node& node, const OdEntry& e, TimeUs now) {
-  const std::size_t ch = e.sub >= 1 && e.sub <= chain_.profile().channels.size() ? e.sub - 1u : 0u;
-  if (experienced(e.index)) {
-    if (e.index == kOverflowControl && ch < 2) {
-      node.values().set_u(kOverflowCounter[ch], 0, 0);
-      node.values().set_u(kUnderflowCounter[ch], 0, 0);
-    }
-    if (e.index == kBootLoad || (settings_.boot_alias_2813 && e.index == kNetwork && node.values().get_u(e) == 'b'))
-      state_.boot_requested = true;
-    // Fig. 38 writes the calibration dates after the last 'save': the area
-    // goes straight to NVM (spec §11 #20).
-    const OdEntry* one[] = {&e};
-    if (settings_.direct_nvm && e.persist != kPersistNone && !node.store().save_entries(one))
-      node.emcy().report(kEmcyNvm, settings_.manual_error_register ? kRegMaths : 0, nullptr, now);
-    return;
+SdoAbort GemsApplication::check_boot_load(Node& node, const OdEntry& e, std::span<const std::uint8_t> data,
+                                          TimeUs now) {
+  if (SdoAbort a = check_experienced(node, e, data, now); !ok(a)) return a;
+  const bool boot = data.size() >= 4 && decode_u(DataType::kUnsigned32, data.data()) == kBootSignature;
+  return boot ? SdoAbort::kNone : SdoAbort::kDataTransfer;
+}
+
+// ---- writes
+
+void GemsApplication::written_filter(Node& node, const OdEntry& e, TimeUs) { apply_vendor_filter(node, channel_of(e)); }
+
+void GemsApplication::written_peak_control(Node& node, const OdEntry& e, TimeUs now) {
+  const std::size_t ch = channel_of(e);
+  track_peaks(node, ch, chain_.measure(node, ch, now).pv, true);
+}
+
+// Fig. 38 writes the calibration dates after the last 'save': the area goes
+// straight to NVM (spec §11 #20).
+void GemsApplication::written_experienced(Node& node, const OdEntry& e, TimeUs now) {
+  const OdEntry* one[] = {&e};
+  if (settings_.direct_nvm && e.persist != kPersistNone && !node.store().save_entries(one))
+    node.emcy().report(kEmcyNvm, settings_.manual_error_register ? kRegMaths : 0, nullptr, now);
+}
+
+// 'zero' clears the channel's span counters (§4.6.2).
+void GemsApplication::written_overflow_control(Node& node, const OdEntry& e, TimeUs now) {
+  if (const std::size_t ch = channel_of(e); ch < 2) {
+    node.values().set_u(kOverflowCounter[ch], 0, 0);
+    node.values().set_u(kUnderflowCounter[ch], 0, 0);
   }
-  switch (e.index) {
-    case kPeakControl: return track_peaks(node, ch, chain_.measure(node, ch, now).pv, true);
-    case kFilter: return apply_vendor_filter(node, ch);
-    default: return chain_.after_write(node, e, now);
-  }
+  written_experienced(node, e, now);
+}
+
+void GemsApplication::written_boot_load(Node& node, const OdEntry& e, TimeUs now) {
+  state_.boot_requested = true;
+  written_experienced(node, e, now);
+}
+
+void GemsApplication::written_network(Node& node, const OdEntry& e, TimeUs now) {
+  if (settings_.boot_alias_2813 && node.values().get_u(e) == 'b') state_.boot_requested = true;
+  written_experienced(node, e, now);
 }
 
 // Max / min since reset node, power-on or the last 0x2031 write (spec §11 #26).
@@ -213,12 +247,6 @@ void GemsApplication::count_span(Node& node, std::size_t ch, double pv) {
   if (span.span == Span::kUnder) saturating_count(node, node.od().find(kUnderflowCounter[ch], 0), kCounterMax);
 }
 
-void GemsApplication::update_emcy(Node& node, std::uint16_t code, std::uint8_t reg, bool active, TimeUs now) {
-  if (active == node.emcy().active(code)) return;
-  if (active) node.emcy().raise(code, settings_.manual_error_register ? reg : 0, now);
-  else node.emcy().clear(code, now);
-}
-
 void GemsApplication::supervise_channel(Node& node, std::size_t ch, TimeUs now) {
   const Cia404Chain::Measurement m = chain_.measure(node, ch, now);
   state_.sensor_failed[ch] = (m.status & physics::kStatusInvalid) != 0;
@@ -239,15 +267,9 @@ void GemsApplication::supervise(Node& node, TimeUs now) {
   state_.math_error = false;
   const std::size_t channels = std::min<std::size_t>(2, chain_.profile().channels.size());
   for (std::size_t ch = 0; ch < channels; ++ch) supervise_channel(node, ch, now);
-  update_emcy(node, kEmcySensor, kRegSensor, state_.sensor_failed[0] || state_.sensor_failed[1], now);
-  update_emcy(node, kEmcyMaths, kRegMaths, state_.math_error, now);
-}
-
-// ---- registry
-
-
-std::unique_ptr<Application> make(const model::Profile& profile, const Settings& settings, const NodeContext& ctx) {
-  return std::make_unique<GemsApplication>(profile.cia404, make_sensor_source(profile, ctx), settings, ctx.index);
+  const bool manual = settings_.manual_error_register;
+  node.emcy().follow(kEmcySensor, state_.sensor_failed[0] || state_.sensor_failed[1], manual ? kRegSensor : 0, now);
+  node.emcy().follow(kEmcyMaths, state_.math_error, manual ? kRegMaths : 0, now);
 }
 
 }  // namespace cansim::personalities::gems9000

@@ -10,29 +10,20 @@
 
 #include <memory>
 
-#include "personalities/registry.hpp"
 #include "personalities/sensor_application.hpp"
 
 namespace cansim::personalities::gems9000 {
 
-using Settings = model::GemsSettings;  // the `vendor:` keys (config/vendor_settings.cpp)
+using Settings = model::GemsSettings;
 
-class GemsApplication final : public SensorApplication {
+class GemsApplication final : public VendorApplication<GemsApplication, Settings> {
  public:
-  GemsApplication(std::shared_ptr<const Cia404Profile> profile, std::unique_ptr<MeasurementSource> source,
-                  const Settings& settings, std::uint32_t node_index = 0);
-
-  Cia404Chain& chain() override { return chain_; }
-  const Cia404Chain& chain() const override { return chain_; }
-  DevicePart& device() override { return device_; }
+  using VendorApplication::VendorApplication;
 
   void on_reset(Node& node, ResetKind kind, TimeUs now) override;
-  void refresh(Node& node, const OdEntry& e, TimeUs now) override;
-  SdoAbort check_write(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now) override;
-  void after_write(Node& node, const OdEntry& e, TimeUs now) override;
   TimeUs process(Node& node, TimeUs now) override;
-  std::unique_ptr<Application> snapshot() const override { return snapshot_of(*this); }
-  void restore(const Application& snapshot) override { restore_from(*this, snapshot); }
+
+  static const ObjectHooks<GemsApplication> kObjectHooks;  // the vendor objects' indications
 
   bool unlocked() const { return state_.unlocked; }
   // True once 'boot' was written to the boot-load object (FLIP is out of scope).
@@ -48,22 +39,35 @@ class GemsApplication final : public SensorApplication {
     bool math_error = false;
     TimeUs powered_at = 0;
   };
-  SdoAbort check_experienced(const OdEntry& e, std::span<const std::uint8_t> data);
+  static const ObjectHook<GemsApplication> kObjectRows[];
+
+  // ---- per-object indications (kObjectRows)
+  void read_seconds(Node& node, const OdEntry& e, TimeUs now);
+  void read_peak(Node& node, const OdEntry& e, TimeUs now);
+  void read_string(Node& node, const OdEntry& e, TimeUs now);
+  void read_field_value(Node& node, const OdEntry& e, TimeUs now);
+  SdoAbort check_pin(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
+  SdoAbort check_filter(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
+  SdoAbort check_user_unit(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
+  SdoAbort check_experienced(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
+  SdoAbort check_overflow_control(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
+  SdoAbort check_boot_load(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
+  void written_filter(Node& node, const OdEntry& e, TimeUs now);
+  void written_peak_control(Node& node, const OdEntry& e, TimeUs now);
+  void written_experienced(Node& node, const OdEntry& e, TimeUs now);
+  void written_overflow_control(Node& node, const OdEntry& e, TimeUs now);
+  void written_boot_load(Node& node, const OdEntry& e, TimeUs now);
+  void written_network(Node& node, const OdEntry& e, TimeUs now);
+  // ---- their parts
+  std::size_t channel_of(const OdEntry& e) const;  // of a per-channel object's sub-index
   void apply_vendor_filter(Node& node, std::size_t ch);
   // Max / min, span counters, sensor and maths EMCYs.
   void supervise(Node& node, TimeUs now);
   void supervise_channel(Node& node, std::size_t ch, TimeUs now);
   void track_peaks(Node& node, std::size_t ch, double pv, bool restart);
   void count_span(Node& node, std::size_t ch, double pv);
-  void update_emcy(Node& node, std::uint16_t code, std::uint8_t reg, bool active, TimeUs now);
-  void write_string(Node& node, const OdEntry& e, TimeUs now);
 
-  Cia404Chain chain_;
-  DevicePart device_;
-  Settings settings_;
   State state_;
 };
-
-std::unique_ptr<Application> make(const model::Profile& profile, const Settings& settings, const NodeContext& ctx);
 
 }  // namespace cansim::personalities::gems9000

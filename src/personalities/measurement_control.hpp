@@ -1,8 +1,10 @@
-// What the runtime control API (src/control, docs/control-api.md) asks of a
-// node's measurement: its process model, reported-value overrides, channel
-// views, the fault schedule and the CSV recording. An interface: control
-// never knows the personality's class. Every sensor application offers it
-// over its chain and device part (sensor_application.hpp).
+// What the runtime control API (src/control, docs/control-api.md) and the
+// PDO views ask of a node's measurement, and nothing more: its channels, the
+// process model behind them, reported-value overrides, the fault schedule
+// and the CSV recording. A pure interface: control never knows the
+// personality's class, nor its chain or device part. Every sensor
+// application implements it once (SensorApplication, sensor_application.cpp);
+// the control verbs hold / step / ramp are built on it here.
 #pragma once
 
 #include <optional>
@@ -11,7 +13,7 @@
 
 #include "core/application.hpp"
 #include "personalities/cia404.hpp"
-#include "personalities/device_part.hpp"
+#include "personalities/comm_faults.hpp"
 
 namespace cansim::personalities {
 
@@ -19,47 +21,46 @@ class MeasurementControl {
  public:
   using ChannelView = Cia404Chain::ChannelView;
   using OverrideView = Cia404Chain::OverrideView;
+  using EntryScale = Cia404Chain::EntryScale;
 
-  // The parts the control acts on.
-  virtual Cia404Chain& chain() = 0;
-  virtual const Cia404Chain& chain() const = 0;
-  virtual DevicePart& device() = 0;
+  // ---- channels (a physics channel is served by the first chain channel with that source)
+  virtual bool has_channel(physics::Channel ch) const = 0;
+  virtual ChannelView view(Node& node, physics::Channel ch, TimeUs now) = 0;
+  // What a raw value of entry `e` means (unit and scale of a valued object).
+  virtual EntryScale entry_scale(const Node& node, const OdEntry& e) const = 0;
 
-  // ---- the process model (Cia404Chain has the details)
-  std::optional<std::size_t> chain_channel(physics::Channel ch) const { return chain().chain_channel(ch); }
-  bool has_channel(physics::Channel ch) const { return chain().has_channel(ch); }
-  bool has_process() const { return chain().has_process(); }
-  bool set_process(Node& node, physics::Channel ch, const std::vector<physics::TermSpec>& terms, TimeUs now) {
-    return chain().set_process(node, ch, terms, now);
-  }
-  bool restore_process(Node& node, physics::Channel ch, TimeUs now) { return chain().restore_process(node, ch, now); }
-  bool hold(Node& node, physics::Channel ch, TimeUs now) { return chain().hold(node, ch, now); }
-  bool step(Node& node, physics::Channel ch, double si, TimeUs now) { return chain().step(node, ch, si, now); }
-  bool ramp(Node& node, physics::Channel ch, double si, double seconds, TimeUs now) {
-    return chain().ramp(node, ch, si, seconds, now);
-  }
-  double true_value_si(physics::Channel ch, TimeUs now) { return chain().true_value_si(ch, now); }
-  ChannelView view(Node& node, physics::Channel ch, TimeUs now) { return chain().view(node, ch, now); }
+  // ---- the process model: from `now` on (the terms' time 0 is `now`); false,
+  // changing nothing, without a process model (a test's fake source). Throws
+  // std::invalid_argument, changing nothing, on invalid terms.
+  virtual bool set_process(Node& node, physics::Channel ch, const std::vector<physics::TermSpec>& terms,
+                           TimeUs now) = 0;
+  virtual bool restore_process(Node& node, physics::Channel ch, TimeUs now) = 0;  // back to the profile's model
+  // The process model's value, Pa / K (NaN without a process model).
+  virtual double true_value_si(physics::Channel ch, TimeUs now) = 0;
+  // The control verbs: the true value stays at its present level / is `si` /
+  // ramps linearly from its present level to `si` over `seconds` (>= 0).
+  bool hold(Node& node, physics::Channel ch, TimeUs now);
+  bool step(Node& node, physics::Channel ch, double si, TimeUs now);
+  bool ramp(Node& node, physics::Channel ch, double si, double seconds, TimeUs now);
 
-  // ---- what the node reports
-  void set_override(Node& node, physics::Channel ch, std::optional<double> si, TimeUs now) {
-    chain().set_override(node, ch, si, now);
-  }
-  std::vector<OverrideView> overrides() const { return chain().overrides(); }
+  // ---- what the node reports: `si` (Pa / K) on the channel; nullopt clears.
+  virtual void set_override(Node& node, physics::Channel ch, std::optional<double> si, TimeUs now) = 0;
+  virtual std::vector<OverrideView> overrides() const = 0;
 
-  // ---- the fault schedule (DevicePart has the details)
-  physics::FaultHandle arm_fault(Node& node, const physics::FaultSpec& spec, TimeUs now) {
-    return device().arm_fault(node, chain(), spec, now);
-  }
-  bool cancel_fault(Node& node, physics::FaultHandle h, TimeUs now) { return device().cancel_fault(node, chain(), h, now); }
-  std::vector<physics::FaultInfo> faults(TimeUs now) const { return DevicePart::faults(chain(), now); }
-  bool fault_active(physics::FaultKind kind, TimeUs now) const { return DevicePart::fault_active(chain(), kind, now); }
-  void set_fault_listener(FaultListener listener) { device().set_fault_listener(std::move(listener)); }
+  // ---- the fault schedule (DevicePart); kInvalidFaultHandle / false / none
+  // without one. The listener hears every start / end edge (DevicePart).
+  virtual physics::FaultHandle arm_fault(Node& node, const physics::FaultSpec& spec, TimeUs now) = 0;
+  virtual bool cancel_fault(Node& node, physics::FaultHandle h, TimeUs now) = 0;
+  virtual std::vector<physics::FaultInfo> faults(TimeUs now) const = 0;
+  virtual void set_fault_listener(FaultListener listener) = 0;
 
-  // ---- the CSV recording of the sensor
-  bool start_recording(const std::string& path, std::string* error) { return chain().start_recording(path, error); }
-  void stop_recording() { chain().stop_recording(); }
-  const std::string& recording() const { return chain().recording(); }
+  // ---- the CSV recording of the sensor; false with *error when the file
+  // cannot be created or the node has no sensor. The node's checks that skip
+  // a sensor sure to stay as it is take a row each again from `now` on
+  // (Cia404Chain::status_steady_until).
+  virtual bool start_recording(Node& node, const std::string& path, std::string* error, TimeUs now) = 0;
+  virtual void stop_recording() = 0;
+  virtual const std::string& recording() const = 0;  // "" when none
 
  protected:
   MeasurementControl() = default;

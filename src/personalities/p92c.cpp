@@ -35,15 +35,10 @@ constexpr std::uint16_t kSerial = 0x4E00;
 
 }  // namespace
 
-P92cApplication::P92cApplication(std::shared_ptr<const Cia404Profile> profile,
-                                 std::unique_ptr<MeasurementSource> source, const Settings& settings,
-                                 std::uint32_t node_index)
-    : chain_(std::move(profile), std::move(source)), device_(DevicePart::seed_of(node_index)), settings_(settings) {}
-
 void P92cApplication::on_reset(Node& node, ResetKind kind, TimeUs now) {
   SensorApplication::on_reset(node, kind, now);
   fill_serial(node);
-  state_ = State{};  // the EMCY producer forgot the errors too
+  state_ = State{};
   if (settings_.boot_emcys) boot_checks(node, kind, now);
 }
 
@@ -70,14 +65,19 @@ void P92cApplication::boot_checks(Node& node, ResetKind kind, TimeUs now) {
     node.pdo().reset(now);
     node.emcy().report(kEmcyMapping, 0, nullptr, now);
   }
-  if (DevicePart::fault_active(chain_, physics::FaultKind::EepromError, now))
+  if (DevicePart::fault_active(chain_.fault_set(), physics::FaultKind::EepromError, now))
     node.emcy().report(kEmcyStartUp, 0, nullptr, now);
 }
 
+// The vendor objects (p92c.hpp: kObjectHooks); the others are the chain's.
+constexpr ObjectHook<P92cApplication> P92cApplication::kObjectRows[] = {
+    object<P92cApplication>(kBitRate, nullptr, &P92cApplication::check_bit_rate),
+};
+constexpr ObjectHooks<P92cApplication> P92cApplication::kObjectHooks{kObjectRows};
+
 // 0x4F00: the index table of §3.3 (index 5 blank, 8 and 9 not listed) is the
 // LSS bit-rate set of the profile.
-SdoAbort P92cApplication::check_write(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now) {
-  if (e.index != kBitRate) return chain_.check_write(node, e, data, now);
+SdoAbort P92cApplication::check_bit_rate(Node& node, const OdEntry&, std::span<const std::uint8_t> data, TimeUs) {
   return node.options().lss_bit_rates.has(data[0]) ? SdoAbort::kNone : SdoAbort::kInvalidValue;
 }
 
@@ -100,15 +100,8 @@ void P92cApplication::supervise(Node& node, TimeUs now) {
     }
     std::uint8_t error_bits = settings_.sensor_fault_emcy ? kInvalid : 0;
     if (settings_.overload_emcy) error_bits |= kPositiveOverload | kNegativeOverload;
-    follow_emcy(node, state_.error[ch], (status & error_bits) != 0, kChannelEmcy[ch], 0, now);
+    node.emcy().follow(kChannelEmcy[ch], (status & error_bits) != 0, 0, now);
   }
-}
-
-// ---- registry
-
-
-std::unique_ptr<Application> make(const model::Profile& profile, const Settings& settings, const NodeContext& ctx) {
-  return std::make_unique<P92cApplication>(profile.cia404, make_sensor_source(profile, ctx), settings, ctx.index);
 }
 
 }  // namespace cansim::personalities::p92c

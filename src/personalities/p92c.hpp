@@ -7,44 +7,34 @@
 
 #include <memory>
 
-#include "personalities/registry.hpp"
 #include "personalities/sensor_application.hpp"
 
 namespace cansim::personalities::p92c {
 
-using Settings = model::P92cSettings;  // the `vendor:` keys (config/vendor_settings.cpp)
+using Settings = model::P92cSettings;
 
-class P92cApplication final : public SensorApplication {
+class P92cApplication final : public VendorApplication<P92cApplication, Settings> {
  public:
-  P92cApplication(std::shared_ptr<const Cia404Profile> profile, std::unique_ptr<MeasurementSource> source,
-                  const Settings& settings, std::uint32_t node_index = 0);
-
-  Cia404Chain& chain() override { return chain_; }
-  const Cia404Chain& chain() const override { return chain_; }
-  DevicePart& device() override { return device_; }
+  using VendorApplication::VendorApplication;
 
   void on_reset(Node& node, ResetKind kind, TimeUs now) override;
-  SdoAbort check_write(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now) override;
   TimeUs process(Node& node, TimeUs now) override;
-  std::unique_ptr<Application> snapshot() const override { return snapshot_of(*this); }
-  void restore(const Application& snapshot) override { restore_from(*this, snapshot); }
+
+  static const ObjectHooks<P92cApplication> kObjectHooks;  // the vendor objects' indications
 
  private:
   struct State {
     std::uint8_t last_status[2] = {};
-    bool error[2] = {};  // the channel's EMCY reported
   };
+  static const ObjectHook<P92cApplication> kObjectRows[];
+
+  SdoAbort check_bit_rate(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
   void fill_serial(Node& node);
   void boot_checks(Node& node, ResetKind kind, TimeUs now);
   // Status supervision: counters, sensor-fault EMCYs.
   void supervise(Node& node, TimeUs now);
 
-  Cia404Chain chain_;
-  DevicePart device_;
-  Settings settings_;
   State state_;
 };
-
-std::unique_ptr<Application> make(const model::Profile& profile, const Settings& settings, const NodeContext& ctx);
 
 }  // namespace cansim::personalities::p92c

@@ -2,21 +2,21 @@
 
 #include <span>
 
+#include "core/protocol.hpp"
 #include "personalities/measurement_control.hpp"
 
 namespace cansim::personalities {
 
 namespace {
 
-constexpr std::uint16_t kRpdoComm = 0x1400, kTpdoComm = 0x1800;
-constexpr std::uint32_t kExtendedIdBits = 0x1FFFFFFF, kBaseIdBits = 0x7FF;
+constexpr std::uint16_t kRpdoComm = 0x1400, kTpdoComm = 0x1800;  // CiA 301 §7.5.2.35 / .37
 
 PdoView view_of(Node& node, const PdoConfig& cfg, bool transmit) {
   PdoView v;
   v.transmit = transmit;
   v.number = unsigned(cfg.comm_index - (transmit ? kTpdoComm : kRpdoComm)) + 1;
-  v.extended = (cfg.cobid & kPdoCobFrame) != 0;
-  v.can_id = cfg.cobid & (v.extended ? kExtendedIdBits : kBaseIdBits);
+  v.extended = (cfg.cobid & cob::kFrame29Bit) != 0;
+  v.can_id = cob::can_id(cfg.cobid);
   v.valid = node.pdo().valid(cfg);
   v.transmission_type = cfg.type;
   v.bits = cfg.bits;
@@ -39,8 +39,8 @@ PdoView view_of(Node& node, const PdoConfig& cfg, bool transmit) {
 ObjectMeaning object_meaning(Node& node, const OdEntry& e) {
   const MeasurementControl* control = measurement_control(node.app());
   if (!control) return {};
-  const Cia404Chain::EntryScale s = control->chain().entry_scale(node, e);
-  return {s.scale, std::string(s.unit)};
+  const MeasurementControl::EntryScale s = control->entry_scale(node, e);
+  return {s.scale, s.offset, std::string(s.unit), s.counts, s.count_scale};
 }
 
 std::vector<PdoView> pdo_views(Node& node) {

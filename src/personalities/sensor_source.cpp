@@ -3,16 +3,20 @@
 #include <algorithm>
 #include <cmath>
 
+#include "physics/plant.hpp"
 #include "physics/random.hpp"
 
 namespace cansim::personalities {
 
 SensorSource::SensorSource(const physics::SensorSpec& sensor, const physics::ProcessSpec& process,
-                           std::span<const physics::FaultSpec> faults, std::uint64_t node_seed)
+                           std::span<const physics::FaultSpec> faults, std::uint64_t node_seed,
+                           const physics::PlantResolver* plants)
     : faults_(std::make_unique<physics::FaultSet>(faults.size() + 4)),
       process_seed_(physics::derive_seed(node_seed, physics::hash_string("process"))),
-      sensor_(sensor, physics::ProcessModel(process, process_seed_),
+      plants_(plants),
+      sensor_(sensor, physics::ProcessModel(process, process_seed_, plants, physics::lookback_us(sensor)),
               physics::derive_seed(node_seed, physics::hash_string("sensor")), faults_.get()) {
+  faults_->set_seed(physics::derive_seed(node_seed, physics::hash_string("faults")));
   for (const physics::FaultSpec& f : faults) faults_->add(f, 0);
 }
 
@@ -20,7 +24,7 @@ void SensorSource::set_process(physics::Channel ch, const std::vector<physics::T
   catch_up(now);
   // Seeded by the time as well: two models set at different times draw different noise.
   sensor_.process().set_channel(ch, terms, physics::derive_seed(process_seed_, std::uint64_t(now)),
-                                physics::us_to_seconds(now));
+                                physics::us_to_seconds(now), plants_, physics::lookback_us(sensor_.spec()));
 }
 
 void SensorSource::restore_process(physics::Channel ch, TimeUs now) {
@@ -51,6 +55,7 @@ void SensorSource::stop_recording() {
 SensorSource::SensorSource(const SensorSource& other)
     : faults_(std::make_unique<physics::FaultSet>(*other.faults_)),
       process_seed_(other.process_seed_),
+      plants_(other.plants_),
       sensor_(other.sensor_) {
   sensor_.set_faults(faults_.get());
 }
@@ -77,7 +82,8 @@ MeasurementSource::Sample SensorSource::sample(physics::Channel ch, TimeUs now) 
 }
 
 TimeUs SensorSource::sample_period_us(physics::Channel ch) const {
-  const physics::ChannelSpec& c = ch == physics::Channel::Pressure ? sensor_.spec().pressure : sensor_.spec().temperature;
+  const physics::ChannelSpec& c =
+      ch == physics::Channel::Pressure ? sensor_.spec().pressure : sensor_.spec().temperature;
   return std::max<TimeUs>(1, TimeUs(std::llround(1e6 / c.sample_rate_hz)));
 }
 

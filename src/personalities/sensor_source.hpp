@@ -21,9 +21,9 @@ namespace cansim::personalities {
 class MeasurementSource {
  public:
   struct Sample {
-    double si = 0.0;           // Pa / K
-    std::int32_t raw = 0;      // ADC counts
-    std::uint8_t status = 0;   // physics kStatus* bits
+    double si = 0.0;          // Pa / K
+    std::int32_t raw = 0;     // ADC counts
+    std::uint8_t status = 0;  // physics kStatus* bits
   };
   virtual ~MeasurementSource() = default;
   // Must return the same sample for the same `now`: the chain evaluates a
@@ -31,6 +31,10 @@ class MeasurementSource {
   virtual Sample sample(physics::Channel ch, TimeUs now) = 0;
   virtual void set_filter(physics::Channel, const physics::FilterSpec&) {}
   virtual TimeUs sample_period_us(physics::Channel) const { return 1000; }
+  // What the channel's next sample gives if taken before `until`, while
+  // nothing else samples it (physics::Sensor::steadiness). Default: nothing
+  // is sure (until = now).
+  virtual physics::Steadiness steady(physics::Channel, TimeUs now) const { return {now, 0.0, 0.0, 0}; }
   virtual void reboot(TimeUs) {}
   // The node's fault schedule (null: this source has none).
   virtual physics::FaultSet* fault_set() { return nullptr; }
@@ -43,11 +47,18 @@ class MeasurementSource {
 // The physics::Sensor of one node with its scheduled faults.
 class SensorSource : public MeasurementSource {
  public:
+  // `plants` resolves the process's plant terms (null: it has none); it
+  // outlives the source.
   SensorSource(const physics::SensorSpec& sensor, const physics::ProcessSpec& process,
-               std::span<const physics::FaultSpec> faults, std::uint64_t node_seed);
+               std::span<const physics::FaultSpec> faults, std::uint64_t node_seed,
+               const physics::PlantResolver* plants = nullptr);
   Sample sample(physics::Channel ch, TimeUs now) override;
   void set_filter(physics::Channel ch, const physics::FilterSpec& f) override { sensor_.set_filter(ch, f); }
   TimeUs sample_period_us(physics::Channel ch) const override;
+  // Nothing is sure while a recording runs: it wants a row at each check.
+  physics::Steadiness steady(physics::Channel ch, TimeUs now) const override {
+    return recorder_ ? physics::Steadiness{now, 0.0, 0.0, 0} : sensor_.steadiness(ch, now);
+  }
   void reboot(TimeUs now) override { sensor_.reboot(now); }
   physics::FaultSet* fault_set() override { return faults_.get(); }
   // The sensor with its process model and the fault schedule; a recording is
@@ -83,6 +94,7 @@ class SensorSource : public MeasurementSource {
 
   std::unique_ptr<physics::FaultSet> faults_;  // the sensor keeps a pointer to it
   std::uint64_t process_seed_;
+  const physics::PlantResolver* plants_ = nullptr;
   physics::Sensor sensor_;
   std::unique_ptr<physics::CsvRecorder> recorder_;
   std::string recording_;

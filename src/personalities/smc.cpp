@@ -1,12 +1,11 @@
 #include "personalities/smc.hpp"
 
-#include <stdexcept>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
-#include "core/cob_id.hpp"
+#include "core/protocol.hpp"
 #include "core/nmt.hpp"
 #include "physics/quantize.hpp"
 
@@ -21,10 +20,8 @@ constexpr std::uint16_t kEmcySensor = 0x5030;  // §4.8
 constexpr std::uint8_t kInvalidBit = 0x01;     // 0x6150 bit 0 / 0x1001 bit 0
 constexpr float kFltMax = std::numeric_limits<float>::max();
 constexpr std::uint32_t kKeepBits = cob::kInvalid | cob::kNoRtr;  // 0x4001:02 keeps COB-ID bits 31, 30 (§6.3.7)
-
-bool is_field_or_process_value(std::uint16_t index) {
-  return index == 0x6130 || index == 0x7100 || index == 0x7130 || index == 0x9130;
-}
+constexpr std::uint16_t kMinMaxSinceBoot = 0x3130;                // 0x3131: over the lifetime
+constexpr std::uint16_t kClockDays = 0x3140;                      // 0x3141: ms of the day
 
 std::size_t channel_of(std::uint8_t sub) { return sub >= 2 ? 1 : 0; }
 
@@ -36,10 +33,6 @@ void SmcApplication::MinMax::add(std::int32_t v) {
   max = std::max(max, v);
   any = true;
 }
-
-SmcApplication::SmcApplication(std::shared_ptr<const Cia404Profile> profile, std::unique_ptr<MeasurementSource> source,
-                               const Settings& settings, std::uint32_t node_index)
-    : chain_(std::move(profile), std::move(source)), device_(DevicePart::seed_of(node_index)), settings_(settings) {}
 
 // ---------------------------------------------------------------- measurement chain (§5)
 
@@ -107,59 +100,108 @@ void SmcApplication::on_reset(Node& node, ResetKind kind, TimeUs now) {
   load_chain(node);
 }
 
-// ---------------------------------------------------------------- reads
+// ---------------------------------------------------------------- the vendor objects
 
+// Every object the SMC serves itself (smc.hpp: kObjectHooks); the others are
+// the CiA 404 chain's.
+using Hook = ObjectHook<SmcApplication>;
+constexpr Hook SmcApplication::kObjectRows[] = {
+    object<SmcApplication>(0x1002, &SmcApplication::read_status_register),
+    object<SmcApplication>(0x1008, &SmcApplication::read_device_name),
+    object<SmcApplication>(0x1012, nullptr, &SmcApplication::check_time_cob_id),
+    object<SmcApplication>(0x3124, nullptr, nullptr, &SmcApplication::written_input_offset_i16),
+    object<SmcApplication>(0x3125, nullptr, nullptr, &SmcApplication::written_input_offset),
+    object<SmcApplication>(0x3126, nullptr, &SmcApplication::check_autozero, &SmcApplication::written_autozero),
+    area<SmcApplication>(0x3130, 0x3131, &SmcApplication::read_min_max, &SmcApplication::check_min_max_reset,
+                         &SmcApplication::written_min_max_reset),
+    area<SmcApplication>(0x3140, 0x3141, &SmcApplication::read_clock),
+    object<SmcApplication>(0x3200, &SmcApplication::read_clamp_switch, &SmcApplication::check_clamp_switch,
+                           &SmcApplication::written_clamp_switch),
+    object<SmcApplication>(0x4001, &SmcApplication::read_node_id, &SmcApplication::check_node_id,
+                           &SmcApplication::written_node_id),
+    object<SmcApplication>(0x4010, nullptr, &SmcApplication::check_termination),
+    object<SmcApplication>(0x4022, &SmcApplication::read_device_name, &SmcApplication::check_device_name,
+                           &SmcApplication::written_device_name),
+    object<SmcApplication>(0x4030, &SmcApplication::read_serial, nullptr, &SmcApplication::written_serial),
+    object<SmcApplication>(0x4031, nullptr, nullptr, &SmcApplication::written_maintenance_time),
+    object<SmcApplication>(0x6121, nullptr, nullptr, &SmcApplication::written_pv1_or_pv2),
+    object<SmcApplication>(0x6123, nullptr, nullptr, &SmcApplication::written_pv1_or_pv2),
+    object<SmcApplication>(0x6126, nullptr, nullptr, &SmcApplication::written_gain),
+    object<SmcApplication>(0x6127, nullptr, nullptr, &SmcApplication::written_scale_offset),
+    object<SmcApplication>(0x6130, &SmcApplication::read_in_byte_order),
+    object<SmcApplication>(0x6132, nullptr, nullptr, &SmcApplication::written_digits),
+    object<SmcApplication>(0x6150, &SmcApplication::read_status),
+    object<SmcApplication>(0x7100, &SmcApplication::read_in_byte_order),
+    object<SmcApplication>(0x7130, &SmcApplication::read_in_byte_order),
+    object<SmcApplication>(0x9121, nullptr, nullptr, &SmcApplication::written_pv1_i32),
+    object<SmcApplication>(0x9123, nullptr, nullptr, &SmcApplication::written_pv2_i32),
+    object<SmcApplication>(0x9130, &SmcApplication::read_in_byte_order),
+};
+constexpr ObjectHooks<SmcApplication> SmcApplication::kObjectHooks{kObjectRows};
+
+// The scaling objects may change outside a hooked write (a restore, the
+// control API): the §5 chain is loaded again before every access.
 void SmcApplication::refresh(Node& node, const OdEntry& e, TimeUs now) {
   load_chain(node);
-  OdValues& v = node.values();
-  switch (e.index) {
-    case 0x1002: {  // §6.1.3: bits 15..8 = 0x6150:02, bits 7..0 = 0x6150:01
-      std::uint32_t reg = 0;
-      for (std::size_t ch = 0; ch < 2; ++ch)
-        reg |= std::uint32_t(chain_.measure(node, ch, now).status | state_.latched_status[ch]) << (8 * ch);
-      v.set_u(e, reg);
-      return;
-    }
-    case 0x1008:
-    case 0x4022:
-      return refresh_device_name(node);
-    case 0x3130:
-    case 0x3131: {  // min / max FV, reported through the current offset, scaling and clamping
-      if (e.sub == 0) return;
-      const std::size_t ch = (e.sub - 1u) / 2;
-      const MinMax& m = (e.index == 0x3130 ? state_.uptime : state_.lifetime)[ch];
-      const std::int32_t fv = (e.sub - 1u) % 2 ? m.max : m.min;
-      v.set_f(e, m.any ? state_.input[ch].scale(fv) : 0.0);
-      return;
-    }
-    case 0x3140:
-    case 0x3141: {  // internal millisecond clock from the boot (no TIME consumer yet)
-      const TimeUs ms_total = (now - state_.boot_time) / 1000;
-      v.set_u(e, e.index == 0x3140 ? std::uint64_t(ms_total / 86400000) : std::uint64_t(ms_total % 86400000));
-      return;
-    }
-    case 0x3200: {
-      const LinearInput& c = state_.input[channel_of(e.sub)];
-      v.set_u(e, c.cmin != -kFltMax || c.cmax != kFltMax ? 1 : 0);
-      return;
-    }
-    case 0x4001:
-      v.set_u(e, node.node_id());
-      return;
-    case 0x4030:
-      if (v.get_u(e) == 0) v.set_u(e, v.u(0x1018, 4));
-      return;
-    default:
-      break;
-  }
+  VendorApplication::refresh(node, e, now);
+}
+
+void SmcApplication::after_write(Node& node, const OdEntry& e, TimeUs now) {
+  VendorApplication::after_write(node, e, now);
+  load_chain(node);
+}
+
+// ---------------------------------------------------------------- reads
+
+// §6.1.3: bits 15..8 = 0x6150:02, bits 7..0 = 0x6150:01.
+void SmcApplication::read_status_register(Node& node, const OdEntry& e, TimeUs now) {
+  std::uint32_t reg = 0;
+  for (std::size_t ch = 0; ch < 2; ++ch)
+    reg |= std::uint32_t(chain_.measure(node, ch, now).status | state_.latched_status[ch]) << (8 * ch);
+  node.values().set_u(e, reg);
+}
+
+void SmcApplication::read_device_name(Node& node, const OdEntry&, TimeUs) { refresh_device_name(node); }
+
+// Min / max FV (0x3130 since the boot, 0x3131 lifetime), reported through the
+// current offset, scaling and clamping.
+void SmcApplication::read_min_max(Node& node, const OdEntry& e, TimeUs) {
+  if (e.sub == 0) return;
+  const std::size_t ch = (e.sub - 1u) / 2;
+  const MinMax& m = (e.index == kMinMaxSinceBoot ? state_.uptime : state_.lifetime)[ch];
+  const std::int32_t fv = (e.sub - 1u) % 2 ? m.max : m.min;
+  node.values().set_f(e, m.any ? state_.input[ch].scale(fv) : 0.0);
+}
+
+// The internal millisecond clock from the boot: 0x3140 days, 0x3141 ms of the
+// day (no TIME consumer yet).
+void SmcApplication::read_clock(Node& node, const OdEntry& e, TimeUs now) {
+  const TimeUs ms_total = (now - state_.boot_time) / 1000;
+  node.values().set_u(e,
+                      e.index == kClockDays ? std::uint64_t(ms_total / 86400000) : std::uint64_t(ms_total % 86400000));
+}
+
+void SmcApplication::read_clamp_switch(Node& node, const OdEntry& e, TimeUs) {
+  const LinearInput& c = state_.input[channel_of(e.sub)];
+  node.values().set_u(e, c.cmin != -kFltMax || c.cmax != kFltMax ? 1 : 0);
+}
+
+void SmcApplication::read_node_id(Node& node, const OdEntry& e, TimeUs) { node.values().set_u(e, node.node_id()); }
+
+void SmcApplication::read_serial(Node& node, const OdEntry& e, TimeUs) {
+  if (node.values().get_u(e) == 0) node.values().set_u(e, node.values().u(0x1018, 4));
+}
+
+// 0x6150 bit 0 is held like 0x1001 (§6.1.2).
+void SmcApplication::read_status(Node& node, const OdEntry& e, TimeUs now) {
   chain_.refresh(node, e, now);
-  if (e.index == 0x6150 && e.sub >= 1 && e.sub <= 2) v.set_u(e, v.get_u(e) | state_.latched_status[e.sub - 1]);
-  swap_if_big_endian(node, e);
+  if (e.sub >= 1 && e.sub <= 2) node.values().set_u(e, node.values().get_u(e) | state_.latched_status[e.sub - 1]);
 }
 
 // §6.3.6: 0x4000 = 1 sends field and process values big-endian (SDO and TPDO).
-void SmcApplication::swap_if_big_endian(Node& node, const OdEntry& e) {
-  if (!is_field_or_process_value(e.index) || e.sub == 0 || node.values().u(0x4000, 0) != 1) return;
+void SmcApplication::read_in_byte_order(Node& node, const OdEntry& e, TimeUs now) {
+  chain_.refresh(node, e, now);
+  if (e.sub == 0 || node.values().u(0x4000, 0) != 1) return;
   const auto bytes = node.values().bytes(e);
   std::uint8_t swapped[8] = {};
   const std::size_t n = std::min<std::size_t>(bytes.size(), sizeof swapped);
@@ -173,8 +215,7 @@ void SmcApplication::fill_device_name_chars(Node& node) {
   const OdEntry* name = node.od().find(0x1008, 0);
   if (!name) return;
   const auto& factory = name->default_bytes;
-  for (std::uint8_t k = 1; k <= 60; ++k)
-    node.values().set_u(0x4022, k, k <= factory.size() ? factory[k - 1] : 0);
+  for (std::uint8_t k = 1; k <= 60; ++k) node.values().set_u(0x4022, k, k <= factory.size() ? factory[k - 1] : 0);
 }
 
 void SmcApplication::refresh_device_name(Node& node) {
@@ -191,127 +232,157 @@ void SmcApplication::refresh_device_name(Node& node) {
   node.values().set_string(*name, std::string_view(text, n));
 }
 
-// ---------------------------------------------------------------- writes
+// ---------------------------------------------------------------- write checks
 
-SdoAbort SmcApplication::check_write(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now) {
-  const std::uint64_t v = data.size() >= type_size(e.type) ? decode_u(e.type, data.data()) : 0;
-  switch (e.index) {
-    case 0x1012:  // a TIME consumer or producer, never both
-      return (v & 0xC0000000u) == 0xC0000000u ? SdoAbort::kInvalidValue : SdoAbort::kNone;
-    case 0x3126: {  // §6.3.1 fn 10: autozero only within +-10 % (2000 counts) of zero
-      if (v != kZero) return SdoAbort::kDataTransfer;
-      const std::int32_t fv = chain_.measure(node, channel_of(e.sub), now).raw;
-      return std::abs(fv) <= 2000 ? SdoAbort::kNone : SdoAbort::kDataTransfer;
-    }
-    case 0x3130:
-    case 0x3131:
-      return e.sub == 0 && v == kRset ? SdoAbort::kNone : SdoAbort::kDataTransfer;
-    case 0x3200:  // §6.3.4: writing 0 disables; enabling is done by writing min / max
-      return v == 0 ? SdoAbort::kNone : SdoAbort::kInvalidValue;
-    case 0x4001:
-      return v >= 1 && v <= 127 ? SdoAbort::kNone : SdoAbort::kInvalidValue;
-    case 0x4010:
-      return v == 1 && node.values().u(0x4010, 1) == 0 ? SdoAbort::kInvalidValue : SdoAbort::kNone;
-    case 0x4022:
-      if (node.values().u(0x4022, 1) == 0) fill_device_name_chars(node);
-      return SdoAbort::kNone;
-    default:
-      return chain_.check_write(node, e, data, now);
-  }
+namespace {
+// The written value as an unsigned number (0 when shorter than the type).
+std::uint64_t written_u(const OdEntry& e, std::span<const std::uint8_t> data) {
+  return data.size() >= type_size(e.type) ? decode_u(e.type, data.data()) : 0;
+}
+SdoAbort valid_if(bool ok) { return ok ? SdoAbort::kNone : SdoAbort::kInvalidValue; }
+}  // namespace
+
+// A TIME consumer or producer, never both.
+SdoAbort SmcApplication::check_time_cob_id(Node&, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs) {
+  return valid_if((written_u(e, data) & 0xC0000000u) != 0xC0000000u);
 }
 
-void SmcApplication::after_write(Node& node, const OdEntry& e, TimeUs now) {
-  OdValues& v = node.values();
-  const std::size_t ch = channel_of(e.sub);
-  switch (e.index) {
-    case 0x3124:  // one input-offset register, two views
-      v.set_f(*state_.objects[channel_of(e.sub)].input_offset, double(v.get_i(e)));
-      break;
-    case 0x3125:
-      v.set_i(*state_.objects[channel_of(e.sub)].input_offset_i16, physics::to_decimal_i16(v.get_f(e), 0).value);
-      break;
-    case 0x3126: {  // "recent Field Value copied into the Input Offset register"
-      chain_.invalidate();
-      const std::int32_t fv = chain_.measure(node, ch, now).raw;
-      v.set_f(*state_.objects[channel_of(e.sub)].input_offset, fv);
-      v.set_i(*state_.objects[channel_of(e.sub)].input_offset_i16, fv);
-      break;
-    }
-    case 0x3130:
-    case 0x3131:
-      for (MinMax& m : e.index == 0x3130 ? state_.uptime : state_.lifetime) m = MinMax{};
-      v.set_u(e, 4);
-      break;
-    case 0x3200:  // "least and largest possible float32 values" to min / max
-      v.set_f(*state_.objects[channel_of(e.sub)].clamp_min, -kFltMax);
-      v.set_f(*state_.objects[channel_of(e.sub)].clamp_max, kFltMax);
-      break;
-    case 0x4001:
-      return change_node_id(node, e.sub, std::uint8_t(v.get_u(e)), now);
-    case 0x4022:
-      refresh_device_name(node);
-      break;
-    case 0x4030:  // §6.3.12: writing the low part clears the high part; low = 0x1018:04 = LSS serial
-      if (e.sub == 1) {
-        v.set_u(0x4030, 2, 0);
-        v.set_u(0x1018, 4, v.get_u(e));
-      }
-      break;
-    case 0x4031:
-      if (e.sub == 1) v.set_u(0x4031, 2, 0);
-      break;
-    case 0x6121:
-    case 0x6123:
-    case 0x6126:
-    case 0x6127:
-    case 0x9121:
-    case 0x9123:
-      after_scaling_write(node, e);
-      break;
-    default:
-      chain_.after_write(node, e, now);
-      if (e.index == 0x6132) write_scaling(node, ch, float(v.get_f(*state_.objects[channel_of(e.sub)].pv1)),
-                                           float(v.get_f(*state_.objects[channel_of(e.sub)].pv2)));
-      break;
-  }
-  load_chain(node);
+// §6.3.1 fn 10: autozero only within +-10 % (2000 counts) of zero.
+SdoAbort SmcApplication::check_autozero(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now) {
+  if (written_u(e, data) != kZero) return SdoAbort::kDataTransfer;
+  const std::int32_t fv = chain_.measure(node, channel_of(e.sub), now).raw;
+  return std::abs(fv) <= 2000 ? SdoAbort::kNone : SdoAbort::kDataTransfer;
+}
+
+SdoAbort SmcApplication::check_min_max_reset(Node&, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs) {
+  return e.sub == 0 && written_u(e, data) == kRset ? SdoAbort::kNone : SdoAbort::kDataTransfer;
+}
+
+// §6.3.4: writing 0 disables; enabling is done by writing min / max.
+SdoAbort SmcApplication::check_clamp_switch(Node&, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs) {
+  return valid_if(written_u(e, data) == 0);
+}
+
+SdoAbort SmcApplication::check_node_id(Node&, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs) {
+  const std::uint64_t id = written_u(e, data);
+  return valid_if(id >= 1 && id <= 127);
+}
+
+// The termination is enabled only where it is switchable (0x4010:01).
+SdoAbort SmcApplication::check_termination(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs) {
+  return valid_if(written_u(e, data) != 1 || node.values().u(0x4010, 1) != 0);
+}
+
+SdoAbort SmcApplication::check_device_name(Node& node, const OdEntry&, std::span<const std::uint8_t>, TimeUs) {
+  if (node.values().u(0x4022, 1) == 0) fill_device_name_chars(node);
+  return SdoAbort::kNone;
+}
+
+// ---------------------------------------------------------------- writes
+
+// One input-offset register, two views (0x3124 INTEGER16, 0x3125 REAL32).
+void SmcApplication::written_input_offset_i16(Node& node, const OdEntry& e, TimeUs) {
+  node.values().set_f(*state_.objects[channel_of(e.sub)].input_offset, double(node.values().get_i(e)));
+}
+
+void SmcApplication::written_input_offset(Node& node, const OdEntry& e, TimeUs) {
+  node.values().set_i(*state_.objects[channel_of(e.sub)].input_offset_i16,
+                      physics::to_decimal_i16(node.values().get_f(e), 0).value);
+}
+
+// "recent Field Value copied into the Input Offset register".
+void SmcApplication::written_autozero(Node& node, const OdEntry& e, TimeUs now) {
+  chain_.invalidate();
+  const ScalingObjects& o = state_.objects[channel_of(e.sub)];
+  const std::int32_t fv = chain_.measure(node, channel_of(e.sub), now).raw;
+  node.values().set_f(*o.input_offset, fv);
+  node.values().set_i(*o.input_offset_i16, fv);
+}
+
+void SmcApplication::written_min_max_reset(Node& node, const OdEntry& e, TimeUs) {
+  for (MinMax& m : e.index == kMinMaxSinceBoot ? state_.uptime : state_.lifetime) m = MinMax{};
+  node.values().set_u(e, 4);
+}
+
+// "least and largest possible float32 values" to min / max.
+void SmcApplication::written_clamp_switch(Node& node, const OdEntry& e, TimeUs) {
+  node.values().set_f(*state_.objects[channel_of(e.sub)].clamp_min, -kFltMax);
+  node.values().set_f(*state_.objects[channel_of(e.sub)].clamp_max, kFltMax);
+}
+
+void SmcApplication::written_node_id(Node& node, const OdEntry& e, TimeUs now) {
+  change_node_id(node, e.sub, std::uint8_t(node.values().get_u(e)), now);
+}
+
+void SmcApplication::written_device_name(Node& node, const OdEntry&, TimeUs) { refresh_device_name(node); }
+
+// §6.3.12: writing the low part clears the high part; low = 0x1018:04 = LSS serial.
+void SmcApplication::written_serial(Node& node, const OdEntry& e, TimeUs) {
+  if (e.sub != 1) return;
+  node.values().set_u(0x4030, 2, 0);
+  node.values().set_u(0x1018, 4, node.values().get_u(e));
+}
+
+void SmcApplication::written_maintenance_time(Node& node, const OdEntry& e, TimeUs) {
+  if (e.sub == 1) node.values().set_u(0x4031, 2, 0);
 }
 
 // §6.2.6: PV1 / PV2 are the state; "always write the Offset value at first":
 // an offset write moves PV1, a gain write moves PV2 using the current offset.
-void SmcApplication::after_scaling_write(Node& node, const OdEntry& e) {
+void SmcApplication::written_pv1_or_pv2(Node& node, const OdEntry& e, TimeUs) {
+  const ScalingObjects& o = state_.objects[channel_of(e.sub)];
+  write_scaling(node, channel_of(e.sub), float(node.values().get_f(*o.pv1)), float(node.values().get_f(*o.pv2)));
+}
+
+void SmcApplication::written_scale_offset(Node& node, const OdEntry& e, TimeUs) {
+  const ScalingObjects& o = state_.objects[channel_of(e.sub)];
+  write_scaling(node, channel_of(e.sub), float(node.values().get_f(e)), float(node.values().get_f(*o.pv2)));
+}
+
+void SmcApplication::written_gain(Node& node, const OdEntry& e, TimeUs) {
   OdValues& v = node.values();
-  const std::uint8_t sub = e.sub;
-  const std::size_t ch = channel_of(sub);
-  float pv1 = float(v.get_f(*state_.objects[channel_of(sub)].pv1));
-  float pv2 = float(v.get_f(*state_.objects[channel_of(sub)].pv2));
-  const double pow10 = std::pow(10.0, double(std::min<std::uint64_t>(v.u(0x6132, sub), 9)));
-  switch (e.index) {
-    case 0x9121: pv1 = float(double(v.get_i(e)) / pow10); break;
-    case 0x9123: pv2 = float(double(v.get_i(e)) / pow10); break;
-    case 0x6127: pv1 = float(v.get_f(e)); break;
-    case 0x6126: {
-      const float gain = float(v.get_f(e));
-      pv2 = float(v.get_f(*state_.objects[channel_of(sub)].scale_offset)) + gain * float(kFieldSpan);
-      write_scaling(node, ch, pv1, pv2);
-      v.set_f(e, gain);  // reads back exactly as written
-      return;
-    }
-    default: break;
-  }
-  write_scaling(node, ch, pv1, pv2);
+  const ScalingObjects& o = state_.objects[channel_of(e.sub)];
+  const float gain = float(v.get_f(e));
+  const float pv2 = float(v.get_f(*o.scale_offset)) + gain * float(kFieldSpan);
+  write_scaling(node, channel_of(e.sub), float(v.get_f(*o.pv1)), pv2);
+  v.set_f(e, gain);  // reads back exactly as written
+}
+
+// The INTEGER32 views are PV1 / PV2 x 10^digits (0x6132).
+void SmcApplication::written_pv1_i32(Node& node, const OdEntry& e, TimeUs) {
+  const ScalingObjects& o = state_.objects[channel_of(e.sub)];
+  write_scaling(node, channel_of(e.sub), float(double(node.values().get_i(e)) / pow10_digits(node, e.sub)),
+                float(node.values().get_f(*o.pv2)));
+}
+
+void SmcApplication::written_pv2_i32(Node& node, const OdEntry& e, TimeUs) {
+  const ScalingObjects& o = state_.objects[channel_of(e.sub)];
+  write_scaling(node, channel_of(e.sub), float(node.values().get_f(*o.pv1)),
+                float(double(node.values().get_i(e)) / pow10_digits(node, e.sub)));
+}
+
+// New digits re-render the integer views of PV1 / PV2.
+void SmcApplication::written_digits(Node& node, const OdEntry& e, TimeUs now) {
+  chain_.after_write(node, e, now);
+  const ScalingObjects& o = state_.objects[channel_of(e.sub)];
+  write_scaling(node, channel_of(e.sub), float(node.values().get_f(*o.pv1)), float(node.values().get_f(*o.pv2)));
+}
+
+double SmcApplication::pow10_digits(const Node& node, std::uint8_t sub) {
+  return std::pow(10.0, double(std::min<std::uint64_t>(node.values().u(0x6132, sub), 9)));
 }
 
 void SmcApplication::write_scaling(Node& node, std::size_t ch, float pv1, float pv2) {
   OdValues& v = node.values();
   const auto sub = std::uint8_t(ch + 1);
   const int dd = int(std::min<std::uint64_t>(v.u(0x6132, sub), 9));
-  v.set_f(*state_.objects[channel_of(sub)].pv1, pv1);
-  v.set_f(*state_.objects[channel_of(sub)].pv2, pv2);
-  v.set_i(*state_.objects[channel_of(sub)].pv1_i32, physics::to_decimal_i32(pv1, dd).value);
-  v.set_i(*state_.objects[channel_of(sub)].pv2_i32, physics::to_decimal_i32(pv2, dd).value);
-  v.set_f(*state_.objects[channel_of(sub)].gain, (pv2 - pv1) / float(kFieldSpan));
-  v.set_f(*state_.objects[channel_of(sub)].scale_offset, pv1);
+  const ScalingObjects& o = state_.objects[channel_of(sub)];
+  v.set_f(*o.pv1, pv1);
+  v.set_f(*o.pv2, pv2);
+  v.set_i(*o.pv1_i32, physics::to_decimal_i32(pv1, dd).value);
+  v.set_i(*o.pv2_i32, physics::to_decimal_i32(pv2, dd).value);
+  v.set_f(*o.gain, (pv2 - pv1) / float(kFieldSpan));
+  v.set_f(*o.scale_offset, pv1);
 }
 
 // §6.3.7 / §8.3: the new node-ID is applied at once, no SDO answer, a boot-up
@@ -366,25 +437,18 @@ void SmcApplication::sensor_error(Node& node, TimeUs now) {
   if (settings_.analog_error_reaction) node.nmt().error_reaction(3, now);
 }
 
-// ---------------------------------------------------------------- registry
-
-
 // §5: the measurement chain and its scaling objects, both channels.
 constexpr RequiredObject kRequiredObjects[] = {{0x6121, 1, 2, "the input scaling (§5)"},
-                            {0x6123, 1, 2, "the input scaling (§5)"},
-                            {0x6126, 1, 2, "the scaling factor of its measurement chain (§5)"},
-                            {0x6127, 1, 2, "the scaling offset of its measurement chain (§5)"},
-                            {0x3124, 1, 2, "the offset of its measurement chain (§5)"},
-                            {0x3125, 1, 2, "the offset of its measurement chain (§5)"},
-                            {0x3201, 1, 2, "the output clamp of its measurement chain (§5)"},
-                            {0x3202, 1, 2, "the output clamp of its measurement chain (§5)"},
-                            {0x9121, 1, 2, "the integer input scaling (§5)"},
-                            {0x9123, 1, 2, "the integer input scaling (§5)"}};
+                                               {0x6123, 1, 2, "the input scaling (§5)"},
+                                               {0x6126, 1, 2, "the scaling factor of its measurement chain (§5)"},
+                                               {0x6127, 1, 2, "the scaling offset of its measurement chain (§5)"},
+                                               {0x3124, 1, 2, "the offset of its measurement chain (§5)"},
+                                               {0x3125, 1, 2, "the offset of its measurement chain (§5)"},
+                                               {0x3201, 1, 2, "the output clamp of its measurement chain (§5)"},
+                                               {0x3202, 1, 2, "the output clamp of its measurement chain (§5)"},
+                                               {0x9121, 1, 2, "the integer input scaling (§5)"},
+                                               {0x9123, 1, 2, "the integer input scaling (§5)"}};
 
 Requirements requirements() { return {kRequiredObjects, 2, "its pressure and temperature chains (§5)"}; }
-
-std::unique_ptr<Application> make(const model::Profile& profile, const Settings& settings, const NodeContext& ctx) {
-  return std::make_unique<SmcApplication>(profile.cia404, make_sensor_source(profile, ctx), settings, ctx.index);
-}
 
 }  // namespace cansim::personalities::smc

@@ -14,31 +14,25 @@
 
 #include <memory>
 
-#include "personalities/registry.hpp"
+#include "personalities/catalog.hpp"
+#include "personalities/object_hooks.hpp"
 #include "personalities/sensor_application.hpp"
 
 namespace cansim::personalities::smc {
 
-using Settings = model::SmcSettings;  // the `vendor:` keys (config/vendor_settings.cpp)
+using Settings = model::SmcSettings;
 
-class SmcApplication final : public SensorApplication {
+class SmcApplication final : public VendorApplication<SmcApplication, Settings> {
  public:
-  SmcApplication(std::shared_ptr<const Cia404Profile> profile, std::unique_ptr<MeasurementSource> source,
-                 const Settings& settings, std::uint32_t node_index = 0);
-
-  Cia404Chain& chain() override { return chain_; }
-  const Cia404Chain& chain() const override { return chain_; }
-  DevicePart& device() override { return device_; }
+  using VendorApplication::VendorApplication;
 
   void on_reset(Node& node, ResetKind kind, TimeUs now) override;
   void refresh(Node& node, const OdEntry& e, TimeUs now) override;
-  SdoAbort check_write(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now) override;
   void after_write(Node& node, const OdEntry& e, TimeUs now) override;
   TimeUs process(Node& node, TimeUs now) override;
-  std::unique_ptr<Application> snapshot() const override { return snapshot_of(*this); }
-  void restore(const Application& snapshot) override { restore_from(*this, snapshot); }
 
-  static constexpr double kFieldSpan = 20000.0;  // FV2 - FV1 (0x7122 - 0x7120)
+  static const ObjectHooks<SmcApplication> kObjectHooks;  // the vendor objects' indications
+  static constexpr double kFieldSpan = 20000.0;           // FV2 - FV1 (0x7122 - 0x7120)
 
  private:
   struct MinMax {
@@ -49,10 +43,11 @@ class SmcApplication final : public SensorApplication {
 
   // The §5 scaling objects of one channel (sub 1 pressure, 2 temperature).
   struct ScalingObjects {
-    const OdEntry *pv1 = nullptr, *pv2 = nullptr, *pv1_i32 = nullptr, *pv2_i32 = nullptr;  // 0x6121 / 0x6123 / 0x9121 / 0x9123
-    const OdEntry *gain = nullptr, *scale_offset = nullptr;                                // 0x6126 / 0x6127
-    const OdEntry *input_offset_i16 = nullptr, *input_offset = nullptr;                    // 0x3124 / 0x3125
-    const OdEntry *clamp_min = nullptr, *clamp_max = nullptr;                              // 0x3201 / 0x3202
+    const OdEntry *pv1 = nullptr, *pv2 = nullptr, *pv1_i32 = nullptr,
+                  *pv2_i32 = nullptr;                                    // 0x6121 / 0x6123 / 0x9121 / 0x9123
+    const OdEntry *gain = nullptr, *scale_offset = nullptr;              // 0x6126 / 0x6127
+    const OdEntry *input_offset_i16 = nullptr, *input_offset = nullptr;  // 0x3124 / 0x3125
+    const OdEntry *clamp_min = nullptr, *clamp_max = nullptr;            // 0x3201 / 0x3202
   };
   struct State {
     ScalingObjects objects[2] = {};
@@ -64,26 +59,55 @@ class SmcApplication final : public SensorApplication {
     TimeUs boot_time = 0;
   };
 
+  static const ObjectHook<SmcApplication> kObjectRows[];
+
   void resolve_objects(const OdLayout& od);
   void load_chain(const Node& node);
+  // ---- per-object indications (kObjectRows)
+  void read_status_register(Node& node, const OdEntry& e, TimeUs now);
+  void read_device_name(Node& node, const OdEntry& e, TimeUs now);
+  void read_min_max(Node& node, const OdEntry& e, TimeUs now);
+  void read_clock(Node& node, const OdEntry& e, TimeUs now);
+  void read_clamp_switch(Node& node, const OdEntry& e, TimeUs now);
+  void read_node_id(Node& node, const OdEntry& e, TimeUs now);
+  void read_serial(Node& node, const OdEntry& e, TimeUs now);
+  void read_status(Node& node, const OdEntry& e, TimeUs now);
+  void read_in_byte_order(Node& node, const OdEntry& e, TimeUs now);
+  SdoAbort check_time_cob_id(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
+  SdoAbort check_autozero(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
+  SdoAbort check_min_max_reset(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
+  SdoAbort check_clamp_switch(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
+  SdoAbort check_node_id(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
+  SdoAbort check_termination(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
+  SdoAbort check_device_name(Node& node, const OdEntry& e, std::span<const std::uint8_t> data, TimeUs now);
+  void written_input_offset_i16(Node& node, const OdEntry& e, TimeUs now);
+  void written_input_offset(Node& node, const OdEntry& e, TimeUs now);
+  void written_autozero(Node& node, const OdEntry& e, TimeUs now);
+  void written_min_max_reset(Node& node, const OdEntry& e, TimeUs now);
+  void written_clamp_switch(Node& node, const OdEntry& e, TimeUs now);
+  void written_node_id(Node& node, const OdEntry& e, TimeUs now);
+  void written_device_name(Node& node, const OdEntry& e, TimeUs now);
+  void written_serial(Node& node, const OdEntry& e, TimeUs now);
+  void written_maintenance_time(Node& node, const OdEntry& e, TimeUs now);
+  void written_pv1_or_pv2(Node& node, const OdEntry& e, TimeUs now);
+  void written_scale_offset(Node& node, const OdEntry& e, TimeUs now);
+  void written_gain(Node& node, const OdEntry& e, TimeUs now);
+  void written_pv1_i32(Node& node, const OdEntry& e, TimeUs now);
+  void written_pv2_i32(Node& node, const OdEntry& e, TimeUs now);
+  void written_digits(Node& node, const OdEntry& e, TimeUs now);
+  // ---- their parts
+  static double pow10_digits(const Node& node, std::uint8_t sub);
   void write_scaling(Node& node, std::size_t ch, float pv1, float pv2);
-  void after_scaling_write(Node& node, const OdEntry& e);
   void fill_device_name_chars(Node& node);
   void refresh_device_name(Node& node);
   void change_node_id(Node& node, std::uint8_t sub, std::uint8_t id, TimeUs now);
   void supervise(Node& node, TimeUs now);
   void sensor_error(Node& node, TimeUs now);
-  void swap_if_big_endian(Node& node, const OdEntry& e);
 
-  Cia404Chain chain_;
-  DevicePart device_;
-  Settings settings_;
   State state_;
 };
 
 // The objects and channels the behaviour needs (personalities/catalog.hpp).
 Requirements requirements();
-
-std::unique_ptr<Application> make(const model::Profile& profile, const Settings& settings, const NodeContext& ctx);
 
 }  // namespace cansim::personalities::smc

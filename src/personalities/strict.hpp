@@ -1,4 +1,4 @@
-// Strict mode of the chain and device settings (README "Strict mode and
+// Strict mode of the chain and device settings (docs/profiles.md "Strict mode and
 // quirks"): plain functions on the settings structs, called by the loader
 // (config/strict_mode.cpp). A setting strict mode changes is a quirk named
 // `cia404.<name>` / `vendor.<name>` in the profile's `quirks:` map.

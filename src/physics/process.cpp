@@ -6,27 +6,28 @@
 #include <limits>
 #include <stdexcept>
 
+#include "physics/plant.hpp"
 #include "physics/random.hpp"
 
 namespace cansim::physics {
 
 namespace {
 constexpr double kTwoPi = 6.283185307179586476925286766559;
-constexpr double kSettleDecades = 40.0;    // e^-40 ~ 4e-18: older events have settled
-constexpr std::size_t kMaxEvents = 4096;   // bound on superposed events per evaluation
+constexpr double kSettleDecades = 40.0;   // e^-40 ~ 4e-18: older events have settled
+constexpr std::size_t kMaxEvents = 4096;  // bound on superposed events per evaluation
 
-double frac(double x) noexcept { return x - std::floor(x); }
+double frac(double x) { return x - std::floor(x); }
 }  // namespace
 
 // ------------------------------------------------------------------ closed forms
 
 namespace response {
 
-double first_order_free(double tau, double T) noexcept { return std::exp(-tau / T); }
+double first_order_free(double tau, double T) { return std::exp(-tau / T); }
 
-double first_order_integral(double tau, double T) noexcept { return -T * std::expm1(-tau / T); }
+double first_order_integral(double tau, double T) { return -T * std::expm1(-tau / T); }
 
-double second_order_free(double tau, double w, double zeta) noexcept {
+double second_order_free(double tau, double w, double zeta) {
   if (std::abs(zeta - 1.0) < 1e-9) return std::exp(-w * tau) * (1.0 + w * tau);
   if (zeta < 1.0) {
     const double a = zeta * w;
@@ -39,7 +40,7 @@ double second_order_free(double tau, double w, double zeta) noexcept {
   return (p2 * std::exp(-p1 * tau) - p1 * std::exp(-p2 * tau)) / (p2 - p1);
 }
 
-double second_order_integral(double tau, double w, double zeta) noexcept {
+double second_order_integral(double tau, double w, double zeta) {
   if (std::abs(zeta - 1.0) < 1e-9) {
     const double e = std::exp(-w * tau);
     return (2.0 / w) * (-std::expm1(-w * tau)) - tau * e;
@@ -69,12 +70,12 @@ namespace {
 
 struct CConst {
   double v;
-  double eval(double) const noexcept { return v; }
+  double eval(double) const { return v; }
 };
 
 struct CRamp {
   RampSpec s;
-  double eval(double t) const noexcept {
+  double eval(double t) const {
     if (t < s.start_s) return s.from;
     if (s.duration_s <= 0 || t >= s.start_s + s.duration_s) return s.to;
     return s.from + (s.to - s.from) * (t - s.start_s) / s.duration_s;
@@ -83,19 +84,17 @@ struct CRamp {
 
 struct CTable {
   Table table;
-  double eval(double t) const noexcept { return table.value(t); }
+  double eval(double t) const { return table.value(t); }
 };
 
 struct CSine {
   double amplitude, freq, phase_cycles;
-  double eval(double t) const noexcept {
-    return amplitude * std::sin(kTwoPi * frac(freq * t + phase_cycles));
-  }
+  double eval(double t) const { return amplitude * std::sin(kTwoPi * frac(freq * t + phase_cycles)); }
 };
 
 struct CPulse {
   PulseSpec s;
-  double eval(double t) const noexcept {
+  double eval(double t) const {
     if (t < s.delay_s) return s.low;
     const double tau = std::fmod(t - s.delay_s, s.period_s);
     const double high_end = s.duty * s.period_s;  // start of the falling edge
@@ -116,7 +115,7 @@ struct CPulsation {
   double shaft_hz;
   std::vector<H> h;
   int max_int_order = 0;
-  double eval(double t) const noexcept {
+  double eval(double t) const {
     double sum = 0.0;
     const double cyc = shaft_hz * t;
     if (max_int_order > 0) {
@@ -157,9 +156,9 @@ struct CResponse {
   Table sp;
   Mode mode = Mode::First;
   double T = 1, w = 1, zeta = 1;
-  double p1 = 0, p2 = 0;               // overdamped poles (rates)
-  std::complex<double> s{0, 0};        // underdamped pole -a + i b
-  std::complex<double> c{1, 0};        // free response = Re[c e^{s tau}]
+  double p1 = 0, p2 = 0;         // overdamped poles (rates)
+  std::complex<double> s{0, 0};  // underdamped pole -a + i b
+  std::complex<double> c{1, 0};  // free response = Re[c e^{s tau}]
   double window = 1;
   double e_inf = 0;
   double initial = kNaN;
@@ -171,7 +170,7 @@ struct CResponse {
   mutable double W1 = 0, W2 = 0;
   mutable std::complex<double> Wc{0, 0};
 
-  double free(double tau) const noexcept {
+  double free(double tau) const {
     switch (mode) {
       case Mode::First: return response::first_order_free(tau, T);
       default: return response::second_order_free(tau, w, mode == Mode::Critical ? 1.0 : zeta);
@@ -179,7 +178,7 @@ struct CResponse {
   }
 
   // Adds one breakpoint (jump `step`, slope change `k`) that lies d >= 0 before t_ref.
-  void accumulate(double d, double step, double k) const noexcept {
+  void accumulate(double d, double step, double k) const {
     switch (mode) {
       case Mode::First: W1 += (step - k * T) * std::exp(-d / T); break;
       case Mode::Under: {
@@ -202,7 +201,7 @@ struct CResponse {
     }
   }
 
-  double modes(double u) const noexcept {
+  double modes(double u) const {
     switch (mode) {
       case Mode::First: return W1 * std::exp(-u / T);
       case Mode::Under: {
@@ -215,7 +214,7 @@ struct CResponse {
     return 0.0;
   }
 
-  void rebuild(double t) const noexcept {
+  void rebuild(double t) const {
     constexpr double kInfT = std::numeric_limits<double>::infinity();
     bool any = false;
     sp.for_each_event_back(t, kInfT, 1, [&](const TableEvent& ev) {
@@ -245,12 +244,12 @@ struct CResponse {
     v_ref = sp.value(probe) - slope_ref * (probe - t_ref);
   }
 
-  double base(double t) const noexcept {
+  double base(double t) const {
     if (!(t >= seg_lo && t < seg_hi)) rebuild(t);
     const double u = t - t_ref;
     return v_ref + slope_ref * u - e_inf * slope_ref - modes(u);
   }
-  double eval(double t) const noexcept {
+  double eval(double t) const {
     if (std::isnan(initial)) return base(t);
     if (t <= 0) return initial;
     return base(t) + init_delta * free(t);
@@ -262,8 +261,12 @@ struct CRandomWalk {
   std::uint64_t key;
   double x, t_last;
   std::uint64_t counter;
-  void reset() noexcept { x = s.initial; t_last = 0; counter = 0; }
-  double eval(double t) noexcept {
+  void reset() {
+    x = s.initial;
+    t_last = 0;
+    counter = 0;
+  }
+  double eval(double t) {
     if (t > t_last) {
       const double dt = t - t_last;
       x += s.drift_per_s * dt + s.sigma_per_sqrt_s * std::sqrt(dt) * counter_normal(key, counter++);
@@ -280,8 +283,12 @@ struct COU {
   double x, t_last;
   std::uint64_t counter;
   double last_dt = -1, e = 0, sd = 0;
-  void reset() noexcept { x = std::isnan(s.initial) ? s.mean : s.initial; t_last = 0; counter = 0; }
-  double eval(double t) noexcept {
+  void reset() {
+    x = std::isnan(s.initial) ? s.mean : s.initial;
+    t_last = 0;
+    counter = 0;
+  }
+  double eval(double t) {
     if (t > t_last) {
       const double dt = t - t_last;
       if (dt != last_dt) {  // exact AR(1) coefficients, cached for the usual constant step
@@ -300,8 +307,17 @@ struct CGasLaw {
   double ratio;  // p_ref / T_ref
 };
 
-using Compiled = std::variant<CConst, CRamp, CTable, CSine, CPulse, CPulsation, CResponse, CRandomWalk, COU,
-                              CGasLaw>;
+// A plant variable: the term's time is relative to its channel's start.
+struct CPlant {
+  PlantTap tap;
+  double start_s;
+  double eval(double t) const {
+    return tap.value(tap.context, tap.var, std::int64_t(std::llround((t + start_s) * 1e6)));
+  }
+};
+
+using Compiled =
+    std::variant<CConst, CRamp, CTable, CSine, CPulse, CPulsation, CResponse, CRandomWalk, COU, CGasLaw, CPlant>;
 
 }  // namespace
 
@@ -354,7 +370,15 @@ CResponse make_response(const TableSpec& sp, bool second, double T, double fn, d
   return r;
 }
 
-Compiled compile(const TermSpec& ts, std::uint64_t key) {
+// How compile() resolves plant terms.
+struct PlantContext {
+  const PlantResolver* resolver = nullptr;
+  std::int64_t lookback_us = 0;
+  double start_s = 0;
+  Channel channel = Channel::Pressure;
+};
+
+Compiled compile(const TermSpec& ts, std::uint64_t key, const PlantContext& plants = {}) {
   return std::visit(
       overloaded{
           [](const ConstantSpec& s) -> Compiled { return CConst{s.value}; },
@@ -368,11 +392,12 @@ Compiled compile(const TermSpec& ts, std::uint64_t key) {
             CPulsation p{s.shaft_hz, {}};
             for (const auto& h : s.harmonics) {
               const double r = std::round(h.order);
-              const int io = (r == h.order && r >= 1 && r <= 256) ? static_cast<int>(r) : 0;
+              const int io = (r == h.order && r >= 1 && r <= 256) ? int(r) : 0;
               p.h.push_back({h.order, h.amplitude * std::cos(h.phase_rad), h.amplitude * std::sin(h.phase_rad), io});
               p.max_int_order = std::max(p.max_int_order, io);
             }
-            std::stable_sort(p.h.begin(), p.h.end(), [](const auto& a, const auto& b) { return a.int_order < b.int_order; });
+            std::stable_sort(p.h.begin(), p.h.end(),
+                             [](const auto& a, const auto& b) { return a.int_order < b.int_order; });
             return p;
           },
           [](const FirstOrderSpec& s) -> Compiled {
@@ -391,14 +416,18 @@ Compiled compile(const TermSpec& ts, std::uint64_t key) {
             r.reset();
             return r;
           },
-          [](const GasLawSpec& s) -> Compiled {
-            return CGasLaw{s.reference_pressure_pa / s.reference_temperature_k};
+          [](const GasLawSpec& s) -> Compiled { return CGasLaw{s.reference_pressure_pa / s.reference_temperature_k}; },
+          [&plants](const PlantTermSpec& s) -> Compiled {
+            if (!plants.resolver)
+              throw std::invalid_argument((s.origin.empty() ? "" : s.origin + ": ") + "plant " + s.ref +
+                                          ": expected a fleet with a plants: section defining it");
+            return CPlant{plants.resolver->resolve(s, plants.channel, plants.lookback_us), plants.start_s};
           },
       },
       ts);
 }
 
-double eval_term(ProcessModel::Term& term, double t, double temperature) noexcept {
+double eval_term(ProcessModel::Term& term, double t, double temperature) {
   return std::visit(overloaded{
                         [&](CRandomWalk& c) { return c.eval(t); },
                         [&](COU& c) { return c.eval(t); },
@@ -408,8 +437,95 @@ double eval_term(ProcessModel::Term& term, double t, double temperature) noexcep
                     term.c);
 }
 
+struct Range {
+  double lo, hi;
+};
+
+// A term's values over [t0, t1] (its own time axis) for `queries` evaluations;
+// false when it has no bound. `temperature`: the temperature channel's range
+// (gas law terms).
+bool term_range(const ProcessModel::Term& term, double t0, double t1, int queries, const Range& temperature,
+                Range& out) {
+  const double k = kNormalBound;
+  return std::visit(
+      overloaded{
+          [&](const CConst& c) {
+            return out = {c.v, c.v}, true;
+          },
+          [&](const CRamp& c) {  // monotone in t
+            const double a = c.eval(t0), b = std::isfinite(t1) ? c.eval(t1) : c.s.to;
+            return out = {std::min(a, b), std::max(a, b)}, true;
+          },
+          [&](const CTable& c) {
+            return out = {c.table.min_value(), c.table.max_value()}, true;
+          },
+          [&](const CSine& c) {
+            return out = {-std::abs(c.amplitude), std::abs(c.amplitude)}, true;
+          },
+          [&](const CPulse& c) {
+            return out = {std::min(c.s.low, c.s.high), std::max(c.s.low, c.s.high)}, true;
+          },
+          [&](const CPulsation& c) {
+            double a = 0;
+            for (const auto& h : c.h) a += std::abs(h.a_cos_phi) + std::abs(h.a_sin_phi);
+            return out = {-a, a}, true;
+          },
+          [&](const CResponse& c) {
+            // A first-order lag moves from where it is towards its setpoints.
+            if (c.mode != CResponse::Mode::First) return false;
+            const double y = c.eval(t0);
+            out = {std::min(y, c.sp.min_value()), std::max(y, c.sp.max_value())};
+            if (!std::isnan(c.initial)) out = {std::min(out.lo, c.initial), std::max(out.hi, c.initial)};
+            return true;
+          },
+          [&](const CRandomWalk& c) {
+            const double span = std::max(0.0, t1 - std::min(t0, c.t_last));
+            if (!std::isfinite(span)) {
+              if (!std::isfinite(c.s.min) || !std::isfinite(c.s.max)) return false;
+              return out = {c.s.min, c.s.max}, true;
+            }
+            // queries steps of dt_i, sum <= span: sum of sqrt(dt_i) <= sqrt(queries * span).
+            const double d = std::abs(c.s.drift_per_s) * span + k * c.s.sigma_per_sqrt_s * std::sqrt(queries * span);
+            out = {std::max(c.s.min, c.x - d), std::min(c.s.max, c.x + d)};
+            return true;
+          },
+          [&](const COU& c) {
+            // Each step pulls towards the mean and adds sd * N, sd <= sigma * min(1, sqrt(2 dt / tau)).
+            const double span = std::max(0.0, t1 - std::min(t0, c.t_last));
+            const double n = queries;
+            const double steps = std::isfinite(span) ? std::min(n, std::sqrt(2.0 * n * span / c.s.tau_s)) : n;
+            const double d = k * c.s.sigma * steps, y = c.x - c.s.mean;
+            out = {c.s.mean + std::min(0.0, y) - d, c.s.mean + std::max(0.0, y) + d};
+            return true;
+          },
+          [&](const CGasLaw& c) {
+            const double a = c.ratio * temperature.lo, b = c.ratio * temperature.hi;
+            return out = {std::min(a, b), std::max(a, b)}, true;
+          },
+          // A plant variable follows the plant's inputs (frames, writes,
+          // outputs) whenever they come: no bound holds, the channel is never steady.
+          [](const CPlant&) { return false; },
+      },
+      term.c);
+}
+
+bool channel_range(const std::vector<ProcessModel::Term>& terms, double start_s, double t0, double t1, int queries,
+                   const Range& temperature, Range& out) {
+  Range sum{0, 0};
+  for (const auto& term : terms) {
+    Range r{};
+    if (!term_range(term, t0 - start_s, t1 - start_s, queries, temperature, r)) return false;
+    sum.lo += r.lo;
+    sum.hi += r.hi;
+  }
+  // The closed forms are not exact to the last bit.
+  const double eps = 1e-9 * (std::abs(sum.lo) + std::abs(sum.hi) + 1.0);
+  out = {sum.lo - eps, sum.hi + eps};
+  return true;
+}
+
 // eval_term without advancing the stochastic terms.
-double peek_term(const ProcessModel::Term& term, double t, double temperature) noexcept {
+double peek_term(const ProcessModel::Term& term, double t, double temperature) {
   return std::visit(overloaded{
                         [&](const CRandomWalk& c) { return c.x; },
                         [&](const COU& c) { return c.x; },
@@ -420,18 +536,20 @@ double peek_term(const ProcessModel::Term& term, double t, double temperature) n
 }
 
 template <class Terms, class Eval>
-double sum_terms(Terms& channel, double t, double temperature, Eval eval) noexcept {
+double sum_terms(Terms& channel, double t, double temperature, Eval eval) {
   double v = 0.0;
   for (auto& term : channel.terms) v += eval(term, t - channel.start_s, temperature);
   return v;
 }
 
-std::vector<ProcessModel::Term> compile_terms(const std::vector<TermSpec>& specs, std::uint64_t seed, Channel ch) {
+std::vector<ProcessModel::Term> compile_terms(const std::vector<TermSpec>& specs, std::uint64_t seed, Channel ch,
+                                              PlantContext plants = {}) {
   const std::uint64_t tag = ch == Channel::Pressure ? 0x1000 : 0x2000;
+  plants.channel = ch;
   std::vector<ProcessModel::Term> out;
   out.reserve(specs.size());
   for (std::size_t i = 0; i < specs.size(); ++i)
-    out.push_back(ProcessModel::Term{compile(specs[i], derive_seed(seed, tag + i))});
+    out.push_back(ProcessModel::Term{compile(specs[i], derive_seed(seed, tag + i), plants)});
   return out;
 }
 
@@ -514,6 +632,9 @@ std::string check_term(const TermSpec& ts, bool pressure_channel) {
             if (!(s.reference_temperature_k > 0)) return "gas_law: reference temperature must be > 0 K";
             return finite(s.reference_pressure_pa) ? "" : "gas_law: not finite";
           },
+          [](const PlantTermSpec& s) -> std::string {
+            return s.ref.find('.') == std::string::npos ? "plant: expected PLANT.VARIABLE" : "";
+          },
       },
       ts);
 }
@@ -523,8 +644,7 @@ std::string check_term(const TermSpec& ts, bool pressure_channel) {
 PulsationSpec PulsationSpec::piston_pump(double rpm, int pistons, double amplitude, int n_harmonics) {
   PulsationSpec p;
   p.shaft_hz = rpm / 60.0;
-  for (int k = 1; k <= n_harmonics; ++k)
-    p.harmonics.push_back({static_cast<double>(k * pistons), amplitude / k, 0.0});
+  for (int k = 1; k <= n_harmonics; ++k) p.harmonics.push_back({double(k * pistons), amplitude / k, 0.0});
   return p;
 }
 
@@ -562,10 +682,12 @@ ProcessModel::ProcessModel() {
   terms(Channel::Temperature).terms.push_back(Term{CConst{293.15}});
 }
 
-ProcessModel::ProcessModel(const ProcessSpec& spec, std::uint64_t seed) {
+ProcessModel::ProcessModel(const ProcessSpec& spec, std::uint64_t seed, const PlantResolver* plants,
+                           std::int64_t lookback_us) {
   if (auto e = validate(spec); !e.empty()) throw std::invalid_argument("process: " + e);
-  terms(Channel::Pressure).terms = compile_terms(spec.pressure, seed, Channel::Pressure);
-  terms(Channel::Temperature).terms = compile_terms(spec.temperature, seed, Channel::Temperature);
+  const PlantContext context{plants, lookback_us, 0.0};
+  terms(Channel::Pressure).terms = compile_terms(spec.pressure, seed, Channel::Pressure, context);
+  terms(Channel::Temperature).terms = compile_terms(spec.temperature, seed, Channel::Temperature, context);
 }
 
 ProcessModel::ProcessModel(ProcessModel&&) noexcept = default;
@@ -574,33 +696,33 @@ ProcessModel::ProcessModel(const ProcessModel&) = default;
 ProcessModel& ProcessModel::operator=(const ProcessModel&) = default;
 ProcessModel::~ProcessModel() = default;
 
-Quantity ProcessModel::at(double t) noexcept {
+Quantity ProcessModel::at(double t) {
   const double temp = sum_terms(terms(Channel::Temperature), t, 0.0, eval_term);
   return {sum_terms(terms(Channel::Pressure), t, temp, eval_term), temp};
 }
 
-Quantity ProcessModel::peek(double t) const noexcept {
+Quantity ProcessModel::peek(double t) const {
   const double temp = sum_terms(terms(Channel::Temperature), t, 0.0, peek_term);
   return {sum_terms(terms(Channel::Pressure), t, temp, peek_term), temp};
 }
 
-void ProcessModel::set_channel(Channel channel, const std::vector<TermSpec>& specs, std::uint64_t seed,
-                               double start_s) {
+void ProcessModel::set_channel(Channel channel, const std::vector<TermSpec>& specs, std::uint64_t seed, double start_s,
+                               const PlantResolver* plants, std::int64_t lookback_us) {
   if (auto e = validate(channel, specs); !e.empty()) throw std::invalid_argument("process: " + e);
-  Terms replacement{compile_terms(specs, seed, channel), start_s};
-  std::optional<Terms>& constructed = constructed_[static_cast<std::size_t>(channel)];
+  Terms replacement{compile_terms(specs, seed, channel, PlantContext{plants, lookback_us, start_s}), start_s};
+  std::optional<Terms>& constructed = constructed_[std::size_t(channel)];
   if (!constructed) constructed = std::move(terms(channel));
   terms(channel) = std::move(replacement);
 }
 
-void ProcessModel::restore_channel(Channel channel) noexcept {
-  std::optional<Terms>& constructed = constructed_[static_cast<std::size_t>(channel)];
+void ProcessModel::restore_channel(Channel channel) {
+  std::optional<Terms>& constructed = constructed_[std::size_t(channel)];
   if (!constructed) return;
   terms(channel) = std::move(*constructed);
   constructed.reset();
 }
 
-void ProcessModel::reset() noexcept {
+void ProcessModel::reset() {
   auto r = [](Terms& channel) {
     for (Term& term : channel.terms) {
       if (auto* a = std::get_if<CRandomWalk>(&term.c)) a->reset();
@@ -612,12 +734,74 @@ void ProcessModel::reset() noexcept {
     if (constructed) r(*constructed);
 }
 
-bool ProcessModel::has_stochastic_terms() const noexcept {
+bool ProcessModel::bounds(Channel channel, double t0_s, double t1_s, int queries, double& lo, double& hi) const {
+  const Terms& temp = terms(Channel::Temperature);
+  Range temperature{}, out{};
+  if (!channel_range(temp.terms, temp.start_s, t0_s, t1_s, queries, {}, temperature)) return false;
+  if (channel == Channel::Temperature) {
+    out = temperature;
+  } else {
+    const Terms& p = terms(Channel::Pressure);
+    if (!channel_range(p.terms, p.start_s, t0_s, t1_s, queries, temperature, out)) return false;
+  }
+  lo = out.lo;
+  hi = out.hi;
+  return true;
+}
+
+bool ProcessModel::has_stochastic_terms() const {
   auto s = [](const Term& term) {
     return std::holds_alternative<CRandomWalk>(term.c) || std::holds_alternative<COU>(term.c);
   };
   return std::any_of(std::begin(channels_), std::end(channels_),
                      [&](const Terms& c) { return std::any_of(c.terms.begin(), c.terms.end(), s); });
+}
+
+bool ProcessModel::reads_plant() const {
+  auto p = [](const Term& term) { return std::holds_alternative<CPlant>(term.c); };
+  return std::any_of(std::begin(channels_), std::end(channels_),
+                     [&](const Terms& c) { return std::any_of(c.terms.begin(), c.terms.end(), p); });
+}
+
+// ------------------------------------------------------------------ TermSeries
+
+TermSeries::TermSeries() = default;
+TermSeries::TermSeries(TermSeries&&) noexcept = default;
+TermSeries& TermSeries::operator=(TermSeries&&) noexcept = default;
+TermSeries::~TermSeries() = default;
+
+TermSeries::TermSeries(const std::vector<TermSpec>& specs, std::uint64_t seed) {
+  for (std::size_t i = 0; i < specs.size(); ++i) {
+    if (std::holds_alternative<GasLawSpec>(specs[i]) || std::holds_alternative<PlantTermSpec>(specs[i]))
+      throw std::invalid_argument("term " + std::to_string(i) + ": gas_law and plant terms are channel terms only");
+    if (auto e = check_term(specs[i], true); !e.empty())
+      throw std::invalid_argument("term " + std::to_string(i) + ": " + e);
+    terms_.push_back(ProcessModel::Term{compile(specs[i], derive_seed(seed, 0x3000 + i))});
+  }
+}
+
+double TermSeries::at(double t) {
+  double v = 0.0;
+  for (ProcessModel::Term& term : terms_) v += eval_term(term, t, 0.0);
+  return v;
+}
+
+bool TermSeries::constant_after(double t) const {
+  for (const ProcessModel::Term& term : terms_) {
+    const bool constant = std::visit(
+        overloaded{
+            [](const CConst&) { return true; },
+            [t](const CRamp& c) { return c.s.duration_s <= 0 ? t >= c.s.start_s : t >= c.s.start_s + c.s.duration_s; },
+            [t](const CTable& c) {
+              return c.table.next_event_time(t) == std::numeric_limits<double>::infinity() && c.table.slope(t) == 0.0;
+            },
+            [](const CSine& c) { return c.amplitude == 0.0 || c.freq == 0.0; },
+            [](const auto&) { return false; },
+        },
+        term.c);
+    if (!constant) return false;
+  }
+  return true;
 }
 
 }  // namespace cansim::physics

@@ -13,7 +13,7 @@ constexpr double kV = 0.009912563035336481;
 
 double density(double x) { return std::exp(-0.5 * x * x); }
 
-ZigguratTables make_tables() noexcept {
+ZigguratTables make_tables() {
   ZigguratTables z{};
   constexpr int n = ZigguratTables::kLayers;
   z.x[0] = kV / density(kR);
@@ -41,12 +41,12 @@ double tail(bool negative, std::uint64_t& bits) {
 
 }  // namespace
 
-const ZigguratTables& ziggurat_tables() noexcept {
+const ZigguratTables& ziggurat_tables() {
   static const ZigguratTables tables = make_tables();
   return tables;
 }
 
-double normal_from_bits_slow(std::uint64_t bits) noexcept {
+double normal_from_bits_slow(std::uint64_t bits) {
   const ZigguratTables& z = ziggurat_tables();
   for (;;) {
     const unsigned layer = unsigned(bits & (ZigguratTables::kLayers - 1));

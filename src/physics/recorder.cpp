@@ -14,12 +14,12 @@ namespace cansim::physics {
 namespace {
 constexpr std::size_t kMaxRow = 512;  // generous upper bound of one formatted row
 
-char* put_double(char* p, char* end, double v) noexcept {
+char* put_double(char* p, char* end, double v) {
   auto r = std::to_chars(p, end, v);
   return r.ec == std::errc{} ? r.ptr : p;
 }
 template <class I>
-char* put_int(char* p, char* end, I v) noexcept {
+char* put_int(char* p, char* end, I v) {
   auto r = std::to_chars(p, end, v);
   return r.ec == std::errc{} ? r.ptr : p;
 }
@@ -38,9 +38,10 @@ bool inside(const std::string& path, const std::string& dir) {
   const fs::path rel = file.lexically_relative(root);
   return !rel.empty() && *rel.begin() != "..";
 }
+constexpr const char* kHardLinked = "a file with more than one name (hard links), which recordings never write to";
 }  // namespace
 
-const char* CsvRecorder::header() noexcept {
+const char* CsvRecorder::header() {
   return "time_s,true_pressure_pa,true_temperature_k,pressure_pa,temperature_k,pressure_status,"
          "temperature_status,pressure_counts,temperature_counts,pressure_flags,temperature_flags\n";
 }
@@ -75,14 +76,19 @@ bool CsvRecorder::open(const std::string& path, std::string* error, std::size_t 
     return refuse(error, path + ": in the state folder " + refused_dir + ", which recordings never write to");
   // A FIFO would block open() until a reader came, a device never end:
   // checked before, and (the path may change meanwhile) on what was opened.
-  struct stat st{};
+  // A file with a second name may be a state file's hard link (the state
+  // folder check sees only this name): truncating it would lose what a node stored.
+  struct stat st {};
   if (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) return refuse(error, path + ": not a regular file");
+  if (st.st_nlink > 1) return refuse(error, path + ": " + kHardLinked);
   const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_NONBLOCK | O_CLOEXEC | O_NOCTTY, 0644);
   if (fd < 0) return refuse(error, path + ": " + std::strerror(errno));
-  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode) || ::ftruncate(fd, 0) != 0) {
+  const bool fstat_ok = ::fstat(fd, &st) == 0;
+  const char* why = !fstat_ok || !S_ISREG(st.st_mode) ? "not a regular file" : st.st_nlink > 1 ? kHardLinked : nullptr;
+  if (why || ::ftruncate(fd, 0) != 0) {
     const int err = errno;
     ::close(fd);
-    return refuse(error, path + ": " + (S_ISREG(st.st_mode) ? std::strerror(err) : "not a regular file"));
+    return refuse(error, path + ": " + (why ? why : std::strerror(err)));
   }
   fd_ = fd;
   cap_ = buffer_bytes < 4096 ? 4096 : buffer_bytes;
@@ -97,7 +103,7 @@ bool CsvRecorder::open(const std::string& path, std::string* error, std::size_t 
   return flush();
 }
 
-void CsvRecorder::record(TimeUs t, const SensorReading& r) noexcept {
+void CsvRecorder::record(TimeUs t, const SensorReading& r) {
   if (fd_ < 0) return;
   if (cap_ - len_ < kMaxRow) flush();
   if (cap_ - len_ < kMaxRow) return;  // write failure: drop the row
@@ -112,7 +118,7 @@ void CsvRecorder::record(TimeUs t, const SensorReading& r) noexcept {
   char digits[6];
   TimeUs f = frac;
   for (int i = 5; i >= 0; --i) {
-    digits[i] = static_cast<char>('0' + f % 10);
+    digits[i] = char('0' + f % 10);
     f /= 10;
   }
   std::memcpy(p, digits, 6);
@@ -126,23 +132,23 @@ void CsvRecorder::record(TimeUs t, const SensorReading& r) noexcept {
   *p++ = ',';
   p = put_double(p, end, r.temperature.value);
   *p++ = ',';
-  p = put_int(p, end, static_cast<unsigned>(r.pressure.status));
+  p = put_int(p, end, unsigned(r.pressure.status));
   *p++ = ',';
-  p = put_int(p, end, static_cast<unsigned>(r.temperature.status));
+  p = put_int(p, end, unsigned(r.temperature.status));
   *p++ = ',';
   p = put_int(p, end, r.pressure.adc_counts);
   *p++ = ',';
   p = put_int(p, end, r.temperature.adc_counts);
   *p++ = ',';
-  p = put_int(p, end, static_cast<unsigned>(r.pressure.flags));
+  p = put_int(p, end, unsigned(r.pressure.flags));
   *p++ = ',';
-  p = put_int(p, end, static_cast<unsigned>(r.temperature.flags));
+  p = put_int(p, end, unsigned(r.temperature.flags));
   *p++ = '\n';
-  len_ = static_cast<std::size_t>(p - buf_.get());
+  len_ = std::size_t(p - buf_.get());
   ++rows_;
 }
 
-bool CsvRecorder::flush() noexcept {
+bool CsvRecorder::flush() {
   if (fd_ < 0) return !failed_;
   std::size_t off = 0;
   while (off < len_) {
@@ -152,13 +158,13 @@ bool CsvRecorder::flush() noexcept {
       failed_ = true;
       break;
     }
-    off += static_cast<std::size_t>(w);
+    off += std::size_t(w);
   }
   len_ = 0;
   return !failed_;
 }
 
-void CsvRecorder::close() noexcept {
+void CsvRecorder::close() {
   if (fd_ < 0) return;
   flush();
   ::close(fd_);

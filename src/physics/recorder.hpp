@@ -38,24 +38,24 @@ class CsvRecorder {
   CsvRecorder& operator=(CsvRecorder&& o) noexcept;
   ~CsvRecorder();
 
-  /// Creates / truncates `path` and writes the header. buffer_bytes >= 4096.
-  /// Only a regular file, opened without blocking (a FIFO would hold the
-  /// caller until a reader came, a device never end), and never one inside
-  /// `refused_dir` (the daemon's state folder; symbolic links resolved).
+  // Creates / truncates `path` and writes the header. buffer_bytes >= 4096.
+  // Only a regular file, opened without blocking (a FIFO would hold the
+  // caller until a reader came, a device never end), and never one inside
+  // `refused_dir` (the daemon's state folder; symbolic links resolved).
   bool open(const std::string& path, std::string* error = nullptr, std::size_t buffer_bytes = kDefaultBuffer,
             const std::string& refused_dir = {});
-  /// Appends one row. No-op when not open.
-  void record(TimeUs t, const SensorReading& r) noexcept;
-  /// Writes buffered rows to the file. Returns false after a write error.
-  bool flush() noexcept;
-  /// flush() and close the file.
-  void close() noexcept;
+  // Appends one row. No-op when not open.
+  void record(TimeUs t, const SensorReading& r);
+  // Writes buffered rows to the file. Returns false after a write error.
+  bool flush();
+  // flush() and close the file.
+  void close();
 
-  bool is_open() const noexcept { return fd_ >= 0; }
-  bool failed() const noexcept { return failed_; }
-  std::uint64_t rows() const noexcept { return rows_; }
+  bool is_open() const { return fd_ >= 0; }
+  bool failed() const { return failed_; }
+  std::uint64_t rows() const { return rows_; }
 
-  static const char* header() noexcept;
+  static const char* header();
 
  private:
   int fd_ = -1;

@@ -10,9 +10,17 @@
 namespace cansim::physics {
 
 namespace {
-constexpr double kSettle = 40.0;                 // time constants after which a lag has forgotten its start
-constexpr std::int64_t kMaxLagCatchUp = 65536;   // bound for lag / first-order filter catch-up
+constexpr double kSettle = 40.0;                // time constants after which a lag has forgotten its start
+constexpr std::int64_t kMaxLagCatchUp = 65536;  // bound for lag / first-order filter catch-up
 constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// Samples a first-order response of time constant tau_s takes to forget its
+// start at rate_hz, at most kMaxLagCatchUp: a huge or non-finite time
+// constant (a device object can set one) never casts out of range.
+std::int64_t settle_samples(double tau_s, double rate_hz) {
+  const double n = std::ceil(kSettle * tau_s * rate_hz) + 1;
+  return n < double(kMaxLagCatchUp) ? std::int64_t(std::max(n, 0.0)) : kMaxLagCatchUp;
+}
 
 std::string check_channel(const ChannelSpec& c) {
   if (!c.enabled) return {};
@@ -38,12 +46,12 @@ std::string check_channel(const ChannelSpec& c) {
 
 AdcSpec AdcSpec::unsigned_bits(unsigned bits, double headroom) {
   AdcSpec a;
-  const double full = std::ldexp(1.0, static_cast<int>(bits)) - 1.0;
+  const double full = std::ldexp(1.0, int(bits)) - 1.0;
   // codes 0..full cover [range_min - h*span, range_max + h*span]
   a.code_at_range_min = full * headroom / (1.0 + 2.0 * headroom);
   a.code_at_range_max = full * (1.0 + headroom) / (1.0 + 2.0 * headroom);
   a.code_min = 0;
-  a.code_max = static_cast<std::int32_t>(std::min(full, 2147483647.0));
+  a.code_max = std::int32_t(std::min(full, 2147483647.0));
   return a;
 }
 
@@ -54,6 +62,20 @@ AdcSpec AdcSpec::int16_field(double full_scale_code) {
   a.code_min = -32768;
   a.code_max = 32767;
   return a;
+}
+
+TimeUs lookback_us(const SensorSpec& spec) {
+  double seconds = 1.0;
+  for (const ChannelSpec* c : {&spec.pressure, &spec.temperature}) {
+    if (!c->enabled || !(c->sample_rate_hz > 0)) continue;
+    double samples = std::max<double>(2.0 * c->filter.length, c->catch_up_samples);
+    for (double tau :
+         {c->response_time_constant_s, c->filter.type == FilterType::FirstOrder ? c->filter.time_constant_s : 0.0})
+      if (tau > 0)
+        samples = std::max(samples, std::min<double>(kMaxLagCatchUp, std::ceil(kSettle * tau * c->sample_rate_hz) + 1));
+    seconds = std::max(seconds, (samples + 2.0) / c->sample_rate_hz);
+  }
+  return seconds_to_us(std::min(seconds, 3600.0));
 }
 
 std::string validate(const SensorSpec& spec) {
@@ -100,15 +122,14 @@ struct Sensor::ChannelState {
 
   void configure(std::uint64_t seed) {
     rate_mhz = std::max<std::int64_t>(1, std::llround(spec.sample_rate_hz * 1000.0));
-    rate_hz = static_cast<double>(rate_mhz) / 1000.0;
+    rate_hz = double(rate_mhz) / 1000.0;
     span = spec.range_max - spec.range_min;
     c0 = spec.adc.code_at_range_min;
     c1 = spec.adc.code_at_range_max;
     code_per_unit = (c1 - c0) / span;
     if (spec.response_time_constant_s > 0) {
       lag_alpha = -std::expm1(-1.0 / (spec.response_time_constant_s * rate_hz));
-      lag_need = std::min<std::int64_t>(kMaxLagCatchUp,
-                                        static_cast<std::int64_t>(std::ceil(kSettle * spec.response_time_constant_s * rate_hz)) + 1);
+      lag_need = settle_samples(spec.response_time_constant_s, rate_hz);
     }
     configure_filter();
     noise_key = derive_seed(seed, 0xA001);
@@ -125,8 +146,7 @@ struct Sensor::ChannelState {
     }
     if (spec.filter.type == FilterType::FirstOrder) {
       iir_alpha = -std::expm1(-1.0 / (spec.filter.time_constant_s * rate_hz));
-      iir_need = std::min<std::int64_t>(kMaxLagCatchUp,
-                                        static_cast<std::int64_t>(std::ceil(kSettle * spec.filter.time_constant_s * rate_hz)) + 1);
+      iir_need = settle_samples(spec.filter.time_constant_s, rate_hz);
     }
     filter_fresh = true;
   }
@@ -149,22 +169,20 @@ struct Sensor::ChannelState {
     e.thermal_span_per_k = dtmax > 0 ? ts / dtmax : 0.0;
   }
 
-  std::int64_t index_at(TimeUs t, TimeUs boot) const noexcept {
+  std::int64_t index_at(TimeUs t, TimeUs boot) const {
     if (t < boot) return -1;
     const std::int64_t dt = t - boot;
     if (dt <= std::numeric_limits<std::int64_t>::max() / rate_mhz) return dt * rate_mhz / 1000000000;
-    return static_cast<std::int64_t>(static_cast<__int128>(dt) * rate_mhz / 1000000000);
+    return std::int64_t(__int128(dt) * rate_mhz / 1000000000);
   }
-  TimeUs time_of(std::int64_t n, TimeUs boot) const noexcept {
+  TimeUs time_of(std::int64_t n, TimeUs boot) const {
     if (n <= std::numeric_limits<std::int64_t>::max() / 1000000000) return boot + n * 1000000000 / rate_mhz;
-    return boot + static_cast<TimeUs>(static_cast<__int128>(n) * 1000000000 / rate_mhz);
+    return boot + TimeUs(__int128(n) * 1000000000 / rate_mhz);
   }
-  double seconds_of(std::int64_t n, TimeUs boot) const noexcept {
-    return us_to_seconds(boot) + static_cast<double>(n) / rate_hz;
-  }
+  double seconds_of(std::int64_t n, TimeUs boot) const { return us_to_seconds(boot) + double(n) / rate_hz; }
 
-  /// First sample index to process to bring the channel to sample N.
-  std::int64_t begin(std::int64_t N) noexcept {
+  // First sample index to process to bring the channel to sample N.
+  std::int64_t begin(std::int64_t N) {
     if (N < next_index) return N + 1;  // nothing to do
     std::int64_t need = 1;
     const std::int64_t len = spec.filter.length;
@@ -192,14 +210,89 @@ struct Sensor::ChannelState {
     return start;
   }
 
-  double filter(std::int32_t c, std::int64_t n) noexcept {
+  // Samples a read processes at most when it comes after a gap (begin()).
+  std::int64_t read_window() const {
+    std::int64_t need = 1;
+    const std::int64_t len = spec.filter.length;
+    if (spec.filter.type == FilterType::MovingAverage) need = len;
+    if (spec.filter.type == FilterType::RepeatingAverage) need = 2 * len;
+    if (spec.filter.type == FilterType::FirstOrder) need = iir_need;
+    if (spec.response_time_constant_s > 0) need = std::max(need, lag_need);
+    return std::max<std::int64_t>(need, spec.catch_up_samples);
+  }
+
+  // The element's output (before the ADC) for a truth in [lo, hi] and a
+  // sensor temperature in [tlo, thi], as element_output() gives it without
+  // faults: the static errors are bilinear in (truth, temperature), the bow
+  // between 0 and its peak, hysteresis and lag between their state and the
+  // input, the noise at most kNormalBound rms.
+  void element_range(double lo, double hi, double tlo, double thi, double& out_lo, double& out_hi) const {
+    const auto& e = spec.errors;
+    out_lo = std::numeric_limits<double>::infinity();
+    out_hi = -out_lo;
+    for (double x : {lo, hi})
+      for (double t_sensor : {tlo, thi}) {
+        const double dT = t_sensor - e.reference_temperature_k, rel = x - spec.range_min;
+        const double v =
+            x + e.zero_offset + e.thermal_zero_per_k * dT + rel * (e.span_error + e.thermal_span_per_k * dT);
+        out_lo = std::min(out_lo, v);
+        out_hi = std::max(out_hi, v);
+      }
+    out_lo += std::min(0.0, e.nonlinearity);
+    out_hi += std::max(0.0, e.nonlinearity);
+    if (e.hysteresis > 0.0) {
+      out_lo = std::min(out_lo - 0.5 * e.hysteresis, hyst);
+      out_hi = std::max(out_hi + 0.5 * e.hysteresis, hyst);
+    }
+    if (spec.response_time_constant_s > 0.0) {
+      out_lo = std::min(out_lo, lag);
+      out_hi = std::max(out_hi, lag);
+    }
+    out_lo -= kNormalBound * spec.noise_rms;
+    out_hi += kNormalBound * spec.noise_rms;
+  }
+
+  // The range of the filter's output for new codes in [lo, hi]: its state
+  // (older codes) unless it restarts.
+  void filter_range(double& lo, double& hi) const {
+    if (filter_fresh) return;
+    switch (spec.filter.type) {
+      case FilterType::None: return;
+      case FilterType::MovingAverage:
+        for (std::int32_t c : ring) lo = std::min<double>(lo, c), hi = std::max<double>(hi, c);
+        return;
+      case FilterType::RepeatingAverage: lo = std::min(lo, block_out), hi = std::max(hi, block_out); return;
+      case FilterType::FirstOrder: lo = std::min(lo, iir), hi = std::max(hi, iir); return;
+    }
+  }
+
+  // Output quantisation and back to physical units (device_output's last
+  // steps), both monotone in the filtered code.
+  double output_value(double fc) const {
+    if (spec.output_steps > 0) {
+      const double steps = spec.output_steps;
+      fc = c0 + round_half_away((fc - c0) / (c1 - c0) * steps) / steps * (c1 - c0);
+    }
+    return spec.range_min + (fc - c0) / code_per_unit;
+  }
+
+  // Whether the overload state stays as it is for a source value in [lo, hi].
+  bool overload_stays(double lo, double hi) const {
+    const double top = spec.range_max + spec.overload.margin, bottom = spec.range_min - spec.overload.margin;
+    const double h = spec.overload.hysteresis;
+    const bool pos = pos_ovl ? lo > top - h : hi <= top;
+    const bool neg = neg_ovl ? hi < bottom + h : lo >= bottom;
+    return pos && neg;
+  }
+
+  double filter(std::int32_t c, std::int64_t n) {
     const auto len = spec.filter.length;
     if (filter_fresh) {
       filter_fresh = false;
       if (spec.filter.type == FilterType::MovingAverage) {
         std::fill(ring.begin(), ring.end(), c);
         ring_pos = 0;
-        ring_sum = static_cast<std::int64_t>(c) * len;
+        ring_sum = std::int64_t(c) * len;
       }
       block_sum = 0;
       block_count = 0;
@@ -209,17 +302,17 @@ struct Sensor::ChannelState {
       // the next block boundary (output held meanwhile).
       block_skip = 0;
       if (spec.filter.type == FilterType::RepeatingAverage) {
-        const auto r = static_cast<std::uint32_t>((n - filter_origin) % len);
+        const auto r = std::uint32_t((n - filter_origin) % len);
         if (r != 0) block_skip = len - r;
       }
     }
     switch (spec.filter.type) {
       case FilterType::None: return c;
       case FilterType::MovingAverage:
-        ring_sum += static_cast<std::int64_t>(c) - ring[ring_pos];
+        ring_sum += std::int64_t(c) - ring[ring_pos];
         ring[ring_pos] = c;
         if (++ring_pos == len) ring_pos = 0;
-        return static_cast<double>(ring_sum) / static_cast<double>(len);
+        return double(ring_sum) / double(len);
       case FilterType::RepeatingAverage:
         if (block_skip > 0) {  // partial block after a mid-block restart: wait for alignment
           --block_skip;
@@ -227,21 +320,19 @@ struct Sensor::ChannelState {
         }
         block_sum += c;
         if (++block_count == len) {
-          block_out = static_cast<double>(block_sum) / static_cast<double>(len);
+          block_out = double(block_sum) / double(len);
           block_sum = 0;
           block_count = 0;
         }
         return block_out;
-      case FilterType::FirstOrder:
-        iir += iir_alpha * (c - iir);
-        return iir;
+      case FilterType::FirstOrder: iir += iir_alpha * (c - iir); return iir;
     }
     return c;
   }
   // Standard normal for sample n: a pure function of (noise_key, n).
-  double noise_normal(std::int64_t n) const noexcept { return counter_normal(noise_key, static_cast<std::uint64_t>(n)); }
+  double noise_normal(std::int64_t n) const { return counter_normal(noise_key, std::uint64_t(n)); }
 
-  void step(std::int64_t n, const Quantity& q, const MeasurementFaults& mf, TimeUs t_us) noexcept {
+  void step(std::int64_t n, const Quantity& q, const MeasurementFaults& mf, TimeUs t_us) {
     const double t_sensor = q.temperature_k + mf.over_temperature_k;
     const double x_true = which == Channel::Pressure ? q.pressure_pa : t_sensor;
     if (x_true > spec.overload.safe_max || x_true < spec.overload.safe_min) damaged = true;
@@ -271,7 +362,7 @@ struct Sensor::ChannelState {
 
   // The sensing element: static, thermal and non-linearity errors, hysteresis,
   // response time, drift, noise and spikes on the true value.
-  double element_output(std::int64_t n, double x_true, double t_sensor, const MeasurementFaults& mf) noexcept {
+  double element_output(std::int64_t n, double x_true, double t_sensor, const MeasurementFaults& mf) {
     const bool first = !started;
     const auto& e = spec.errors;
     const double dT = t_sensor - e.reference_temperature_k;
@@ -298,14 +389,14 @@ struct Sensor::ChannelState {
     const double sigma2 = spec.noise_rms * spec.noise_rms + mf.extra_noise_rms * mf.extra_noise_rms;
     if (sigma2 > 0.0) x += std::sqrt(sigma2) * noise_normal(n);
     if (mf.spike_rate_hz > 0.0) {
-      const std::uint64_t bits = counter_hash(spike_key, static_cast<std::uint64_t>(n));
+      const std::uint64_t bits = counter_hash(spike_key, std::uint64_t(n));
       if (uniform01(bits) < mf.spike_rate_hz / rate_hz) x += (bits & 1) ? mf.spike_amplitude : -mf.spike_amplitude;
     }
     return x;
   }
 
   // The ADC: saturating codes; an open / shorted element reads the rail.
-  std::int32_t adc_counts(double x, const MeasurementFaults& mf, std::uint8_t& flags) const noexcept {
+  std::int32_t adc_counts(double x, const MeasurementFaults& mf, std::uint8_t& flags) const {
     const double code_r = round_half_away(c0 + (x - spec.range_min) * code_per_unit);
     std::int32_t counts;
     if (!(code_r > spec.adc.code_min)) {
@@ -315,7 +406,7 @@ struct Sensor::ChannelState {
       counts = spec.adc.code_max;
       if (code_r > spec.adc.code_max) flags |= kFlagAdcSaturated;
     } else {
-      counts = static_cast<std::int32_t>(code_r);
+      counts = std::int32_t(code_r);
     }
     if (mf.open) counts = spec.adc.code_min, flags |= kFlagOpen;
     if (mf.short_circuit) counts = spec.adc.code_max, flags |= kFlagShort;
@@ -323,7 +414,7 @@ struct Sensor::ChannelState {
   }
 
   // Device filter on integer codes, output quantisation, back to physical units.
-  double device_output(std::int64_t n, std::int32_t counts, bool invalid) noexcept {
+  double device_output(std::int64_t n, std::int32_t counts, bool invalid) {
     double fc;
     if (invalid) {
       filter_fresh = true;
@@ -339,7 +430,7 @@ struct Sensor::ChannelState {
   }
 
   // A stuck output holds the value latched at the stuck fault's onset.
-  double apply_stuck(double value, const MeasurementFaults& mf, std::uint8_t& flags) noexcept {
+  double apply_stuck(double value, const MeasurementFaults& mf, std::uint8_t& flags) {
     if (!mf.stuck) {
       stuck_onset = std::numeric_limits<TimeUs>::min();
       return value;
@@ -353,13 +444,13 @@ struct Sensor::ChannelState {
   }
 
   // Not valid: the output holds the last valid value where the spec says so.
-  std::uint8_t invalid_status(double& value) const noexcept {
+  std::uint8_t invalid_status(double& value) const {
     if (spec.invalid_output == InvalidOutput::HoldLastValid && have_valid) value = last_valid;
     return kStatusInvalid;
   }
 
   // Valid: overload against the range and its margin, with hysteresis and counters.
-  std::uint8_t valid_status(std::int32_t counts, double value) noexcept {
+  std::uint8_t valid_status(std::int32_t counts, double value) {
     const double src =
         spec.overload.source == OverloadSource::Raw ? spec.range_min + (counts - c0) / code_per_unit : value;
     const double hi = spec.range_max + spec.overload.margin;
@@ -381,7 +472,7 @@ struct Sensor::ChannelState {
     return std::uint8_t((pos_ovl ? kStatusPositiveOverload : 0) | (neg_ovl ? kStatusNegativeOverload : 0));
   }
 
-  void reboot() noexcept {
+  void reboot() {
     next_index = 0;
     started = false;
     filter_fresh = true;
@@ -403,7 +494,7 @@ Sensor::Sensor(const SensorSpec& spec, ProcessModel process, std::uint64_t seed,
   const ChannelSpec* cs[2] = {&spec_.pressure, &spec_.temperature};
   for (int i = 0; i < 2; ++i) {
     ch_[i].spec = *cs[i];
-    ch_[i].which = static_cast<Channel>(i);
+    ch_[i].which = Channel(i);
     if (cs[i]->enabled) ch_[i].configure(derive_seed(seed, 0x5E0 + i));
   }
 }
@@ -414,7 +505,7 @@ Sensor::Sensor(const Sensor&) = default;
 Sensor& Sensor::operator=(const Sensor&) = default;
 Sensor::~Sensor() = default;
 
-const SensorReading& Sensor::read(TimeUs t) noexcept {
+const SensorReading& Sensor::read(TimeUs t) {
   if (t <= last_read_us_) return reading_;
   last_read_us_ = t;
   ChannelState& P = ch_[0];
@@ -469,7 +560,85 @@ const SensorReading& Sensor::read(TimeUs t) noexcept {
   return reading_;
 }
 
-void Sensor::reboot(TimeUs t) noexcept {
+Steadiness Sensor::steadiness(Channel ch, TimeUs t) const {
+  constexpr TimeUs kHorizons[] = {kNever, 60'000'000, 5'000'000, 500'000};
+  Steadiness out{t, 0.0, 0.0, 0};
+  const ChannelState& c = ch_[int(ch)];
+  TimeUs until = kNever;
+  if (c.spec.enabled && faults_ && faults_->has_measurement_faults()) {
+    until = faults_->measurement_quiet_until(
+        ch == Channel::Pressure ? FaultChannel::Pressure : FaultChannel::Temperature, t);
+    if (until <= t) return out;
+  }
+  for (TimeUs horizon : kHorizons) {
+    const TimeUs end = horizon == kNever || t > kNever - horizon ? until : std::min(until, t + horizon);
+    if (end <= t) continue;
+    if (steady_between(ch, t, end, out)) {
+      out.until = end;
+      return out;
+    }
+  }
+  out = Steadiness{t, 0.0, 0.0, 0};
+  return out;
+}
+
+// One read at a time in (t, end): the samples it processes lie in
+// [t - its window, end); the process is evaluated once per processed sample
+// of either channel.
+bool Sensor::steady_between(Channel ch, TimeUs t, TimeUs end, Steadiness& out) const {
+  const ChannelState& c = ch_[int(ch)];
+  double lookback = 0.0;
+  int queries = 1;
+  for (const ChannelState& x : ch_)
+    if (x.spec.enabled) {
+      const std::int64_t window = x.read_window();
+      lookback = std::max(lookback, double(window) / x.rate_hz);
+      queries += int(std::min<std::int64_t>(window, 1 << 20));
+    }
+  const double t0 = us_to_seconds(t) - lookback;
+  const double t1 = end == kNever ? std::numeric_limits<double>::infinity() : us_to_seconds(end);
+  double lo = 0, hi = 0;
+  if (!process_.bounds(ch, t0, t1, queries, lo, hi)) return false;
+  if (!c.spec.enabled) {  // the truth, status 0
+    out.lo = lo, out.hi = hi, out.status = 0;
+    return true;
+  }
+  if (!c.started) return false;
+  double tlo = lo, thi = hi;  // the sensor's temperature: the temperature channel's truth
+  if (ch == Channel::Pressure && !process_.bounds(Channel::Temperature, t0, t1, queries, tlo, thi)) return false;
+  const bool damaged = c.damaged || hi > c.spec.overload.safe_max || lo < c.spec.overload.safe_min;
+  if (damaged != c.damaged) return false;  // it may become damaged
+  double xlo = 0, xhi = 0;
+  c.element_range(lo, hi, tlo, thi, xlo, xhi);
+  const MeasurementFaults none{};
+  std::uint8_t flags = 0;
+  double clo = c.adc_counts(xlo, none, flags), chi = c.adc_counts(xhi, none, flags);
+  if (clo > chi) std::swap(clo, chi);
+  if (damaged) {  // not valid: the last valid value, or what the chain gives
+    if (c.out.status != kStatusInvalid) return false;
+    const bool hold = c.spec.invalid_output == InvalidOutput::HoldLastValid && c.have_valid;
+    out.lo = hold ? c.last_valid : std::min(c.output_value(clo), c.output_value(chi));
+    out.hi = hold ? c.last_valid : std::max(c.output_value(clo), c.output_value(chi));
+    out.status = kStatusInvalid;
+    return true;
+  }
+  double flo = clo, fhi = chi;
+  c.filter_range(flo, fhi);
+  const double v1 = c.output_value(flo), v2 = c.output_value(fhi);
+  out.lo = std::min(v1, v2);
+  out.hi = std::max(v1, v2);
+  double slo = out.lo, shi = out.hi;
+  if (c.spec.overload.source == OverloadSource::Raw) {
+    const double r1 = c.spec.range_min + (clo - c.c0) / c.code_per_unit;
+    const double r2 = c.spec.range_min + (chi - c.c0) / c.code_per_unit;
+    slo = std::min(r1, r2), shi = std::max(r1, r2);
+  }
+  if (!c.overload_stays(slo, shi)) return false;
+  out.status = std::uint8_t((c.pos_ovl ? kStatusPositiveOverload : 0) | (c.neg_ovl ? kStatusNegativeOverload : 0));
+  return c.out.status == out.status;
+}
+
+void Sensor::reboot(TimeUs t) {
   boot_us_ = t;
   last_read_us_ = std::numeric_limits<TimeUs>::min();
   ch_[0].reboot();
@@ -477,7 +646,7 @@ void Sensor::reboot(TimeUs t) noexcept {
   reading_ = SensorReading{};
 }
 
-void Sensor::replace(TimeUs t) noexcept {
+void Sensor::replace(TimeUs t) {
   reboot(t);
   for (auto& c : ch_) {
     c.damaged = false;
@@ -486,7 +655,7 @@ void Sensor::replace(TimeUs t) noexcept {
 }
 
 void Sensor::set_filter(Channel ch, const FilterSpec& filter) {
-  ChannelState& c = ch_[static_cast<int>(ch)];
+  ChannelState& c = ch_[int(ch)];
   c.spec.filter = filter;
   if (!c.spec.enabled) return;
   c.configure_filter();
@@ -494,19 +663,17 @@ void Sensor::set_filter(Channel ch, const FilterSpec& filter) {
   c.block_skip = 0;
 }
 
-const FilterSpec& Sensor::filter(Channel ch) const noexcept { return ch_[static_cast<int>(ch)].spec.filter; }
+const FilterSpec& Sensor::filter(Channel ch) const { return ch_[int(ch)].spec.filter; }
 
-bool Sensor::damaged() const noexcept { return ch_[0].damaged || ch_[1].damaged; }
-bool Sensor::damaged(Channel ch) const noexcept { return ch_[static_cast<int>(ch)].damaged; }
+bool Sensor::damaged() const { return ch_[0].damaged || ch_[1].damaged; }
+bool Sensor::damaged(Channel ch) const { return ch_[int(ch)].damaged; }
 
-OverloadCounters Sensor::counters(Channel ch) const noexcept { return ch_[static_cast<int>(ch)].counters; }
+OverloadCounters Sensor::counters(Channel ch) const { return ch_[int(ch)].counters; }
 
-void Sensor::reset_counters() noexcept {
+void Sensor::reset_counters() {
   for (auto& c : ch_) c.counters = {};
 }
 
-const ErrorSpec& Sensor::effective_errors(Channel ch) const noexcept {
-  return ch_[static_cast<int>(ch)].spec.errors;
-}
+const ErrorSpec& Sensor::effective_errors(Channel ch) const { return ch_[int(ch)].spec.errors; }
 
 }  // namespace cansim::physics

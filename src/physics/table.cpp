@@ -12,15 +12,18 @@ Table::Table(const TableSpec& spec) : interp_(spec.interpolation), loop_(spec.lo
   if (spec.points.empty()) throw std::invalid_argument("table: no points");
   for (std::size_t i = 0; i < spec.points.size(); ++i) {
     const auto& p = spec.points[i];
-    if (!std::isfinite(p.t_s) || !std::isfinite(p.value))
-      throw std::invalid_argument("table: non-finite point");
-    if (i > 0 && p.t_s < spec.points[i - 1].t_s)
-      throw std::invalid_argument("table: times must be non-decreasing");
+    if (!std::isfinite(p.t_s) || !std::isfinite(p.value)) throw std::invalid_argument("table: non-finite point");
+    if (i > 0 && p.t_s < spec.points[i - 1].t_s) throw std::invalid_argument("table: times must be non-decreasing");
   }
   t0_ = spec.points.front().t_s;
   const double span = spec.points.back().t_s - t0_;
   pts_.reserve(spec.points.size());
   for (const auto& p : spec.points) pts_.push_back({p.t_s - t0_, p.value});
+  min_ = max_ = pts_.front().value;
+  for (const auto& p : pts_) {
+    min_ = std::min(min_, p.value);
+    max_ = std::max(max_, p.value);
+  }
   const std::size_t m = pts_.size();
 
   if (loop_) {
@@ -93,27 +96,24 @@ Table::Table(const TableSpec& spec) : interp_(spec.interpolation), loop_(spec.lo
   }
 }
 
-double Table::cycle_value(double tau) const noexcept {
+double Table::cycle_value(double tau) const {
   // Last point with t <= tau.
-  auto it = std::upper_bound(pts_.begin(), pts_.end(), tau,
-                             [](double x, const TablePoint& p) { return x < p.t_s; });
-  std::size_t j = it == pts_.begin() ? 0 : static_cast<std::size_t>(it - pts_.begin()) - 1;
+  auto it = std::upper_bound(pts_.begin(), pts_.end(), tau, [](double x, const TablePoint& p) { return x < p.t_s; });
+  std::size_t j = it == pts_.begin() ? 0 : std::size_t(it - pts_.begin()) - 1;
   const auto& pj = pts_[j];
   if (interp_ == Interpolation::Hold) return pj.value;
   if (j + 1 < pts_.size()) {
     const auto& pn = pts_[j + 1];
     return pj.value + (pn.value - pj.value) * (tau - pj.t_s) / (pn.t_s - pj.t_s);
   }
-  if (loop_ && period_ > pj.t_s)
-    return pj.value + (pts_[0].value - pj.value) * (tau - pj.t_s) / (period_ - pj.t_s);
+  if (loop_ && period_ > pj.t_s) return pj.value + (pts_[0].value - pj.value) * (tau - pj.t_s) / (period_ - pj.t_s);
   return pj.value;
 }
 
-double Table::cycle_slope(double tau) const noexcept {
+double Table::cycle_slope(double tau) const {
   if (interp_ == Interpolation::Hold) return 0.0;
-  auto it = std::upper_bound(pts_.begin(), pts_.end(), tau,
-                             [](double x, const TablePoint& p) { return x < p.t_s; });
-  std::size_t j = it == pts_.begin() ? 0 : static_cast<std::size_t>(it - pts_.begin()) - 1;
+  auto it = std::upper_bound(pts_.begin(), pts_.end(), tau, [](double x, const TablePoint& p) { return x < p.t_s; });
+  std::size_t j = it == pts_.begin() ? 0 : std::size_t(it - pts_.begin()) - 1;
   const auto& pj = pts_[j];
   if (j + 1 < pts_.size()) {
     const auto& pn = pts_[j + 1];
@@ -123,7 +123,7 @@ double Table::cycle_slope(double tau) const noexcept {
   return 0.0;
 }
 
-double Table::value(double t) const noexcept {
+double Table::value(double t) const {
   if (pts_.empty()) return 0.0;
   if (t < t0_) return pts_[0].value;
   double tau = t - t0_;
@@ -134,7 +134,7 @@ double Table::value(double t) const noexcept {
   return cycle_value(tau);
 }
 
-double Table::slope(double t) const noexcept {
+double Table::slope(double t) const {
   if (pts_.empty() || t < t0_) return 0.0;
   double tau = t - t0_;
   if (loop_) {
@@ -144,7 +144,7 @@ double Table::slope(double t) const noexcept {
   return cycle_slope(tau);
 }
 
-double Table::next_event_time(double t) const noexcept {
+double Table::next_event_time(double t) const {
   constexpr double kInf = std::numeric_limits<double>::infinity();
   if (knots_.empty()) return kInf;
   auto first_after = [&](double x) {
@@ -159,8 +159,7 @@ double Table::next_event_time(double t) const noexcept {
   double tau = (t - t0_) - cycles * period_;
   if (tau < 0) tau = 0;
   auto it = first_after(tau);
-  double te = it == knots_.end() ? t0_ + (cycles + 1) * period_ + knots_[0].tau
-                                 : t0_ + cycles * period_ + it->tau;
+  double te = it == knots_.end() ? t0_ + (cycles + 1) * period_ + knots_[0].tau : t0_ + cycles * period_ + it->tau;
   if (te <= t) te = std::nextafter(t, kInf);  // rounding guard
   return te;
 }
@@ -183,8 +182,8 @@ bool parse_number(std::string_view tok, double& v) {
 
 }  // namespace
 
-bool parse_table_csv(std::string_view text, std::vector<TablePoint>& out, std::string* error,
-                     double time_scale, double value_scale, double value_offset) {
+bool parse_table_csv(std::string_view text, std::vector<TablePoint>& out, std::string* error, double time_scale,
+                     double value_scale, double value_offset) {
   out.clear();
   std::size_t line_no = 0;
   bool any_data = false;

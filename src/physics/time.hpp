@@ -5,12 +5,14 @@
 
 #include <cmath>
 #include <cstdint>
+#include <limits>
 
 namespace cansim::physics {
 
 using TimeUs = std::int64_t;
+inline constexpr TimeUs kNever = std::numeric_limits<TimeUs>::max();
 
-constexpr double us_to_seconds(TimeUs t) noexcept { return static_cast<double>(t) * 1e-6; }
-inline TimeUs seconds_to_us(double s) noexcept { return static_cast<TimeUs>(std::llround(s * 1e6)); }
+constexpr double us_to_seconds(TimeUs t) { return double(t) * 1e-6; }
+inline TimeUs seconds_to_us(double s) { return TimeUs(std::llround(s * 1e6)); }
 
 }  // namespace cansim::physics

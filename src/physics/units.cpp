@@ -5,7 +5,7 @@
 namespace cansim::physics {
 namespace {
 
-std::string_view trim(std::string_view s) noexcept {
+std::string_view trim(std::string_view s) {
   while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
   while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r' || s.back() == '\n'))
     s.remove_suffix(1);
@@ -13,7 +13,7 @@ std::string_view trim(std::string_view s) noexcept {
 }
 
 // Splits "<number><space?><unit>" into number and unit text.
-bool split_quantity(std::string_view s, double& value, std::string_view& unit) noexcept {
+bool split_quantity(std::string_view s, double& value, std::string_view& unit) {
   s = trim(s);
   if (s.empty()) return false;
   const char* first = s.data();
@@ -21,13 +21,13 @@ bool split_quantity(std::string_view s, double& value, std::string_view& unit) n
   if (*first == '+') ++first;  // from_chars rejects a leading '+'
   auto [ptr, ec] = std::from_chars(first, last, value);
   if (ec != std::errc{}) return false;
-  unit = trim(std::string_view(ptr, static_cast<std::size_t>(last - ptr)));
+  unit = trim(std::string_view(ptr, std::size_t(last - ptr)));
   return true;
 }
 
 }  // namespace
 
-std::optional<PressureUnit> parse_pressure_unit(std::string_view s) noexcept {
+std::optional<PressureUnit> parse_pressure_unit(std::string_view s) {
   s = trim(s);
   if (s == "Pa" || s == "pa") return PressureUnit::Pa;
   if (s == "hPa" || s == "hpa") return PressureUnit::hPa;
@@ -42,17 +42,23 @@ std::optional<PressureUnit> parse_pressure_unit(std::string_view s) noexcept {
   return std::nullopt;
 }
 
-std::optional<TemperatureUnit> parse_temperature_unit(std::string_view s) noexcept {
+std::optional<TemperatureUnit> parse_temperature_unit(std::string_view s) {
   s = trim(s);
   if (s == "K" || s == "kelvin") return TemperatureUnit::K;
-  if (s == "degC" || s == "\xC2\xB0" "C" || s == "C" || s == "celsius" || s == "Celsius")
+  if (s == "degC" ||
+      s == "\xC2\xB0"
+           "C" ||
+      s == "C" || s == "celsius" || s == "Celsius")
     return TemperatureUnit::degC;
-  if (s == "degF" || s == "\xC2\xB0" "F" || s == "F" || s == "fahrenheit" || s == "Fahrenheit")
+  if (s == "degF" ||
+      s == "\xC2\xB0"
+           "F" ||
+      s == "F" || s == "fahrenheit" || s == "Fahrenheit")
     return TemperatureUnit::degF;
   return std::nullopt;
 }
 
-std::string_view to_string(PressureUnit u) noexcept {
+std::string_view to_string(PressureUnit u) {
   switch (u) {
     case PressureUnit::Pa: return "Pa";
     case PressureUnit::hPa: return "hPa";
@@ -68,7 +74,7 @@ std::string_view to_string(PressureUnit u) noexcept {
   return "?";
 }
 
-std::string_view to_string(TemperatureUnit u) noexcept {
+std::string_view to_string(TemperatureUnit u) {
   switch (u) {
     case TemperatureUnit::K: return "K";
     case TemperatureUnit::degC: return "degC";
@@ -77,7 +83,7 @@ std::string_view to_string(TemperatureUnit u) noexcept {
   return "?";
 }
 
-std::optional<double> parse_pressure(std::string_view s, PressureUnit default_unit) noexcept {
+std::optional<double> parse_pressure(std::string_view s, PressureUnit default_unit) {
   double v = 0;
   std::string_view unit;
   if (!split_quantity(s, v, unit)) return std::nullopt;
@@ -90,7 +96,7 @@ std::optional<double> parse_pressure(std::string_view s, PressureUnit default_un
   return to_pa(v, u);
 }
 
-std::optional<double> parse_temperature(std::string_view s, TemperatureUnit default_unit) noexcept {
+std::optional<double> parse_temperature(std::string_view s, TemperatureUnit default_unit) {
   double v = 0;
   std::string_view unit;
   if (!split_quantity(s, v, unit)) return std::nullopt;

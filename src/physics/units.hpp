@@ -26,8 +26,8 @@ inline constexpr double kPaPerPsi = 6894.757293168361;
 inline constexpr double kPaPerBar = 1.0e5;
 inline constexpr double kZeroCelsiusK = 273.15;
 
-/// Pascal per one unit of `u` (exact constants, see file header).
-constexpr double pa_per_unit(PressureUnit u) noexcept {
+// Pascal per one unit of `u` (exact constants, see file header).
+constexpr double pa_per_unit(PressureUnit u) {
   switch (u) {
     case PressureUnit::Pa: return 1.0;
     case PressureUnit::hPa: return 100.0;
@@ -43,12 +43,12 @@ constexpr double pa_per_unit(PressureUnit u) noexcept {
   return 1.0;
 }
 
-/// Absolute pressure (or pressure difference, same factor) to / from pascal.
-constexpr double to_pa(double v, PressureUnit u) noexcept { return v * pa_per_unit(u); }
-constexpr double from_pa(double pa, PressureUnit u) noexcept { return pa / pa_per_unit(u); }
+// Absolute pressure (or pressure difference, same factor) to / from pascal.
+constexpr double to_pa(double v, PressureUnit u) { return v * pa_per_unit(u); }
+constexpr double from_pa(double pa, PressureUnit u) { return pa / pa_per_unit(u); }
 
-/// Absolute temperature to / from kelvin.
-constexpr double to_kelvin(double v, TemperatureUnit u) noexcept {
+// Absolute temperature to / from kelvin.
+constexpr double to_kelvin(double v, TemperatureUnit u) {
   switch (u) {
     case TemperatureUnit::K: return v;
     case TemperatureUnit::degC: return v + kZeroCelsiusK;
@@ -56,7 +56,7 @@ constexpr double to_kelvin(double v, TemperatureUnit u) noexcept {
   }
   return v;
 }
-constexpr double from_kelvin(double k, TemperatureUnit u) noexcept {
+constexpr double from_kelvin(double k, TemperatureUnit u) {
   switch (u) {
     case TemperatureUnit::K: return k;
     case TemperatureUnit::degC: return k - kZeroCelsiusK;
@@ -65,30 +65,27 @@ constexpr double from_kelvin(double k, TemperatureUnit u) noexcept {
   return k;
 }
 
-/// Temperature *differences* (amplitudes, offsets, rates): no zero shift.
-/// 1 degF difference = 5/9 K.
-constexpr double delta_to_kelvin(double v, TemperatureUnit u) noexcept {
-  return u == TemperatureUnit::degF ? v * 5.0 / 9.0 : v;
-}
-constexpr double delta_from_kelvin(double k, TemperatureUnit u) noexcept {
+// Temperature *differences* (amplitudes, offsets, rates): no zero shift.
+// 1 degF difference = 5/9 K.
+constexpr double delta_to_kelvin(double v, TemperatureUnit u) { return u == TemperatureUnit::degF ? v * 5.0 / 9.0 : v; }
+constexpr double delta_from_kelvin(double k, TemperatureUnit u) {
   return u == TemperatureUnit::degF ? k * 9.0 / 5.0 : k;
 }
 
-/// Parse unit names. Accepted (case-sensitive where case carries meaning):
-///   pressure:    "Pa" "pa" "hPa" "hpa" "kPa" "kpa" "MPa" "bar" "mbar" "psi" "PSI"
-///                "atm" "at" "mmHg" "mmhg" "torr"(=mmHg, within 1e-7)
-///   temperature: "K" "kelvin" "degC" "°C" "C" "celsius" "degF" "°F" "F" "fahrenheit"
-/// Returns nullopt for anything else (note: "mPa" is millipascal and rejected).
-std::optional<PressureUnit> parse_pressure_unit(std::string_view s) noexcept;
-std::optional<TemperatureUnit> parse_temperature_unit(std::string_view s) noexcept;
-std::string_view to_string(PressureUnit u) noexcept;
-std::string_view to_string(TemperatureUnit u) noexcept;
+// Parse unit names. Accepted (case-sensitive where case carries meaning):
+//   pressure:    "Pa" "pa" "hPa" "hpa" "kPa" "kpa" "MPa" "bar" "mbar" "psi" "PSI"
+//                "atm" "at" "mmHg" "mmhg" "torr"(=mmHg, within 1e-7)
+//   temperature: "K" "kelvin" "degC" "°C" "C" "celsius" "degF" "°F" "F" "fahrenheit"
+// Returns nullopt for anything else (note: "mPa" is millipascal and rejected).
+std::optional<PressureUnit> parse_pressure_unit(std::string_view s);
+std::optional<TemperatureUnit> parse_temperature_unit(std::string_view s);
+std::string_view to_string(PressureUnit u);
+std::string_view to_string(TemperatureUnit u);
 
-/// Parse "<number> <unit>" (space optional, e.g. "2.5 bar", "25degC", "-40 °C",
-/// "1e5 Pa"). A bare number without unit is interpreted in `default_unit`.
-/// Returns the value in Pa / K, nullopt on syntax error or unknown unit.
-std::optional<double> parse_pressure(std::string_view s, PressureUnit default_unit = PressureUnit::Pa) noexcept;
-std::optional<double> parse_temperature(std::string_view s,
-                                        TemperatureUnit default_unit = TemperatureUnit::K) noexcept;
+// Parse "<number> <unit>" (space optional, e.g. "2.5 bar", "25degC", "-40 °C",
+// "1e5 Pa"). A bare number without unit is interpreted in `default_unit`.
+// Returns the value in Pa / K, nullopt on syntax error or unknown unit.
+std::optional<double> parse_pressure(std::string_view s, PressureUnit default_unit = PressureUnit::Pa);
+std::optional<double> parse_temperature(std::string_view s, TemperatureUnit default_unit = TemperatureUnit::K);
 
 }  // namespace cansim::physics

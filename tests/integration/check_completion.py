@@ -22,12 +22,20 @@ vcan0/dps/0        dps        vcan0      0x7f  dps          honeywell-dps  pre-o
 vcan0/generic/0    generic    vcan0      0x10  generic-404  generic        operational
 vcan0/generic/1    generic    vcan0      0x11  generic-404  generic        operational
 """
+PLANT = """vessel (step 0.001000 s, at 12.000000 s)
+VARIABLE       KIND      VALUE  UNIT
+tank.pressure  pressure  6      bar
+faults: none
+"""
+PLANT_FAULTS = ["blocked", "input_lost", "leak", "valve_stuck"]
 
 
-def complete(completion: str, fake: str, line: str) -> list:
-    """COMPREPLY for the command line `line` (the cursor at its end)."""
+def complete(completion: str, fake: str, line: str, net: str = "") -> list:
+    """COMPREPLY for the command line `line` (the cursor at its end); `net`:
+    the folder of network interfaces (default: the machine's)."""
     script = f"""
 source {completion}
+{f"_cansimctl_net={net!r}" if net else ""}
 COMP_LINE={line!r}
 read -ra COMP_WORDS <<< "$COMP_LINE"
 [[ $COMP_LINE == *' ' ]] && COMP_WORDS+=("")
@@ -53,12 +61,13 @@ def main() -> int:
     tmp = tempfile.mkdtemp()
     fake = os.path.join(tmp, "cansimctl")
     with open(fake, "w") as f:
-        f.write("#!/bin/sh\ncase \" $* \" in *' list '*) cat <<'EOF'\n" + LIST + "EOF\n;; esac\n")
+        f.write("#!/bin/sh\ncase \" $* \" in *' list '*) cat <<'EOF'\n" + LIST + "EOF\n;;\n"
+                "*' plant '*) cat <<'EOF'\n" + PLANT + "EOF\n;; esac\n")
     os.chmod(fake, 0o755)
     errors = []
 
-    def expect(line, want, exact=True):
-        got = complete(completion, fake, line)
+    def expect(line, want, exact=True, net=""):
+        got = complete(completion, fake, line, net)
         ok = got == sorted(want) if exact else set(want) <= set(got)
         if not ok:
             errors.append(f"{line!r}: got {got}, expected {'' if exact else 'at least '}{sorted(want)}")
@@ -77,12 +86,31 @@ def main() -> int:
     # The fault kinds the daemon knows (physics/fault.cpp kNames).
     with open(os.path.join(ns.source_dir, "src", "physics", "fault.cpp")) as f:
         names = re.search(r"kNames\[kFaultKindCount\] = \{(.*?)\};", f.read(), re.S).group(1)
-    expect("cansimctl fault dps ", re.findall(r'"([a-z_]+)"', names))
+    kinds = re.findall(r'"([a-z_]+)"', names)
+    expect("cansimctl fault dps ", [k for k in kinds if k not in PLANT_FAULTS])
     expect("cansimctl fault dps drift dur", ["duration="])
-    expect("cansimctl nmt 'generic/*' ", ["preop", "reset", "reset-comm", "start", "stop"])
+    # Plants: plant:NAME where a NODE goes, their own fault kinds and keys (docs/plants.md).
+    assert sorted(k for k in kinds if k in PLANT_FAULTS) == PLANT_FAULTS, kinds
+    expect("cansimctl fault plant:", ["plant:vessel"])
+    expect("cansimctl fault plant:vessel ", PLANT_FAULTS)
+    expect("cansimctl fault plant:vessel leak ta", ["target="])
+    expect("cansimctl plant ", ["vessel"])
+    expect("cansimctl plant vessel ", ["override", "set"])
+    expect("cansimctl nmt 'generic/*' ", ["pre-operational", "reset-communication", "reset-node", "start", "stop"])
     expect("cansimctl write dps 0x1017 5 --type u", ["u16", "u32", "u64", "u8"])
     expect("cansimctl help mon", ["monitor"])
     expect("cansimctl --js", ["--json"])
+    # monitor offers the CAN interfaces only (sysfs type 280), not eth0 or lo.
+    net = os.path.join(tmp, "net")
+    for dev, kind in (("vcan0", 280), ("can1", 280), ("eth0", 1), ("lo", 772)):
+        os.makedirs(os.path.join(net, dev))
+        with open(os.path.join(net, dev, "type"), "w") as f:
+            f.write(f"{kind}\n")
+    expect("cansimctl monitor ", ["can1", "vcan0"], net=net)
+    expect("cansimctl monitor vcan0 v", ["vcan0"], net=net)
+    expect("cansimctl capture ", ["can1", "vcan0"], net=net)
+    expect("cansimctl replay bench.log --on ", ["can1", "vcan0"], net=net)
+    expect("cansimctl override dps --", ["--off"], exact=False)
     shutil.rmtree(tmp, ignore_errors=True)
     for e in errors:
         print("FAIL", e)

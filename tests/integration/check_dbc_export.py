@@ -6,7 +6,11 @@ configparser): every valid TPDO and RPDO is a message with the PDO's CAN-ID
 and length, one signal per mapped object in frame order (start bit, length,
 little-endian, signedness and IEEE float from the object's DataType, the
 factor 10^-digits of a CiA 404 integer process value from 0x6132, the unit
-from the 0x6131 code), and the node's heartbeat and EMCY messages are there.
+from the 0x6131 code; a device whose PV is counts, its 0x6131 informational
+(the SMC): factor and offset from its own scaling, 0x6126 gain, 0x6127
+offset, 0x3124 input offset and the profile's sensor range over its ADC's
+field_full_scale counts), and the node's heartbeat and EMCY messages are
+there, the EMCY codes with the profile's names.
 No CAN needed: registered as a unit-tier test (ctest name dbc_export).
 
 usage: check_dbc_export.py --cansimd PATH --source-dir DIR
@@ -77,6 +81,38 @@ def unit_of(eds: Eds, channel: int) -> str | None:
     return None if base is None or prefix not in PREFIXES else PREFIXES[prefix] + base
 
 
+def real(eds: Eds, index: int, sub: int) -> float:
+    s = eds.section(index, sub)
+    return float(s.get("ParameterValue", s.get("DefaultValue", "0")))
+
+
+def quantity(text: str) -> tuple[float, str]:
+    value, unit = text.split()
+    return float(value), unit
+
+
+def count_scaling(doc: dict, eds: Eds, sub: int) -> tuple[float, float] | None:
+    """(factor, offset) turning the PV of channel `sub` into its unit when the
+    device reports counts: a profile whose 0x6131 is informational (no effect
+    on the calculation) and whose sensor spans field_full_scale counts over
+    its range: PV = gain x (FV - input offset) + offset, FV = (x - lo) / (hi - lo) x counts."""
+    if not (((doc.get("vendor") or {}).get("cia404") or {}).get("unit_informational")):
+        return None
+    sensor = (doc.get("sensor") or {}).get({1: "pressure", 2: "temperature"}[sub]) or {}
+    counts = (sensor.get("adc") or {}).get("field_full_scale")
+    if not counts:
+        return None
+    (lo, unit), (hi, unit_hi) = quantity(sensor["range"][0]), quantity(sensor["range"][1])
+    assert unit == unit_hi == unit_of(eds, sub), f"the sensor range of channel {sub} is not in its 0x6131 unit"
+    gain, pv1, input_offset = real(eds, 0x6126, sub), real(eds, 0x6127, sub), eds.value(0x3124, sub) or 0
+    per_count = (hi - lo) / counts
+    factor = per_count / gain
+    offset = lo + input_offset * per_count - factor * pv1
+    if abs(factor - 1) < 1e-5 and abs(offset) < 1e-5 * (hi - lo):
+        return None  # the PV is in its unit
+    return factor, offset
+
+
 def expected_pdos(eds: Eds):
     """(transmit, number, can_id, bits, [(index, sub, start, bits, type)]) of each PDO whose COB-ID is valid."""
     out = []
@@ -106,6 +142,9 @@ def check_profile(cansimd: str, profile: str, canmatrix_formats, errors: list) -
     run = lambda *a: subprocess.run([cansimd, *a], capture_output=True, text=True, check=True).stdout  # noqa: E731
     dbc_text = run("--export-dbc", profile, "--node-id", str(NODE_ID))
     eds = Eds(run("--export-eds", profile, "--node-id", str(NODE_ID)))
+    import yaml
+    with open(os.path.join("profiles", profile + ".yaml")) as f:
+        doc = yaml.safe_load(f)
     db = canmatrix_formats.loads_flat(dbc_text, import_type="dbc")
     frames = {f.arbitration_id.id: f for f in db.frames}
     checked = 0
@@ -132,12 +171,18 @@ def check_profile(cansimd: str, profile: str, canmatrix_formats, errors: list) -
                 fail(f"{where}: is_float {sig.is_float} for DataType 0x{dtype:04X}")
             if dtype not in REAL and (dtype in SIGNED) != bool(sig.is_signed):
                 fail(f"{where}: is_signed {sig.is_signed} for DataType 0x{dtype:04X}")
-            factor = 1.0
+            factor, offset = 1.0, 0.0
             if index in PV_INDICES and dtype not in REAL:
                 digits = eds.value(0x6132, sub)
                 factor = 10.0 ** -(digits or 0)
-            if abs(float(sig.factor) - factor) > 1e-12 * max(1.0, factor) or float(sig.offset) != 0:
-                fail(f"{where}: factor {sig.factor} offset {sig.offset}, expected {factor} and 0")
+            counts = count_scaling(doc, eds, sub) if index in PV_INDICES else None
+            if counts:
+                factor, offset = factor * counts[0], counts[1]
+            if abs(float(sig.factor) - factor) > 1e-9 * max(1.0, abs(factor)) or \
+                    abs(float(sig.offset) - offset) > 1e-9 * max(1.0, abs(offset)):
+                fail(f"{where}: factor {sig.factor} offset {sig.offset}, expected {factor} and {offset}")
+            if counts and "counts" not in sig.comment:
+                fail(f"{where}: comment {sig.comment!r} does not say the device sends counts")
             unit = unit_of(eds, sub) if index in PV_INDICES else ""
             if unit is not None and sig.unit != unit:
                 fail(f"{where}: unit {sig.unit!r}, expected {unit!r}")
@@ -150,13 +195,18 @@ def check_profile(cansimd: str, profile: str, canmatrix_formats, errors: list) -
         fail(f"no 8-byte EMCY message 0x{emcy_id:03X}")
     else:
         # The EMCY codes as the profile (its manual) names them, as the code signal's value table.
-        import yaml
-        with open(os.path.join("profiles", profile + ".yaml")) as f:
-            named = {int(str(k), 0) if isinstance(k, str) else k: v for k, v in (yaml.safe_load(f).get("emcy") or {}).items()}
+        named = {int(str(k), 0) if isinstance(k, str) else k: v for k, v in (doc.get("emcy") or {}).items()}
         table = {int(k): v for k, v in frames[emcy_id].signal_by_name("error_code").values.items()}
         missing = {c: t for c, t in named.items() if c != 0 and table.get(c) != t}
         if missing:
             fail(f"EMCY value table {table} lacks the profile's {missing}")
+        # ... and the codes the node's CiA 301 services send (its options say which; 0: none).
+        options = doc.get("options") or {}
+        for option, default in (("error_passive_emcy", 0x8120), ("bus_off_recovery_emcy", 0x8140),
+                                ("can_overrun_emcy", 0x8110)):
+            code = options.get(option, default)
+            if code and code not in table:
+                fail(f"EMCY value table {table} lacks {option}'s 0x{code:04X}")
     if 0x080 not in frames or 0x000 not in frames:
         fail("no SYNC / NMT message")
     return checked

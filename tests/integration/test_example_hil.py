@@ -10,32 +10,10 @@ README's "Bench quick start": its fleet line and its test, as printed there."""
 
 import os
 import re
-import subprocess
 import sys
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "lib"))
 import cansim_it as it  # noqa: E402
-
-PYTEST_EXIT = {0: "all tests passed", 1: "tests failed", 2: "interrupted", 3: "internal error",
-               4: "usage error", 5: "no tests collected"}
-
-
-def run_pytest(ctx: it.Context, what: str, *args: str) -> None:
-    env = dict(os.environ, CANSIMD=ctx.require_cansimd(), PYTHONPATH=ctx.source("python"),
-               PYTHONDONTWRITEBYTECODE="1")
-    cmd = [sys.executable, "-m", "pytest", "-q", "-rs", "-p", "no:cacheprovider", *args]
-    it.log(f"running {' '.join(cmd)}")
-    # From the source folder, as a user of the checkout runs it: profile names resolve to profiles/.
-    r = subprocess.run(cmd, cwd=ctx.source_dir, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                       timeout=it.scaled(30))
-    print(r.stdout.rstrip(), flush=True)
-    status = PYTEST_EXIT.get(r.returncode, "unknown")
-    if r.returncode != 0:
-        raise AssertionError(f"pytest {what}: exit status {r.returncode} ({status})")
-    if " skipped" in r.stdout or " passed" not in r.stdout:
-        raise AssertionError(f"pytest {what}: every test must run and pass")
-    it.log(f"{what}: pytest exit status 0 ({status})")
-
 
 def readme_block(text: str, marker: str, lang: str) -> str:
     m = re.search(rf"<!-- {marker} -->\n```{lang}\n(.*?)```", text, re.S)
@@ -45,7 +23,7 @@ def readme_block(text: str, marker: str, lang: str) -> str:
 
 def test(ctx: it.Context) -> None:
     it.require_iface("vcan0")
-    run_pytest(ctx, "examples/hil_bench_test.py", ctx.source("examples", "hil_bench_test.py"))
+    it.run_pytest(ctx, "examples/hil_bench_test.py", ctx.source("examples", "hil_bench_test.py"))
     with open(ctx.source("README.md"), encoding="utf-8") as f:
         readme = f.read()
     fleet = os.path.join(ctx.tmp, "bench.yaml")
@@ -54,7 +32,7 @@ def test(ctx: it.Context) -> None:
         f.write(readme_block(readme, "quickstart-fleet", "yaml"))
     with open(test_file, "w") as f:
         f.write(readme_block(readme, "quickstart-test", "python"))
-    run_pytest(ctx, "README's Bench quick start", "-p", "cansim.pytest_plugin", f"--cansim-config={fleet}", test_file)
+    it.run_pytest(ctx, "README's Bench quick start", "-p", "cansim.pytest_plugin", f"--cansim-config={fleet}", test_file)
 
 
 it.main(test)

@@ -53,7 +53,7 @@ PROFILES = {
     "smc": (0x20, "smc", "open", "docs/devices/smc.md"),
     "cmp": (0x05, "cmp", "over_temperature", "docs/devices/cmp.md"),
 }
-# Strict mode (README "Strict mode and quirks"): each device once more, with
+# Strict mode (docs/profiles.md "Strict mode and quirks"): each device once more, with
 # `strict: true`, in the same daemon. In strict mode no check may find a
 # deviation; in faithful mode every deviation must be a quirk of the profile's
 # `quirks:` map (its manual reference).
@@ -178,7 +178,7 @@ def plan_node(ctx: it.Context, key: str, strict: bool = False) -> dict:
         # SMC: 0x1001 bit 0 and the sensor error are latched until power-off
         "emcy_reset": key != "smc",
         "emcy_reset_doc": "docs/devices/smc.md: EMCY 0x5030, 0x1001 bit 0 latched until power-off" if key == "smc" else "",
-        # the reference node's sensor fault as README "Profiles" documents it
+        # the reference node's sensor fault as docs/profiles.md documents it
         **({"emcy_code": 0x5030, "emcy_register": 0x21} if key == "generic-404" else {}),
         "hb_ms": HB_MS, "hb_default": False,
         "hb_profile_default": default(0x1017, 0) if (0x1017, 0) in by_key else 0,
@@ -214,7 +214,7 @@ def lss_plan(ctx: it.Context) -> dict:
             "identity": [ident[1], ident[2], ident[3]], "timeout_ms": 50}
 
 
-# ---- CiA service checks on raw frames, both modes (the issue #13 items)
+# ---- CiA service checks on raw frames, in both modes (faithful and strict)
 
 def sdo_req(bus, nid: int, data: bytes, timeout: float = 0.1):
     it.drain(bus)

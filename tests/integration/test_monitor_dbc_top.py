@@ -4,8 +4,10 @@
 against `cansimctl status` (what the daemon says its nodes report).
 
 Fleet (lib: write_control_fleet): two generic-404 (0x10, 0x11) and a DPS
-(0x7F) on vcan0. The reported values are fixed with `cansimctl override`
-(generic/0 3.456 bar, generic/1 21.35 degC, dps 49.664 psi), the nodes
+(0x7F) on vcan0, and an ADZ SMC (0x20) added with `cansimctl add`: it reports
+field counts (0..20000 over 0..5 bar), its 0x6131 informational. The
+reported values are fixed with `cansimctl override` (generic/0 3.456 bar,
+generic/1 21.35 degC, dps 49.664 psi, smc 2.5 bar = 10000 counts), the nodes
 started, SYNCs sent (generic's TPDO2 is synchronous), and for about 2 s:
 
   candump -L vcan0            the frames, decoded afterwards through the DBC of
@@ -15,15 +17,21 @@ started, SYNCs sent (generic's TPDO2 is synchronous), and for about 2 s:
                               step (REAL32: its float; INTEGER16: 0.01 bar;
                               INTEGER32: 0.001 psi)
   cansimctl --json monitor    one JSON object per frame with exactly the keys
-                              t, id, node, kind, fields (name, index, sub,
-                              value, unit): the same values with their units,
+                              of docs/cansimctl.md (time, wall_time, interface,
+                              id, extended, rtr, dlc, data, node, kind, fields:
+                              name, index, sub, value, unit, raw, counts): the
+                              same values with their units (the SMC's in bar,
+                              its counts beside them), the raw data,
                               the same values canmatrix decodes from the same
                               frames; heartbeats; SDO lines naming the object.
                               generic/1's TPDO1 is remapped by SDO to the
                               temperature PV meanwhile: the monitor follows
                               (PdoMappingChanged) and decodes it in degC.
   cansimctl top --once        one row per node: its pressure / temperature as
-                              status reports it, its NMT state, frames/s.
+                              status reports it (the SMC in bar, with its
+                              counts), its NMT state, frames/s.
+  cansimd --export-dbc smc    read by canmatrix: the SMC's PV signal decodes its
+                              counts as bar (factor and offset of its scaling).
   cansimctl nmt vcan0/0x10-0x11 start   a group target, one result per node; a
                               node added on a missing interface: status says
                               off the bus.
@@ -49,9 +57,9 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "lib
 import cansim_it as it  # noqa: E402
 from check_dbc_export import REAL, SIGNED, Eds, expected_pdos  # noqa: E402  the EDS reading of dbc_export
 
-G0, G1, DPS = 0x10, 0x11, 0x7F
-JSON_KEYS = {"t", "id", "node", "kind", "fields"}
-FIELD_KEYS = {"name", "index", "sub", "value", "unit"}
+G0, G1, DPS, SMC = 0x10, 0x11, 0x7F, 0x20
+JSON_KEYS = {"time", "wall_time", "interface", "id", "extended", "rtr", "dlc", "data", "node", "kind", "fields"}
+FIELD_KEYS = {"name", "index", "sub", "value", "unit", "raw", "counts"}
 
 
 class Ctl:
@@ -176,6 +184,11 @@ def test(ctx: it.Context) -> None:
     fleet = it.write_control_fleet(ctx)
     dbc_path = os.path.join(ctx.tmp, "fleet.dbc")
     subprocess.run([ctx.cansimd, "--export-dbc", fleet, "--output", dbc_path], check=True, cwd=ctx.tmp)
+    smc_dbc = subprocess.run([ctx.cansimd, "--export-dbc", ctx.source("profiles", "smc.yaml"), "--node-id", str(SMC)],
+                             check=True, cwd=ctx.tmp, capture_output=True, text=True).stdout
+    smc_fragment = os.path.join(ctx.tmp, "smc.yaml")
+    with open(smc_fragment, "w") as f:
+        f.write(f"{{profile: {ctx.source('profiles', 'smc.yaml')}, interface: vcan0, name: smc, bit_rate: 250}}\n")
     sock = os.path.join(ctx.tmp, "control")
     d = ctx.start_daemon("--config", fleet, "--state-dir", "{state_dir}", "--control-socket", sock, "--bus", "none")
     ctl = Ctl(ctl_bin, sock)
@@ -188,6 +201,9 @@ def test(ctx: it.Context) -> None:
                               os.path.join(ctx.tmp, "monitor-dps.err"))
         dump = subprocess.Popen(["candump", "-L", "vcan0"], stdout=open(dump_path, "w"), stderr=subprocess.DEVNULL)
         monitor.wait_lines(1, 5)  # subscribed and listening: it printed a heartbeat
+        ctl.run("add", smc_fragment)
+        it.expect(bus, it.is_bootup(SMC), 10, "boot-up of the SMC")
+        ctl.run("override", "smc", "pressure", "2.5", "bar")
         ctl.run("override", "generic/0", "pressure", "3.456", "bar")
         ctl.run("override", "generic/1", "temperature", "21.35", "degC")
         ctl.run("override", "dps", "pressure", "49.664", "psi")
@@ -204,7 +220,9 @@ def test(ctx: it.Context) -> None:
         time.sleep(0.5)
         dump.terminate()
         dump.wait(5)
-        status = {n: ctl.json("status", n) for n in ("generic/0", "generic/1", "dps")}
+        it.expect(bus, it.is_tpdo(SMC, 1), 3, "the SMC's TPDO1")
+        time.sleep(0.3)
+        status = {n: ctl.json("status", n) for n in ("generic/0", "generic/1", "dps", "smc")}
         dcfs = {n: ctl.run("dcf", n) for n in ("generic/0", "generic/1", "dps")}
         top = ctl.run("top", "--once")
         # A node on an interface the kernel does not have is off the bus.
@@ -221,12 +239,17 @@ def test(ctx: it.Context) -> None:
     assert d.stop() == 0
 
     reported = {
-        ("vcan0/generic/0", "pressure"): status["generic/0"]["pressure"]["reported"],
-        ("vcan0/generic/1", "temperature"): status["generic/1"]["temperature"]["reported"],
-        ("vcan0/dps/0", "pressure"): status["dps"]["pressure"]["reported"],
+        ("vcan0/generic/0", "pressure"): status["generic/0"]["pressure"]["value"],
+        ("vcan0/generic/1", "temperature"): status["generic/1"]["temperature"]["value"],
+        ("vcan0/dps/0", "pressure"): status["dps"]["pressure"]["value"],
+        ("vcan0/smc/0", "pressure"): status["smc"]["pressure"]["value"],
     }
     it.log(f"status reports {reported}")
     assert status["generic/0"]["pressure"]["unit"] == "bar" and status["dps"]["pressure"]["unit"] == "psi", status
+    # The SMC: its counts named as counts, what they mean in bar.
+    smc = status["smc"]["pressure"]
+    assert smc["unit"] == "bar" and close(smc["value"], 2.5, 1e-4) and close(smc["counts"], 10000, 1), smc
+    assert status["generic/0"]["pressure"]["counts"] is None, status["generic/0"]["pressure"]
 
     # ---- the DBC, read by canmatrix, decodes the candump of the fleet
     db = canmatrix.formats.loadp_flat(dbc_path)
@@ -251,6 +274,15 @@ def test(ctx: it.Context) -> None:
             f"DBC: {message}.{signal} = {values[-1]}, status reports {reported[what]} (step {step})"
     it.log(f"DBC via canmatrix: {len(frames)} frames; " +
            ", ".join(f"{m}.{s}={decoded[(m, s)][-1]}" for m, s, _, _ in checks))
+    # The SMC's DBC: its PV signal turns the counts of its TPDO1 into bar.
+    smc_db = canmatrix.formats.loads_flat(smc_dbc, import_type="dbc")
+    smc_tpdo = smc_db.frame_by_id(canmatrix.ArbitrationId(0x180 + SMC))
+    pv = smc_tpdo.signals[0]
+    smc_frames = [data for _, can_id, data in frames if can_id == 0x180 + SMC]
+    assert smc_frames and pv.unit == "bar", (len(smc_frames), pv.unit)
+    smc_bar = float(smc_tpdo.decode(smc_frames[-1])[pv.name].phys_value)
+    assert close(smc_bar, 2.5, 1e-4), f"DBC: the SMC's {pv.name} = {smc_bar} bar, status reports {smc}"
+    it.log(f"the SMC's DBC: {pv.name} factor {pv.factor} offset {pv.offset} -> {smc_bar} {pv.unit}")
 
     # ---- decoded with nothing but each node's DCF (python-canopen's way, which Debian 12 lacks)
     after_remap = [f for f in frames if f[0] >= frames[-1][0] - 0.3]  # generic/1's TPDO1 maps 0x6130:02 by now
@@ -273,8 +305,14 @@ def test(ctx: it.Context) -> None:
     lines = [json.loads(line) for line in monitor.lines]
     for e in lines:
         assert set(e) == JSON_KEYS, f"monitor JSON keys {sorted(e)}: {e}"
+        assert e["interface"] == "vcan0" and len(e["data"]) == 2 * (0 if e["rtr"] else e["dlc"]), e
+        assert e["time"] is not None and abs(e["wall_time"] - time.time()) < it.scaled(600), e
         for f in e["fields"]:
             assert set(f) == FIELD_KEYS, f"monitor field keys {sorted(f)}: {e}"
+    smc_pv = [f for e in lines if e["node"] == "vcan0/smc/0" and e["kind"] == "TPDO1" for f in e["fields"]
+              if (f["index"], f["sub"]) == (0x6130, 1)]
+    assert smc_pv and smc_pv[-1]["unit"] == "bar" and close(smc_pv[-1]["value"], 2.5, 1e-4) and \
+        close(smc_pv[-1]["counts"], 10000, 1), f"monitor: the SMC's TPDO1 PV {smc_pv[-1:]}"
     kinds = {e["kind"] for e in lines}
     assert {"heartbeat", "NMT", "SYNC", "SDO", "TPDO1", "TPDO2"} <= kinds, kinds
 
@@ -317,6 +355,7 @@ def test(ctx: it.Context) -> None:
         assert cells[2] == "operational" and pressure in rows[key], f"top: {key}: {rows[key]!r}"
         assert float(cells[-1]) > 0, f"top: {key} sends no frames? {rows[key]!r}"
     assert "21.35 degC" in rows["vcan0/generic/1"], f"top: {rows['vcan0/generic/1']!r}"
+    assert "2.5 / " in rows["vcan0/smc/0"] and "(10 000 counts)" in rows["vcan0/smc/0"], f"top: {rows['vcan0/smc/0']!r}"
     assert "off the bus" in lost_status and lost_json["on_bus"] is False, (lost_status, lost_json)
 
 

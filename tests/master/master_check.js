@@ -23,7 +23,8 @@
  * CHECK results: PASS, FAIL, SKIP (a deviation documented in docs/devices,
  * named on the line) and DISAGREE (the master and cansimd disagree and
  * cansimd is the one that follows CiA 301/305; the line says why). Only
- * FAIL fails. CANSIM_MASTER_ONLY=lss runs the LSS checks alone.
+ * FAIL fails. CANSIM_MASTER_ONLY=lss runs the LSS checks alone,
+ * CANSIM_MASTER_ONLY=faults the network faults (tests/integration/test_master_faults.py).
  */
 'use strict';
 
@@ -75,12 +76,18 @@ device.addListener('message', (m) => {
     frameLog.push([Date.now(), m.id, Buffer.from(m.data).toString('hex'), 'tx']);
     channel.send(m);
 });
+const errorLog = [];          // [t, classes] of the error frames the master saw
 channel.addListener('onMessage', (m) => {
-    frameLog.push([Date.now(), m.id, m.data.toString('hex')]);
+    if (m.err)
+        errorLog.push([Date.now(), m.id]);
+    else
+        frameLog.push([Date.now(), m.id, m.data.toString('hex')]);
     if (frameLog.length > 40000)
         frameLog.splice(0, 20000);
     for (const w of watchers)
         w(m);
+    if (m.err)
+        return;  // an error frame (CAN_ERR_FLAG, id = its classes): for the checks, not the stack
     if (m.id === 0x7E4 && m.data[0] === 0x4F) {
         // LSS fastscan: every matching slave answers. The package's fastscan
         // takes the next answer to arrive for the answer to its latest
@@ -424,7 +431,7 @@ async function blockTransfers(n) {
         // restore the default (the object is persistent in some profiles)
         await outcome(download(n.id, o.index, o.sub, Buffer.from(o.default_bytes, 'hex')));
     }
-    // block upload of a short object (the issue's case): with and without CRC
+    // block upload of a short object (fewer bytes than one segment): with and without CRC
     for (const crc of [true, false]) {
         noCrc(n.id, !crc);
         const t0 = Date.now();
@@ -652,10 +659,66 @@ async function lssChecks() {
 
 // --------------------------------------------------------------------------
 
+// Network faults (cansimctl fault) on one node, as the master sees them --
+
+/** Arms a fault for `secs` seconds; false (and a FAIL line) when refused. */
+async function armFault(n, kind, secs, params = []) {
+    const r = await cansimctl(['fault', n.name, kind, '--for', `${secs}s`, ...params]);
+    if (!r.ok)
+        check(n.profile, kind, 'FAIL', `cansimctl fault ${n.name} ${kind} failed: ${r.out}`);
+    return r.ok;
+}
+
+async function networkFaultChecks(n) {
+    const P = n.profile;
+    const sdoTx = 0x580 + n.id;
+    // sdo_abort: the chosen object answers the chosen code, the others answer
+    if (await armFault(n, 'sdo_abort', 5, ['index=0x1018', 'sub=1', 'code=0x08000022'])) {
+        const r = await outcome(upload(n.id, 0x1018, 1));
+        const other = await outcome(upload(n.id, 0x1018, 2));
+        check(P, 'fault-sdo_abort', r.code === 0x08000022 && other.code === null ? 'PASS' : 'FAIL',
+            `0x1018:1 ${codeStr(r)}, 0x1018:2 ${codeStr(other)}`);
+    }
+    // sdo_silent: the master's own timeout, no answer on the wire
+    if (await armFault(n, 'sdo_silent', 5, ['index=0x1008'])) {
+        const t0 = Date.now();
+        const r = await outcome(upload(n.id, 0x1008, 0));
+        const answers = framesSince(t0, (id) => id === sdoTx);
+        check(P, 'fault-sdo_silent', r.code !== null && answers.length === 0 ? 'PASS' : 'FAIL',
+            `0x1008 ${codeStr(r)} after ${Date.now() - t0} ms (the master's timeout ${SDO_TIMEOUT} ms); answers ${answers.join(' ') || 'none'}`);
+    }
+    // error_frames: error frames as the master's controller reports them
+    for (const [cls, canErr, byte, value] of [['passive', 0x004, 1, 0x20], ['stuff', 0x008, 2, 0x04]]) {
+        const seen = waitFrame((m) => m.err && (m.id & canErr) && m.data[byte] === value, ms(3000));
+        if (!(await armFault(n, 'error_frames', 1, [`class=${cls}`, 'period=100ms']))) continue;
+        const m = await seen;
+        check(P, `fault-error_frames-${cls}`, m ? 'PASS' : 'FAIL',
+            m ? `error frame class ${hex(m.id, 3)} data ${m.data.toString('hex')}` : 'no error frame of that class');
+    }
+    // node_id_collision: a second boot-up at the node's ID, two different
+    // answers to one request (serial numbers), the collision's error frames
+    const boot = waitFrame((m) => m.id === 0x700 + n.id && m.data.length === 1 && m.data[0] === 0, ms(3000));
+    if (await armFault(n, 'node_id_collision', 4)) {
+        const b = await boot;
+        const t0 = Date.now();
+        channel.send({ id: 0x600 + n.id, data: Buffer.from([0x40, 0x18, 0x10, 0x04, 0, 0, 0, 0]) });
+        await sleep(ms(300));
+        const answers = framesSince(t0, (id) => id === sdoTx);
+        const errors = errorLog.filter(([t, id]) => t >= t0 && id === 0x088).length;
+        check(P, 'fault-node_id_collision', b && answers.length === 2 && answers[0] !== answers[1] && errors > 0 ? 'PASS' : 'FAIL',
+            `boot-up ${b ? fmt(b.id, b.data) : 'none'}; answers to one 0x1018:4 upload: ${answers.join(' ') || 'none'}; ${errors} error frames of class 0x088`);
+    }
+}
+
 async function main() {
     const tStart = Date.now();
     if (process.env.CANSIM_MASTER_ONLY === 'lss') {
         await lssChecks();
+        return;
+    }
+    if (process.env.CANSIM_MASTER_ONLY === 'faults') {
+        for (const n of plan.nodes)
+            await networkFaultChecks(n);
         return;
     }
     // heartbeat producers on, consumers in the master

@@ -15,7 +15,11 @@
 
 #include "config/fleet.hpp"
 #include "control/control_host.hpp"
+#include "control/message_gate.hpp"
+#include "config/limits.hpp"
 #include "control/service.hpp"
+#include "daemon/plant_wiring.hpp"
+#include "io/frame_schedule.hpp"
 #include "io/loop_core.hpp"
 #include "io/transport.hpp"
 #include "support/sim.hpp"
@@ -40,8 +44,17 @@ class ControlFleet : public control::ControlHost {
   std::vector<std::string> add_nodes(const std::string& yaml) override;
   void remove_node(const std::string& key) override;
   void reload() override;
+  // Every node rebuilt from the fleet document, with empty storage.
+  void reset() override;
   std::vector<control::BusStatistics> bus_statistics() const override;
   std::string config_file() const override { return "<test>"; }
+  // The source tree's profiles/ and every folder allow_folder() added.
+  std::vector<std::string> profile_folders() const override;
+  void allow_folder(const std::string& dir) { folders_.push_back(dir); }
+  // As the daemon: each bus's frames wait in a schedule until run_until reaches their time.
+  std::size_t queue_frames(const std::string& interface, const std::vector<control::ScheduledFrame>& frames) override;
+  physics::PlantSet* plants() override { return plants_.plants(); }
+  const config::PlantsConfig* plant_config() const override { return &plants_.config(); }
 
   control::ControlService& service() { return service_; }
   // Runs the fleet up to t (the fake clock).
@@ -61,6 +74,7 @@ class ControlFleet : public control::ControlHost {
     io::BusId id = 0;
     std::unique_ptr<io::Transport> wire;
     io::MemoryTransport* memory = nullptr;  // wire, when it is the default
+    std::unique_ptr<io::FrameSchedule> scheduled = std::make_unique<io::FrameSchedule>(limits::kQueuedFramesPerBus);
   };
   struct Entry {
     control::NodeHandle handle;
@@ -68,20 +82,28 @@ class ControlFleet : public control::ControlHost {
   };
   Bus& bus(const std::string& name);
   void add(const config::FleetConfig& cfg);
+  void attach_plants();
 
   TransportFactory transports_;
   TimeUs now_ = 0;
   io::LoopCore core_;
+  daemon::PlantWiring plants_{core_};  // the fleet's plants, as the daemon wires them
   control::ControlService service_{*this};
   std::map<std::string, Bus> buses_;
   std::map<std::string, std::unique_ptr<Entry>> entries_;
+  config::FleetConfig configured_;  // the fleet document
   config::FleetConfig running_;
+  std::vector<std::string> folders_;
 };
 
 // A peer-to-peer sd-bus pair: `server` carries the service, `client` calls it.
 class BusPair {
  public:
-  explicit BusPair(control::ControlService& service);
+  // kGated: the server reads through a control::MessageGate, as the
+  // daemon's private socket does (a message over limits::kMessageBytes is
+  // answered TooLarge unread).
+  enum Mode { kDirect, kGated };
+  explicit BusPair(control::ControlService& service, Mode mode = kDirect);
   ~BusPair();
   // Calls a method and steps both ends until the answer; returns the reply
   // (caller unrefs) or nullptr with *error_name / *error_message set.
@@ -99,13 +121,22 @@ class BusPair {
   // Thread CPU time spent in the server's sd_bus_process() so far: what a
   // daemon's loop would have spent on these calls (ms).
   double server_cpu_ms() const { return server_cpu_ms_; }
+  // The longest single server step (gate pump and sd_bus_process) since the
+  // last take: what one loop pass would have spent at once (ms).
+  double take_longest_serve_ms() {
+    const double ms = longest_serve_ms_;
+    longest_serve_ms_ = 0;
+    return ms;
+  }
 
  private:
   control::ControlService& service_;
+  std::unique_ptr<control::MessageGate> gate_;
   sd_bus* server_ = nullptr;
   sd_bus* client_ = nullptr;
   sd_bus_slot* filter_ = nullptr;
   double server_cpu_ms_ = 0;
+  double longest_serve_ms_ = 0;
   int serve();  // one sd_bus_process() of the server, timed
   std::vector<std::pair<std::string, sd_bus_message*>> signals_;
 };

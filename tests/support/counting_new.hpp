@@ -11,6 +11,8 @@
 #include <cstdlib>
 #include <new>
 
+#include "support/sanitizer.hpp"
+
 #if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic ignored "-Wmismatched-new-delete"
 #endif
@@ -19,7 +21,7 @@ namespace cansim::test {
 inline std::atomic<long> g_allocations{0};  // operator new calls so far
 }  // namespace cansim::test
 
-#if defined(__SANITIZE_ADDRESS__)
+#ifdef CANSIM_ASAN
 namespace cansim::test {
 constexpr bool kCountingNew = false;
 }

@@ -140,8 +140,10 @@ class DeviceMasterFixture : public DeviceFixture<App, Source> {
   // Expedited upload: the 4 data bytes as a number (an abort fails the test).
   std::uint32_t upload(std::uint16_t index, std::uint8_t sub) { return upload(index, sub, this->id); }
   std::uint32_t upload(std::uint16_t index, std::uint8_t sub, std::uint8_t node_id) {
-    const CanFrame a = answer(sdo({0x40, std::uint8_t(index), std::uint8_t(index >> 8), sub}, node_id), 0x580u + node_id);
-    EXPECT_NE(a.data[0], 0x80) << std::hex << "abort " << get_u32(a.data + 4) << " reading " << index << ":" << int(sub);
+    const CanFrame a =
+        answer(sdo({0x40, std::uint8_t(index), std::uint8_t(index >> 8), sub}, node_id), 0x580u + node_id);
+    EXPECT_NE(a.data[0], 0x80) << std::hex << "abort " << get_u32(a.data + 4) << " reading " << index << ":"
+                               << int(sub);
     return get_u32(a.data + 4);
   }
   // The abort code the node answered with, or 0.

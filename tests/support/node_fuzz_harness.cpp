@@ -47,8 +47,10 @@ config::Profile node_fuzz_profile(const std::string& profiles, const NodeFuzzVar
   vendor["cia404"]["event_check_period"] = "100 ms";
   // Each personality's supervision period (config/vendor_settings.cpp).
   const std::string personality = root["personality"].as<std::string>();
-  for (const auto& [who, key] : {std::pair{"honeywell-dps", "span_check_period"}, {"danfoss-p92c", "monitor_period"},
-                                 {"gems-9000", "supervision_period"}, {"adz-smc", "stay_set_period"}})
+  for (const auto& [who, key] : {std::pair{"honeywell-dps", "span_check_period"},
+                                 {"danfoss-p92c", "monitor_period"},
+                                 {"gems-9000", "supervision_period"},
+                                 {"adz-smc", "stay_set_period"}})
     if (personality == who) vendor[key] = "500 ms";
   for (const auto& [channel, rate] : {std::pair{"pressure", "10 Hz"}, {"temperature", "1 Hz"}})
     if (root["sensor"][channel]) root["sensor"][channel]["sample_rate"] = rate;
@@ -60,16 +62,6 @@ void NodeFuzzHarness::CheckingSink::send(const CanFrame& f) {
   if (f.dlc > 8) std::abort();
   if (!f.extended() && f.id > 0x7FF) std::abort();
   if (*recording) sent.push_back({*clock, f});
-}
-
-bool NodeFuzzHarness::MemoryStorage::load(std::vector<std::uint8_t>& out) {
-  out = blob;
-  return !blob.empty();
-}
-
-bool NodeFuzzHarness::MemoryStorage::save(std::span<const std::uint8_t> data) {
-  blob.assign(data.begin(), data.end());
-  return true;
 }
 
 NodeFuzzHarness::NodeFuzzHarness(const config::Profile& profile)
@@ -85,7 +77,7 @@ NodeFuzzHarness::NodeFuzzHarness(const config::Profile& profile)
     run_until(node_->next_deadline());
   booted_at_ = now_;
   node_at_power_on_.emplace(node_->snapshot());
-  storage_at_power_on_ = storage_.blob;
+  storage_at_power_on_ = storage_.data;
   if (app_) {
     app_at_power_on_ = app_->snapshot();
     if (!app_at_power_on_) {
@@ -102,7 +94,8 @@ NodeFuzzHarness::~NodeFuzzHarness() { node_.reset(); }  // before the applicatio
 void NodeFuzzHarness::start_from_power_on() {
   node_->restore(*node_at_power_on_);
   if (app_) app_->restore(*app_at_power_on_);
-  storage_.blob = storage_at_power_on_;
+  storage_.data = storage_at_power_on_;
+  storage_.rejections.clear();  // one input's, not a growing log
   sink_.sent.clear();
   now_ = booted_at_;
 }
@@ -120,12 +113,8 @@ void NodeFuzzHarness::run_record(const std::uint8_t* r) {
       node_->power_off();
       node_->power_on(now_);
       return;
-    case kArmFault:
-      arm_fault(r);
-      break;
-    default:
-      deliver(r);
-      break;
+    case kArmFault: arm_fault(r); break;
+    default: deliver(r); break;
   }
   // A deadline in the past would make the loop spin.
   if (node_->next_deadline() < now_) run_until(now_);

@@ -27,6 +27,7 @@
 #include "config/profile.hpp"
 #include "core/node.hpp"
 #include "personalities/measurement_control.hpp"
+#include "support/memory_storage.hpp"
 
 namespace cansim::test {
 
@@ -37,12 +38,18 @@ struct NodeFuzzVariant {
   bool strict;
 };
 inline constexpr NodeFuzzVariant kNodeFuzzVariants[] = {
-    {"generic-404", "generic-404", false}, {"generic-404-strict", "generic-404", true},
-    {"dps", "dps", false},                 {"dps-strict", "dps", true},
-    {"p92c", "p92c", false},               {"p92c-strict", "p92c", true},
-    {"gems9000", "gems9000", false},       {"gems9000-strict", "gems9000", true},
-    {"smc", "smc", false},                 {"smc-strict", "smc", true},
-    {"cmp", "cmp", false},                 {"cmp-strict", "cmp", true},
+    {"generic-404", "generic-404", false},
+    {"generic-404-strict", "generic-404", true},
+    {"dps", "dps", false},
+    {"dps-strict", "dps", true},
+    {"p92c", "p92c", false},
+    {"p92c-strict", "p92c", true},
+    {"gems9000", "gems9000", false},
+    {"gems9000-strict", "gems9000", true},
+    {"smc", "smc", false},
+    {"smc-strict", "smc", true},
+    {"cmp", "cmp", false},
+    {"cmp-strict", "cmp", true},
 };
 inline constexpr std::size_t kNodeFuzzVariantCount = std::size(kNodeFuzzVariants);
 // The variant an input's first byte selects, and the byte that selects a variant.
@@ -87,12 +94,6 @@ class NodeFuzzHarness {
     const TimeUs* clock = nullptr;
     const bool* recording = nullptr;
     std::vector<SentFrame> sent;
-  };
-  class MemoryStorage : public NodeStorage {
-   public:
-    bool load(std::vector<std::uint8_t>& blob) override;
-    bool save(std::span<const std::uint8_t> blob) override;
-    std::vector<std::uint8_t> blob;
   };
 
   void start_from_power_on();

@@ -12,31 +12,13 @@
 
 #include "config/profile.hpp"
 #include "core/node.hpp"
+#include "support/memory_storage.hpp"
 
 namespace cansim::test {
 
 struct Sent {
   TimeUs time;
   CanFrame frame;
-};
-
-class MemoryStorage : public NodeStorage {
- public:
-  bool load(std::vector<std::uint8_t>& blob) override {
-    blob = data;
-    return !data.empty();
-  }
-  bool save(std::span<const std::uint8_t> blob) override {
-    if (fail_saves) return false;
-    data.assign(blob.begin(), blob.end());
-    ++saves;
-    return true;
-  }
-  void rejected(const char* why) override { rejections.emplace_back(why); }
-  std::vector<std::uint8_t> data;
-  int saves = 0;
-  bool fail_saves = false;
-  std::vector<std::string> rejections;  // what the node said when it dropped `data`
 };
 
 class SimBus;
@@ -96,9 +78,7 @@ class SimBus {
 config::Profile load_repo_profile(const std::string& name);
 
 // Shorthand for frames in expectations: F(0x60A, {0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0}).
-inline CanFrame F(std::uint32_t id, std::initializer_list<std::uint8_t> bytes) {
-  return CanFrame::make(id, bytes);
-}
+inline CanFrame F(std::uint32_t id, std::initializer_list<std::uint8_t> bytes) { return CanFrame::make(id, bytes); }
 std::string to_string(const CanFrame& f);
 std::string to_string(const std::vector<Sent>& frames);
 

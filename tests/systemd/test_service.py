@@ -229,12 +229,15 @@ def python_client(gid: int) -> None:
     assert run("/usr/bin/python3", "-c", code, user=[gid]).stdout.split() == ["9", "4.5", "bar"]
     assert "--cansim-config=PATH" in run("/usr/bin/python3", "-m", "pytest", "--help").stdout
     eds = sorted(os.listdir("/usr/share/cansimd/eds"))
-    assert eds == [f"{p}.eds" for p in ("cmp", "dps", "gems9000", "generic-404", "p92c", "smc")], eds
+    assert eds == [f"{p}.eds" for p in ("actuator-401", "cmp", "dps", "gems9000", "generic-404", "p92c", "smc")], eds
+    assert os.path.exists("/usr/share/cansimd/profiles/actuator-401.yaml")
     for tool in ("decode.py", "plot-recording"):
         assert os.access(f"/usr/share/cansimd/scripts/{tool}", os.X_OK), tool
     assert os.path.exists("/usr/share/doc/cansimd/examples/hil_bench_test.py")
+    for f in ("README.md", "fleet.yaml", "controller.py", "test_closed_loop.py"):
+        assert os.path.exists(f"/usr/share/doc/cansimd/examples/closed_loop/{f}"), f
     step("python3 -c 'import cansim' from dist-packages; cansim.connect() as a uid in group cansim: 9 nodes, "
-         "set 4.5 bar; the pytest plugin, 6 EDS files, decode.py, plot-recording and the example installed")
+         "set 4.5 bar; the pytest plugin, 7 EDS files, decode.py, plot-recording and the examples installed")
 
 
 def store(bus0) -> None:

@@ -110,12 +110,12 @@ TEST(WireBits, ProtocolFramesOfThisProject) {
     int stuff, bits;
   };
   const Case cases[] = {
-      {F(0x080, {}), 0x1C05, 4, 51},                                          // SYNC
-      {F(0x701, {0x7F}), 0x72DE, 4, 59},                                      // heartbeat, pre-operational
-      {F(0x701, {0x05}), 0x4D0E, 3, 58},                                      // heartbeat, operational
+      {F(0x080, {}), 0x1C05, 4, 51},                                                 // SYNC
+      {F(0x701, {0x7F}), 0x72DE, 4, 59},                                             // heartbeat, pre-operational
+      {F(0x701, {0x05}), 0x4D0E, 3, 58},                                             // heartbeat, operational
       {F(0x581, {0x43, 0x00, 0x10, 0x00, 0x94, 0x01, 0x02, 0x00}), 0x2714, 9, 120},  // SDO upload response
       {F(0x7FF, {0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF}), 0x4C89, 15, 126},
-      {CanFrame::remote(0x701), 0x3C79, 2, 49},                               // guarding RTR
+      {CanFrame::remote(0x701), 0x3C79, 2, 49},  // guarding RTR
       {ext(0x1ABCDEF0, {1, 2, 3}), 0x0738, 5, 96},
       {ext(0x1FFFFFFF, {0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF}), 0x1B69, 18, 149},
   };
@@ -165,13 +165,8 @@ TEST(ArbitrationQueue, LowestIdentifierWinsAsOnTheWire) {
   ArbitrationQueue q(16);
   // 11-bit data frame < 11-bit remote frame < 29-bit frames of the same base
   // identifier (RTR vs SRR, then IDE); 29-bit frames by their 18 extension bits.
-  const CanFrame order[] = {F(0x100, {1}),
-                            CanFrame::remote(0x100),
-                            ext(0x100u << 18, {}),
-                            ext((0x100u << 18) | 1, {}),
-                            F(0x101, {}),
-                            ext(0x101u << 18, {}),
-                            F(0x7FF, {})};
+  const CanFrame order[] = {F(0x100, {1}), CanFrame::remote(0x100), ext(0x100u << 18, {}), ext((0x100u << 18) | 1, {}),
+                            F(0x101, {}),  ext(0x101u << 18, {}),   F(0x7FF, {})};
   for (int i = 6; i >= 0; --i) ASSERT_TRUE(q.push({order[i], 0, std::uint32_t(i), 50}));
   for (const CanFrame& f : order) {
     ASSERT_FALSE(q.empty());
@@ -232,7 +227,7 @@ TEST(BusMeter, LoadsOverOneAndTenSecondsEndNow) {
   f = m.figures(11'050'000);
   EXPECT_EQ(f.carried_1s, 0);
   EXPECT_NEAR(f.carried_10s, 90'000, 1);  // 1 .. 11 s: 9 s of traffic
-  f = m.figures(10'099'999);  // complete bins only: the same as at 10 s
+  f = m.figures(10'099'999);              // complete bins only: the same as at 10 s
   EXPECT_NEAR(f.offered_1s, 100'000, 1);
 
   BusMeter young;  // half a second after its start: over that half second

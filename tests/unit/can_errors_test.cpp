@@ -47,7 +47,8 @@ TEST(ControllerErrors, DecodedAsTheKernelReportsThem) {
       {error_frame(CAN_ERR_CRTL, CAN_ERR_CRTL_TX_WARNING), S::kErrorActive, S::kErrorWarning, false},
       {error_frame(CAN_ERR_CRTL, CAN_ERR_CRTL_RX_PASSIVE), S::kErrorWarning, S::kErrorPassive, false},
       // Both counters reported: the higher state counts.
-      {error_frame(CAN_ERR_CRTL, CAN_ERR_CRTL_TX_PASSIVE | CAN_ERR_CRTL_RX_WARNING), S::kErrorActive, S::kErrorPassive, false},
+      {error_frame(CAN_ERR_CRTL, CAN_ERR_CRTL_TX_PASSIVE | CAN_ERR_CRTL_RX_WARNING), S::kErrorActive, S::kErrorPassive,
+       false},
       {error_frame(CAN_ERR_CRTL, CAN_ERR_CRTL_ACTIVE), S::kErrorPassive, S::kErrorActive, false},
       {error_frame(CAN_ERR_BUSOFF), S::kErrorPassive, S::kBusOff, false},
       {error_frame(CAN_ERR_RESTARTED), S::kBusOff, S::kErrorActive, false},
@@ -61,7 +62,8 @@ TEST(ControllerErrors, DecodedAsTheKernelReportsThem) {
     EXPECT_EQ(r.event.frames_lost, c.lost);
     EXPECT_EQ(r.before, c.before);
   }
-  const ControllerReport r = decode_error_frame(error_frame(CAN_ERR_CRTL, CAN_ERR_CRTL_TX_PASSIVE, 128, 3), S::kErrorActive);
+  const ControllerReport r =
+      decode_error_frame(error_frame(CAN_ERR_CRTL, CAN_ERR_CRTL_TX_PASSIVE, 128, 3), S::kErrorActive);
   EXPECT_EQ(r.tx_errors, 128);
   EXPECT_EQ(r.rx_errors, 3);
   EXPECT_TRUE(decode_error_frame(error_frame(CAN_ERR_RESTARTED), S::kBusOff).restarted);
@@ -69,7 +71,8 @@ TEST(ControllerErrors, DecodedAsTheKernelReportsThem) {
 }
 
 TEST(ControllerErrors, ErrorFramesBecomeReportsAndDataFramesStayFrames) {
-  CanInterface can("can0");  // never opened: the receive path only
+  CanInterface can("can0");      // never opened: the receive path only
+  can.set_has_controller(true);  // as open() finds a real controller
   const ::can_frame in[] = {data_frame(0x181, 1), error_frame(CAN_ERR_CRTL, CAN_ERR_CRTL_TX_PASSIVE),
                             data_frame(0x182, 2), error_frame(CAN_ERR_CRTL, 0)};
   CanFrame out[4];
@@ -86,6 +89,7 @@ TEST(ControllerErrors, ErrorFramesBecomeReportsAndDataFramesStayFrames) {
 
 TEST(ControllerErrors, AFloodOfReportsKeepsTheStateAndTheLosses) {
   CanInterface can("can0");
+  can.set_has_controller(true);
   std::vector<::can_frame> in;
   in.push_back(error_frame(CAN_ERR_CRTL, CAN_ERR_CRTL_RX_OVERFLOW));
   for (std::size_t i = 0; i < CanInterface::kReports + 3; ++i)
@@ -106,11 +110,63 @@ TEST(ControllerErrors, AFloodOfReportsKeepsTheStateAndTheLosses) {
   EXPECT_EQ(last, can.controller_state());
 }
 
+// Folded reports say what changed: the overflow flags travel with the loss
+// (it was "lost frames ()"), and a change there and back is no change (it was
+// "bus-off (was bus-off)").
+TEST(ControllerErrors, MergedReportsSayWhatChanged) {
+  CanInterface can("can0");
+  can.set_has_controller(true);
+  std::vector<::can_frame> in{error_frame(CAN_ERR_CRTL, CAN_ERR_CRTL_TX_OVERFLOW), error_frame(CAN_ERR_BUSOFF),
+                              error_frame(CAN_ERR_RESTARTED), error_frame(CAN_ERR_BUSOFF)};
+  for (std::size_t i = 0; i < CanInterface::kReports; ++i)  // pushes the four above into one
+    in.push_back(error_frame(CAN_ERR_CRTL, i % 2 ? CAN_ERR_CRTL_RX_OVERFLOW : CAN_ERR_CRTL_TX_OVERFLOW));
+  std::vector<CanFrame> out(in.size());
+  can.accept(in.data(), in.size(), out.data());
+  ControllerReport r;
+  ASSERT_TRUE(can.take_report(r));
+  EXPECT_GT(r.merged, 0u);
+  EXPECT_TRUE(r.event.frames_lost);
+  EXPECT_TRUE(r.tx_overflow || r.rx_overflow);
+  EXPECT_EQ(r.event.state_changed, r.event.state != r.before);
+  while (can.take_report(r)) {
+    EXPECT_TRUE(!r.event.frames_lost || r.rx_overflow || r.tx_overflow);
+    EXPECT_FALSE(r.event.state_changed && r.event.state == r.before);
+  }
+  EXPECT_EQ(can.controller_state(), CanState::kBusOff);
+}
+
+// On a virtual bus any local program may write error frames (`cansend vcan0
+// 20000040#...` as nobody): they are counted and change nothing; the same
+// frame on a real controller still takes it bus-off.
+TEST(ControllerErrors, AVirtualBusHasNoControllerState) {
+  CanInterface vcan("vcan0");  // never opened: no controller, as open() finds a vcan
+  ASSERT_FALSE(vcan.has_controller());
+  const ::can_frame in[] = {error_frame(CAN_ERR_BUSOFF), data_frame(0x181, 1),
+                            error_frame(CAN_ERR_CRTL, CAN_ERR_CRTL_TX_PASSIVE | CAN_ERR_CRTL_RX_OVERFLOW),
+                            error_frame(CAN_ERR_RESTARTED | CAN_ERR_TX_TIMEOUT)};
+  CanFrame out[4];
+  ASSERT_EQ(vcan.accept(in, 4, out), 1);
+  EXPECT_EQ(out[0], F(0x181, {1}));
+  EXPECT_EQ(vcan.controller_state(), CanState::kErrorActive);
+  EXPECT_EQ(vcan.stats().error_frames_ignored, 3u);
+  EXPECT_EQ(vcan.stats().error_frames, 0u);
+  EXPECT_EQ(vcan.stats().tx_timeouts, 0u);
+  ControllerReport r;
+  EXPECT_FALSE(vcan.take_report(r));
+  CanInterface can("can0");
+  can.set_has_controller(true);
+  can.accept(in, 1, out);
+  EXPECT_EQ(can.controller_state(), CanState::kBusOff);
+}
+
 // ---------------------------------------------------------------- the nodes
 
 class NodeReactions : public ::testing::Test {
  protected:
-  NodeReactions() : tx(&core.now()) { bus = core.add_bus("can0", tx, 3); }
+  NodeReactions() : tx(&core.now()) {
+    bus = core.add_bus("can0", tx, 3);
+    can.set_has_controller(true);
+  }
   NodeRef add(const char* profile, std::uint8_t id) {
     profiles.push_back(std::make_unique<config::Profile>(test::load_repo_profile(profile)));
     NodeSetup s = config::node_setup(*profiles.back(), id);
@@ -156,10 +212,9 @@ TEST_F(NodeReactions, EachDeviceAnswersAsItsManualSays) {
   inject({error_frame(CAN_ERR_CRTL, CAN_ERR_CRTL_TX_PASSIVE, 128, 0)}, ms(30));
   // CiA 301 0x8120 (register: generic + communication); DPS Table 24 0x8120 /
   // 0x11; P92C §3.6 0x8100, its only communication code; Gems Fig. 28 0x8120 / 0x88.
-  EXPECT_EQ(emcys(), (std::vector<CanFrame>{F(0x90, {0x20, 0x81, 0x11, 0, 0, 0, 0, 0}),
-                                            F(0x91, {0x20, 0x81, 0x11, 0, 0, 0, 0, 0}),
-                                            F(0x92, {0x00, 0x81, 0x11, 0, 0, 0, 0, 0}),
-                                            F(0x93, {0x20, 0x81, 0x88, 0, 0, 0, 0, 0})}));
+  EXPECT_EQ(emcys(), (std::vector<CanFrame>{
+                         F(0x90, {0x20, 0x81, 0x11, 0, 0, 0, 0, 0}), F(0x91, {0x20, 0x81, 0x11, 0, 0, 0, 0, 0}),
+                         F(0x92, {0x00, 0x81, 0x11, 0, 0, 0, 0, 0}), F(0x93, {0x20, 0x81, 0x88, 0, 0, 0, 0, 0})}));
 
   inject({error_frame(CAN_ERR_BUSOFF)}, ms(40));
   EXPECT_TRUE(tx.take().empty()) << "off the bus: nothing leaves";
@@ -194,10 +249,9 @@ TEST_F(NodeReactions, EachDeviceAnswersAsItsManualSays) {
 
   inject({error_frame(CAN_ERR_CRTL, CAN_ERR_CRTL_RX_OVERFLOW)}, ms(60));
   // CiA 0x8110 then its reset; P92C 0x8100; DPS (Table 24) and Gems (Fig. 28) list no overrun code.
-  EXPECT_EQ(emcys(), (std::vector<CanFrame>{F(0x90, {0x10, 0x81, 0x11, 0, 0, 0, 0, 0}),
-                                            F(0x90, {0x00, 0x00, 0x00, 0, 0, 0, 0, 0}),
-                                            F(0x92, {0x00, 0x81, 0x11, 0, 0, 0, 0, 0}),
-                                            F(0x92, {0x00, 0x00, 0x00, 0, 0, 0, 0, 0})}));
+  EXPECT_EQ(emcys(), (std::vector<CanFrame>{
+                         F(0x90, {0x10, 0x81, 0x11, 0, 0, 0, 0, 0}), F(0x90, {0x00, 0x00, 0x00, 0, 0, 0, 0, 0}),
+                         F(0x92, {0x00, 0x81, 0x11, 0, 0, 0, 0, 0}), F(0x92, {0x00, 0x00, 0x00, 0, 0, 0, 0, 0})}));
 }
 
 TEST_F(NodeReactions, TheControllerStateOutlivesAPowerCycleAndMeetsNewNodes) {

@@ -22,7 +22,7 @@ TEST_F(Chain, FloatAndIntegerViewsOfTheSameValue) {
 
 TEST_F(Chain, IntegerPvRoundsHalfAwayFromZero) {
   source->pressure = [](TimeUs) { return 1.125e5; };  // exact in float: 112.5 at 2 digits
-  bus.run_for(1);  // a new instant: a source is fixed within one
+  bus.run_for(1);                                     // a new instant: a source is fixed within one
   EXPECT_EQ(i16(0x7130, 1), 113);
   source->pressure = [](TimeUs) { return -1.125e5; };
   bus.run_for(1);  // a new instant: a source is fixed within one
@@ -78,14 +78,14 @@ TEST_F(Chain, UnitChangeConvertsDependentObjects) {
 
 TEST_F(Chain, TemperatureUnitChangeShiftsAbsoluteValuesOnly) {
   source->temperature = [](TimeUs) { return 298.15; };  // 25 degC
-  ASSERT_EQ(wf(0x6124, 2, 1.0f), SdoAbort::kNone);     // offset: a difference
+  ASSERT_EQ(wf(0x6124, 2, 1.0f), SdoAbort::kNone);      // offset: a difference
   EXPECT_FLOAT_EQ(f(0x6130, 2), 26.0f);
   ASSERT_EQ(wu32(0x6131, 2, 0x00AC0000), SdoAbort::kNone);  // degF
   EXPECT_FLOAT_EQ(f(0x6124, 2), 1.8f);
   EXPECT_FLOAT_EQ(f(0x6148, 2), -40.0f);
   EXPECT_FLOAT_EQ(f(0x6149, 2), 257.0f);
   EXPECT_FLOAT_EQ(f(0x6130, 2), 78.8f);
-  EXPECT_EQ(i16(0x7130, 2), 788);  // 1 digit
+  EXPECT_EQ(i16(0x7130, 2), 788);                           // 1 digit
   ASSERT_EQ(wu32(0x6131, 2, 0x00050000), SdoAbort::kNone);  // K
   EXPECT_NEAR(f(0x6149, 2), 398.15f, 1e-3);
   EXPECT_NEAR(f(0x6124, 2), 1.0f, 1e-6);

@@ -97,7 +97,7 @@ TEST_F(Events, LowerLimitAndSpanStatusInThePdo) {
   auto sent = bus.take();
   ASSERT_EQ(sent.size(), 1u) << to_string(sent);
   EXPECT_EQ(sent[0].time, check_at(t0 + ms(7)));  // the first event check after the step
-  EXPECT_EQ(sent[0].frame, pdo(-0.5f, 0x04));  // negative overload below span start 0
+  EXPECT_EQ(sent[0].frame, pdo(-0.5f, 0x04));     // negative overload below span start 0
 }
 
 TEST_F(Events, NoEventsInPreOperational) {

@@ -18,8 +18,8 @@ TEST(Cli, SingleNodeWithDefaults) {
 }
 
 TEST(Cli, FleetWithEveryOptionInBothSpellings) {
-  CliResult r = parse({"--config=f.yaml", "--check", "--state-dir", "/s", "--log-level=debug", "--seed", "0x10",
-                       "--record", "rec"});
+  CliResult r = parse(
+      {"--config=f.yaml", "--check", "--state-dir", "/s", "--log-level=debug", "--seed", "0x10", "--record", "rec"});
   ASSERT_EQ(r.error, "");
   EXPECT_EQ(r.options.record, "rec");
   EXPECT_EQ(r.options.config, "f.yaml");
@@ -36,7 +36,8 @@ TEST(Cli, MaxClientsIsBounded) {
   EXPECT_EQ(r.options.max_clients, 4096u);
   EXPECT_EQ(parse({"--config", "f.yaml", "--max-clients=1"}).options.max_clients, 1u);
   EXPECT_EQ(parse({"--config", "f.yaml", "--max-clients", "0"}).error, "--max-clients: expected 1..4096, got '0'");
-  EXPECT_EQ(parse({"--config", "f.yaml", "--max-clients", "4097"}).error, "--max-clients: expected 1..4096, got '4097'");
+  EXPECT_EQ(parse({"--config", "f.yaml", "--max-clients", "4097"}).error,
+            "--max-clients: expected 1..4096, got '4097'");
   EXPECT_NE(usage_text().find("--max-clients N"), std::string::npos);
 }
 
@@ -49,6 +50,16 @@ TEST(Cli, StrictAndQuirks) {
   EXPECT_TRUE(r.options.quirks);
   EXPECT_EQ(parse({"--config", "f.yaml", "--quirks"}).error, "--quirks goes with --profile");
   EXPECT_EQ(parse({"--profile", "dps", "--strict=yes"}).error, "option --strict takes no value");
+}
+
+TEST(Cli, SocketcandServesEveryInterfaceWithoutTheKernel) {
+  EXPECT_FALSE(parse({"--config", "f.yaml"}).options.socketcand);
+  CliResult r = parse({"--config", "f.yaml", "--socketcand"});
+  ASSERT_EQ(r.error, "");
+  EXPECT_TRUE(r.options.socketcand);
+  EXPECT_TRUE(parse({"--profile", "dps", "--interface", "bench", "--socketcand"}).options.socketcand);
+  EXPECT_EQ(parse({"--config", "f.yaml", "--socketcand=1"}).error, "option --socketcand takes no value");
+  EXPECT_NE(usage_text().find("--socketcand"), std::string::npos);
 }
 
 TEST(Cli, NodeIdAcceptsHexAndUnconfigured) {
@@ -102,8 +113,10 @@ TEST(Cli, UsageErrors) {
   std::vector<Case> cases = {
       {{}, "expected --profile or --config"},
       {{"--profile", "p", "--config", "c"}, "--profile and --config exclude each other"},
-      {{"--config", "c", "--node-id", "5"}, "--interface and --node-id go with --profile (a --config file names its own)"},
-      {{"--config", "c", "--interface", "vcan1"}, "--interface and --node-id go with --profile (a --config file names its own)"},
+      {{"--config", "c", "--node-id", "5"},
+       "--interface and --node-id go with --profile (a --config file names its own)"},
+      {{"--config", "c", "--interface", "vcan1"},
+       "--interface and --node-id go with --profile (a --config file names its own)"},
       {{"--profile"}, "option --profile needs a value"},
       {{"--profile", "p", "--node-id", "0"}, "--node-id: expected 1..127 or 255, got '0'"},
       {{"--profile", "p", "--node-id", "128"}, "--node-id: expected 1..127 or 255, got '128'"},
@@ -111,7 +124,8 @@ TEST(Cli, UsageErrors) {
       {{"--profile", "p", "--log-level", "loud"},
        "--log-level: expected trace, debug, info, warn, error, critical or off, got 'loud'"},
       {{"--profile", "p", "--seed", "-1"}, "--seed: expected a non-negative integer, got '-1'"},
-      {{"--profile", "p", "--interface", "a-very-long-interface"}, "--interface: expected an interface name of 1..15 characters"},
+      {{"--profile", "p", "--interface", "a-very-long-interface"},
+       "--interface: expected an interface name of 1..15 characters"},
       {{"--profile", "p", "--bogus"}, "unknown option --bogus"},
       {{"--profile", "p", "extra"}, "unexpected argument 'extra'"},
       {{"--check=yes", "--profile", "p"}, "option --check takes no value"},

@@ -239,12 +239,14 @@ TEST_F(CmpAcceptance, Check13Type254LimitsHysteresisTimer) {
   b->nmt(0x01, 0x01);
   b->bus.run_until(sec(7));
   auto pdo = only(b->bus.take(), 0x181);
-  std::vector<TimeUs> expected = {sec(1), sec(1) + ms(200), sec(1) + ms(400), sec(1) + ms(600), sec(1) + ms(800),  // above U
-                                  sec(2),                                                                 // U - H down
-                                  sec(4), sec(4) + ms(200), sec(4) + ms(400), sec(4) + ms(600), sec(4) + ms(800),  // below L
-                                  sec(5)};                                                                // L + H up
+  std::vector<TimeUs> expected = {
+      sec(1), sec(1) + ms(200), sec(1) + ms(400), sec(1) + ms(600), sec(1) + ms(800),  // above U
+      sec(2),                                                                          // U - H down
+      sec(4), sec(4) + ms(200), sec(4) + ms(400), sec(4) + ms(600), sec(4) + ms(800),  // below L
+      sec(5)};                                                                         // L + H up
   ASSERT_EQ(pdo.size(), expected.size()) << to_string(pdo);
-  for (std::size_t i = 0; i < pdo.size(); ++i) EXPECT_NEAR(double(pdo[i].time), double(expected[i]), double(ms(2))) << i;
+  for (std::size_t i = 0; i < pdo.size(); ++i)
+    EXPECT_NEAR(double(pdo[i].time), double(expected[i]), double(ms(2))) << i;
   EXPECT_EQ(le16(pdo[0].frame), 8000);
   EXPECT_EQ(le16(pdo[5].frame), 6400);
 }
@@ -366,7 +368,8 @@ TEST_F(CmpAcceptance, Check15eLssRevisionWildcardAndAutoBitRate) {
   start();
   b->bus.take();
   auto lss = [&](std::uint8_t cs, std::uint32_t v) {
-    b->bus.inject(F(0x7E5, {cs, std::uint8_t(v), std::uint8_t(v >> 8), std::uint8_t(v >> 16), std::uint8_t(v >> 24), 0, 0, 0}));
+    b->bus.inject(
+        F(0x7E5, {cs, std::uint8_t(v), std::uint8_t(v >> 8), std::uint8_t(v >> 16), std::uint8_t(v >> 24), 0, 0, 0}));
     b->bus.run_for(ms(1));
   };
   lss(0x40, std::uint32_t(od(0x1018, 1)));
@@ -417,7 +420,8 @@ TEST_F(CmpAcceptance, Check17UnknownModes) {
 
   start([](YAML::Node& root) {
     quiet()(root);
-    root["vendor"]["mapping_modes"][25] = YAML::Load("{entries: [0x91300120, 0x61500108, 0x71300210, 0x61500208], event_mask: 0x30}");
+    root["vendor"]["mapping_modes"][25] =
+        YAML::Load("{entries: [0x91300120, 0x61500108, 0x71300210, 0x61500208], event_mask: 0x30}");
   });
   ok_write(0x2100, 1, 25);
   EXPECT_EQ(od(0x1A00, 0), 4u);

@@ -23,7 +23,8 @@ inline config::Profile cmp_profile(const std::function<void(YAML::Node&)>& edit 
 }
 
 // Noise-free sensor and a process given as YAML (e.g. "5 bar").
-inline std::function<void(YAML::Node&)> quiet(const std::string& pressure = "5 bar", const std::string& temperature = "25 degC") {
+inline std::function<void(YAML::Node&)> quiet(const std::string& pressure = "5 bar",
+                                              const std::string& temperature = "25 degC") {
   return [=](YAML::Node& root) {
     root["physics"]["pressure"] = YAML::Load(pressure);
     root["physics"]["temperature"] = YAML::Load(temperature);

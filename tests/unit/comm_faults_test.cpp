@@ -92,9 +92,9 @@ TEST(CommFaults, AFleetSerialNumberKeepsFaultsAndOutlivesResets) {
 TEST(CommFaults, PowerCycleBootsAgainWithStoredValuesAndLosesVolatileOnes) {
   FaultNode n("generic-404", "[{kind: power_cycle, at: 2.5 s, duration: 500 ms}]");
   n.bus.run_until(ms(100));
-  n.sdo({0x2B, 0x17, 0x10, 0x00, 0xF4, 0x01, 0, 0});  // 0x1017 = 500 ms
+  n.sdo({0x2B, 0x17, 0x10, 0x00, 0xF4, 0x01, 0, 0});    // 0x1017 = 500 ms
   n.sdo({0x23, 0x10, 0x10, 0x01, 's', 'a', 'v', 'e'});  // store all
-  n.sdo({0x2B, 0x17, 0x10, 0x00, 0xC8, 0x00, 0, 0});  // 0x1017 = 200 ms, not stored
+  n.sdo({0x2B, 0x17, 0x10, 0x00, 0xC8, 0x00, 0, 0});    // 0x1017 = 200 ms, not stored
   n.nmt(0x01);
   n.bus.run_until(ms(3400));
   EXPECT_TRUE(n.sent(ms(2500), ms(3000)).empty()) << to_string(n.sent(ms(2500), ms(3000)));
@@ -216,7 +216,7 @@ TEST(CommFaults, SdoBlockDropAlsoLosesDownloadSegments) {
   auto ack = n.bus.take();
   ASSERT_EQ(ack.size(), 1u) << to_string(ack);
   EXPECT_EQ(ack[0].frame, F(kSdoTx, {0xA2, 1, 127, 0, 0, 0, 0, 0}));
-  n.sdo({0x01, 8, 9, 10, 11, 12, 13, 14});  // the resend: lost again (4th)
+  n.sdo({0x01, 8, 9, 10, 11, 12, 13, 14});    // the resend: lost again (4th)
   n.sdo({0x82, 15, 16, 17, 18, 19, 20, 21});  // 5th: out of sequence, ignored
   EXPECT_TRUE(n.bus.take().empty());
   n.bus.run_for(ms(700));
@@ -269,20 +269,20 @@ TEST_P(DeviceFaults, EepromErrorAtBootAfterAPowerCycle) {
   EXPECT_EQ(head(frames[0].frame, GetParam().eeprom_emcy.size()), GetParam().eeprom_emcy);
 }
 
-INSTANTIATE_TEST_SUITE_P(
-    Devices, DeviceFaults,
-    ::testing::Values(DeviceCase{"generic-404", {0x40, 0x81, 0x11}, {}},
-                      DeviceCase{"dps", {0x40, 0x81, 0x11}, {0x00, 0x50, 0x81}},
-                      DeviceCase{"p92c", {0x00, 0x81, 0x11}, {0x00, 0x63, 0x01}},
-                      DeviceCase{"gems9000", {0x40, 0x81, 0x88}, {0x02, 0x61}},
-                      DeviceCase{"smc", {0x40, 0x81, 0x00}, {}},
-                      DeviceCase{"cmp", {0x40, 0x81, 0x11}, {0x00, 0x63, 0x01, 0x00, 0x00, 0x00, 0x30}}),
-    [](const auto& info) {
-      std::string s = info.param.profile;
-      for (char& c : s)
-        if (c == '-') c = '_';
-      return s;
-    });
+INSTANTIATE_TEST_SUITE_P(Devices, DeviceFaults,
+                         ::testing::Values(DeviceCase{"generic-404", {0x40, 0x81, 0x11}, {}},
+                                           DeviceCase{"dps", {0x40, 0x81, 0x11}, {0x00, 0x50, 0x81}},
+                                           DeviceCase{"p92c", {0x00, 0x81, 0x11}, {0x00, 0x63, 0x01}},
+                                           DeviceCase{"gems9000", {0x40, 0x81, 0x88}, {0x02, 0x61}},
+                                           DeviceCase{"smc", {0x40, 0x81, 0x00}, {}},
+                                           DeviceCase{
+                                               "cmp", {0x40, 0x81, 0x11}, {0x00, 0x63, 0x01, 0x00, 0x00, 0x00, 0x30}}),
+                         [](const auto& info) {
+                           std::string s = info.param.profile;
+                           for (char& c : s)
+                             if (c == '-') c = '_';
+                           return s;
+                         });
 
 }  // namespace
 }  // namespace cansim::test

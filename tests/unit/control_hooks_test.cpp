@@ -24,9 +24,9 @@
 namespace cansim::test {
 namespace {
 
-using ::testing::HasSubstr;
 using physics::Channel;
 using physics::FaultKind;
+using ::testing::HasSubstr;
 
 constexpr std::uint8_t kId = 0x10;
 constexpr TimeUs sec(std::int64_t v) { return v * 1000000; }
@@ -185,7 +185,7 @@ TEST_F(ControlHooks, RestoreModelReturnsToTheProfile) {
   EXPECT_NEAR(pv(1), 9.0, 0.01);
   ASSERT_TRUE(chain->restore_process(node(), Channel::Pressure, now()));
   ASSERT_TRUE(chain->restore_process(node(), Channel::Temperature, now()));  // never replaced: no-op
-  EXPECT_NEAR(bar(truth()), 5.0, 0.5);  // 5 bar + OU (0.1 bar)
+  EXPECT_NEAR(bar(truth()), 5.0, 0.5);                                       // 5 bar + OU (0.1 bar)
   bus.run_for(ms(50));
   EXPECT_NEAR(pv(1), 5.0, 0.5);
   EXPECT_NEAR(pv(2), 22.5, 2.6);
@@ -321,9 +321,8 @@ void PrintTo(const Heard& h, std::ostream* os) {
 }
 
 TEST_F(ControlHooks, FaultListenerHearsEveryEdgeWhenItIsDue) {
-  start([](YAML::Node& root) {
-    root["faults"] = YAML::Load("[{kind: drift, at: 2 s, duration: 1 s, drift: 0.1 bar}]");
-  });
+  start(
+      [](YAML::Node& root) { root["faults"] = YAML::Load("[{kind: drift, at: 2 s, duration: 1 s, drift: 0.1 bar}]"); });
   std::vector<Heard> heard;
   chain->set_fault_listener([&](const physics::FaultEdge& e) {
     heard.push_back({bus.now(), e.time_us, e.handle, e.kind, e.started});
@@ -437,10 +436,10 @@ TEST_F(ControlHooks, RecordingStartsAndStops) {
   const std::string first = ::testing::TempDir() + "control_hooks_first.csv";
   const std::string second = ::testing::TempDir() + "control_hooks_second.csv";
   std::string error;
-  ASSERT_TRUE(chain->start_recording(first, &error)) << error;
+  ASSERT_TRUE(chain->start_recording(node(), first, &error, now())) << error;
   EXPECT_EQ(chain->recording(), first);
   bus.run_for(ms(200));
-  ASSERT_TRUE(chain->start_recording(second, &error)) << error;  // replaces the first
+  ASSERT_TRUE(chain->start_recording(node(), second, &error, now())) << error;  // replaces the first
   EXPECT_EQ(chain->recording(), second);
   const std::size_t first_rows = lines_of(first).size();
   EXPECT_GT(first_rows, 10u);  // header + a row per 10 ms event check
@@ -454,7 +453,7 @@ TEST_F(ControlHooks, RecordingStartsAndStops) {
   EXPECT_EQ(lines_of(first).size(), first_rows);
   EXPECT_EQ(lines_of(second).size(), second_rows);
 
-  EXPECT_FALSE(chain->start_recording("/nonexistent-dir/x.csv", &error));
+  EXPECT_FALSE(chain->start_recording(node(), "/nonexistent-dir/x.csv", &error, now()));
   EXPECT_THAT(error, HasSubstr("/nonexistent-dir/x.csv"));
   EXPECT_EQ(chain->recording(), "");
 }
@@ -497,13 +496,13 @@ TEST(ControlHelpers, EveryPersonalityOffersMeasurementControl) {
 class ControlWithoutPhysics : public ChainFixture {};
 
 TEST_F(ControlWithoutPhysics, ProcessMethodsRefuseOverridesWork) {
-  EXPECT_FALSE(app->has_process());
+  EXPECT_FALSE(app->chain().has_process());
   EXPECT_TRUE(app->has_channel(Channel::Temperature));
   EXPECT_FALSE(app->step(node(), Channel::Pressure, 1.0e5, now()));
   EXPECT_TRUE(std::isnan(app->true_value_si(Channel::Pressure, now())));
   EXPECT_TRUE(app->faults(now()).empty());
   std::string error;
-  EXPECT_FALSE(app->start_recording("/tmp/x.csv", &error));
+  EXPECT_FALSE(app->start_recording(node(), "/tmp/x.csv", &error, now()));
   app->set_override(node(), Channel::Temperature, 300.0, now());
   EXPECT_NEAR(f(0x6130, 2), 26.85f, 1e-4);
   const auto v = app->view(node(), Channel::Temperature, now());

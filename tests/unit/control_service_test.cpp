@@ -58,7 +58,8 @@ class ControlServiceTest : public ::testing::Test {
     char* v = nullptr;
     sd_bus_error e = SD_BUS_ERROR_NULL;
     sd_bus_message* m = nullptr;
-    sd_bus_message_new_method_call(bus.client(), &m, nullptr, path_of(node).c_str(), "org.freedesktop.DBus.Properties", "Get");
+    sd_bus_message_new_method_call(bus.client(), &m, nullptr, path_of(node).c_str(), "org.freedesktop.DBus.Properties",
+                                   "Get");
     sd_bus_message_append(m, "ss", control::kNodeInterface, prop);
     sd_bus_message* r = bus.call(m);
     std::string out;
@@ -313,7 +314,8 @@ TEST_F(ControlServiceTest, SignalsOnlyReachSubscribers) {
 // Fleet properties, read as a client reads them.
 sd_bus_message* fleet_property(BusPair& bus, const char* name, const char* type) {
   sd_bus_message* m = nullptr;
-  sd_bus_message_new_method_call(bus.client(), &m, nullptr, control::kRootPath, "org.freedesktop.DBus.Properties", "Get");
+  sd_bus_message_new_method_call(bus.client(), &m, nullptr, control::kRootPath, "org.freedesktop.DBus.Properties",
+                                 "Get");
   sd_bus_message_append(m, "ss", control::kFleetInterface, name);
   sd_bus_message* r = bus.call(m);
   if (r && sd_bus_message_enter_container(r, 'v', type) <= 0) {
@@ -368,17 +370,19 @@ nodes:
 )");
   BusPair bus(fleet.service());
   fleet.run_until(2'500 * kMs);  // boot-ups at 0, heartbeats each second, all at once
-  sd_bus_message* r = fleet_property(bus, "BusLoad", "a(ssddddxxxuut)");
+  sd_bus_message* r = fleet_property(bus, "BusLoad", "a(ssddddxxxxxuut)");
   ASSERT_NE(r, nullptr);
-  ASSERT_GT(sd_bus_message_enter_container(r, 'a', "(ssddddxxxuut)"), 0);
+  ASSERT_GT(sd_bus_message_enter_container(r, 'a', "(ssddddxxxxxuut)"), 0);
   const char *name, *model;
   double o1, o10, c1, c10;
-  std::int64_t p50, p99, max;
+  std::int64_t p50, p99, max, slip99, slip_max;
   std::uint32_t queued, capacity;
   std::uint64_t dropped;
-  ASSERT_GT(sd_bus_message_read(r, "(ssddddxxxuut)", &name, &model, &o1, &o10, &c1, &c10, &p50, &p99, &max, &queued,
-                                &capacity, &dropped), 0);
+  ASSERT_GT(sd_bus_message_read(r, "(ssddddxxxxxuut)", &name, &model, &o1, &o10, &c1, &c10, &p50, &p99, &max, &slip99,
+                                &slip_max, &queued, &capacity, &dropped),
+            0);
   EXPECT_EQ(std::string(name) + " " + model, "vcan0 timed");
+  EXPECT_EQ(slip99 + slip_max, 0);  // a fake clock is never late
   // 20 heartbeats a second (0x710..0x723, 58 to 60 bits each) at 250 kbit/s
   // in the last full second (1.5 .. 2.5 s): about 0.47 %.
   int beats = 0, first19 = 0, boot_ups19 = 0;
@@ -395,8 +399,9 @@ nodes:
   EXPECT_LE(p50, first19 * 4 / 2 * 1.125);
   EXPECT_EQ(capacity, 1024u);
   EXPECT_EQ(queued + dropped, 0u);
-  ASSERT_GT(sd_bus_message_read(r, "(ssddddxxxuut)", &name, &model, &o1, &o10, &c1, &c10, &p50, &p99, &max, &queued,
-                                &capacity, &dropped), 0);
+  ASSERT_GT(sd_bus_message_read(r, "(ssddddxxxxxuut)", &name, &model, &o1, &o10, &c1, &c10, &p50, &p99, &max, &slip99,
+                                &slip_max, &queued, &capacity, &dropped),
+            0);
   EXPECT_EQ(std::string(name) + " " + model, "vcan1 ideal");
   EXPECT_EQ(capacity, 0u);
   sd_bus_message_unref(r);
@@ -417,8 +422,9 @@ TEST_F(ControlServiceTest, AddNodesBootsThemAndRefusesCollisionsAtomically) {
   EXPECT_EQ(std::count(names.begin(), names.end(), "NodeAdded"), 2);
   // Node-ID 0x31 is taken: nothing of this fragment is added.
   m = bus.fleet_call("AddNodes");
-  sd_bus_message_append(m, "s", "[{profile: generic-404, interface: vcan1, node_id: 0x40, name: a},\n"
-                                " {profile: generic-404, interface: vcan1, node_id: 0x31, name: b}]");
+  sd_bus_message_append(m, "s",
+                        "[{profile: generic-404, interface: vcan1, node_id: 0x40, name: a},\n"
+                        " {profile: generic-404, interface: vcan1, node_id: 0x31, name: b}]");
   std::string name, message;
   EXPECT_EQ(bus.call(m, &name, &message), nullptr);
   EXPECT_EQ(name, "io.cansim.Error.Config");
@@ -447,7 +453,8 @@ TEST_F(ControlServiceTest, RemoveNodeSilencesIt) {
 
 TEST_F(ControlServiceTest, IntrospectionListsNodesAndManagedObjects) {
   sd_bus_message* m = nullptr;
-  sd_bus_message_new_method_call(bus.client(), &m, nullptr, "/io/cansim/Cansimd1/node/vcan0", "org.freedesktop.DBus.Introspectable", "Introspect");
+  sd_bus_message_new_method_call(bus.client(), &m, nullptr, "/io/cansim/Cansimd1/node/vcan0",
+                                 "org.freedesktop.DBus.Introspectable", "Introspect");
   sd_bus_message* r = bus.call(m);
   ASSERT_NE(r, nullptr);
   const char* xml = nullptr;
@@ -481,7 +488,6 @@ TEST_F(ControlServiceTest, MalformedCallsAreRefusedByName) {
   EXPECT_EQ(name, "org.freedesktop.DBus.Error.UnknownMethod");
 }
 
-
 // (true, reported, unit, status) of a channel property.
 struct ChannelValue {
   double truth = 0, reported = 0;
@@ -493,7 +499,8 @@ class ControlPhysicsTest : public ControlServiceTest {
  protected:
   ChannelValue channel(const std::string& node, const char* prop) {
     sd_bus_message* m = nullptr;
-    sd_bus_message_new_method_call(bus.client(), &m, nullptr, path_of(node).c_str(), "org.freedesktop.DBus.Properties", "Get");
+    sd_bus_message_new_method_call(bus.client(), &m, nullptr, path_of(node).c_str(), "org.freedesktop.DBus.Properties",
+                                   "Get");
     sd_bus_message_append(m, "ss", control::kNodeInterface, prop);
     sd_bus_message* r = bus.call(m);
     ChannelValue v;
@@ -661,10 +668,66 @@ TEST_F(ControlPhysicsTest, CancellingAPowerCycleBootsTheNodeAtOnce) {
   EXPECT_EQ(frames_with_id(boot, 0x710)[0].data[0], 0x00);
 }
 
+// Fleet1.Reset: everything a bench changed is gone, every node boots again.
+TEST_F(ControlPhysicsTest, ResetReturnsTheFleetToPowerOnAsConfigured) {
+  fleet.run_until(10 * kMs);
+  EXPECT_EQ(node_call("generic/1", "Write", "qyv", 0x1017, 0, "q", std::uint16_t(300)), "");
+  EXPECT_EQ(node_call("generic/1", "Store", "y", std::uint8_t(1)), "");
+  EXPECT_EQ(node_call("generic/1", "Nmt", "s", "start"), "");
+  EXPECT_EQ(node_call("generic/0", "Override", "sds", "pressure", 7.25, "bar"), "");
+  sd_bus_message* m = bus.node_call(path_of("dps"), "ArmFault");
+  sd_bus_message_append(m, "sa{ss}", "open", 0);
+  sd_bus_message* r = bus.call(m);
+  ASSERT_NE(r, nullptr);
+  sd_bus_message_unref(r);
+  m = bus.fleet_call("AddNodes");
+  sd_bus_message_append(m, "s", "{profile: generic-404, interface: vcan1, node_id: 0x30, name: extra}");
+  r = bus.call(m);
+  ASSERT_NE(r, nullptr);
+  sd_bus_message_unref(r);
+  m = bus.fleet_call("RemoveNode");
+  sd_bus_message_append(m, "s", "other");
+  r = bus.call(m);
+  ASSERT_NE(r, nullptr);
+  sd_bus_message_unref(r);
+  fleet.run_until(500 * kMs);
+  fleet.take("vcan0"), fleet.take("vcan1");
+
+  r = bus.call(bus.fleet_call("Reset"));
+  ASSERT_NE(r, nullptr);
+  sd_bus_message_unref(r);
+  auto vcan0 = fleet.take("vcan0");
+  for (std::uint32_t id : {0x10u, 0x11u, 0x12u, 0x7Fu}) {
+    auto boot = frames_with_id(vcan0, 0x700 + id);
+    ASSERT_EQ(boot.size(), 1u) << std::hex << id;
+    EXPECT_EQ(boot[0].data[0], 0x00) << "a boot-up";
+  }
+  EXPECT_EQ(frames_with_id(fleet.take("vcan1"), 0x720).size(), 1u) << "the removed node is back";
+  EXPECT_EQ(path_of("extra"), "!io.cansim.Error.UnknownNode") << "the added node is gone";
+  EXPECT_EQ(string_property("generic/1", "NmtState"), "pre-operational");
+  m = bus.node_call(path_of("generic/1"), "Read");
+  sd_bus_message_append(m, "qy", 0x1017, 0);
+  r = bus.call(m);
+  ASSERT_NE(r, nullptr);
+  std::uint16_t heartbeat = 0;
+  sd_bus_message_enter_container(r, 'v', "q");
+  sd_bus_message_read(r, "q", &heartbeat);
+  sd_bus_message_unref(r);
+  EXPECT_EQ(heartbeat, 1000u) << "the stored 300 ms is erased: the profile's default";
+  fleet.run_until(600 * kMs);
+  EXPECT_NE(channel("generic/0", "Pressure").reported, 7.25) << "no override";
+  r = bus.call(bus.node_call(path_of("dps"), "ListFaults"));
+  ASSERT_NE(r, nullptr);
+  ASSERT_GT(sd_bus_message_enter_container(r, 'a', "(ussbxxxu)"), 0);
+  EXPECT_EQ(sd_bus_message_at_end(r, 0), 1) << "no armed fault";
+  sd_bus_message_unref(r);
+}
+
 TEST_F(ControlPhysicsTest, GetAllAnswersForEveryNodeKind) {
   for (const char* node : {"generic/0", "dps", "other"}) {
     sd_bus_message* m = nullptr;
-    sd_bus_message_new_method_call(bus.client(), &m, nullptr, path_of(node).c_str(), "org.freedesktop.DBus.Properties", "GetAll");
+    sd_bus_message_new_method_call(bus.client(), &m, nullptr, path_of(node).c_str(), "org.freedesktop.DBus.Properties",
+                                   "GetAll");
     sd_bus_message_append(m, "s", control::kNodeInterface);
     std::string name;
     sd_bus_message* r = bus.call(m, &name);

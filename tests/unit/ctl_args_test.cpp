@@ -4,6 +4,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <sstream>
 
 #include "ctl/args.hpp"
@@ -43,7 +44,7 @@ TEST(CtlArgs, FleetVerbs) {
   EXPECT_EQ(parse({"stats"}).call, fleet_call("GetBusStatistics"));
   EXPECT_EQ(parse({"stats"}).output, Output::kStats);
   EXPECT_EQ(parse({"remove", "dps"}).call, fleet_call("RemoveNode", {s("dps")}));
-  EXPECT_EQ(parse({"remove", "dps"}).node, "");  // RemoveNode resolves the name itself
+  EXPECT_EQ(parse({"remove", "dps"}).node, "dps");  // RemoveNode resolves the name; the answer names its key
 
   Request time = parse({"time"});
   EXPECT_EQ(time.call, (Call{Target::kFleet, kPropertiesInterface, "Get", {s(kFleetInterface), s("SimulatedTime")}}));
@@ -82,6 +83,13 @@ TEST(CtlArgs, OverrideAndItsEnd) {
   EXPECT_EQ(parse({"override", "dps", "pressure", "3", "bar"}).call,
             node_call("Override", {s("pressure"), d(3), s("bar")}));
   EXPECT_EQ(parse({"override", "dps", "pressure", "--off"}).call, node_call("ClearOverride", {s("pressure")}));
+  // No channel: every channel of the node ("" to ClearOverride).
+  EXPECT_EQ(parse({"override", "dps", "--off"}).call, node_call("ClearOverride", {s("")}));
+  EXPECT_EQ(parse({"override", "'generic/*'", "--off"}).group, true);
+  expect_usage_error({"override", "dps", "pressure", "3", "--off"});
+  expect_usage_error({"override", "dps", "pressure", "3"});
+  expect_usage_error({"override", "dps"});
+  EXPECT_EQ(parse({"override", "dps", "--off"}).verb, "override");
 }
 
 TEST(CtlArgs, FaultMapsOptionsToParameters) {
@@ -96,10 +104,14 @@ TEST(CtlArgs, FaultListCancelPowerCycleNmt) {
   EXPECT_EQ(parse({"faults", "dps"}).call, node_call("ListFaults"));
   EXPECT_EQ(parse({"faults", "dps"}).output, Output::kFaults);
   EXPECT_EQ(parse({"cancel", "dps", "3"}).call, node_call("CancelFault", {Value(std::uint32_t(3))}));
-  EXPECT_EQ(parse({"power-cycle", "dps"}).call, node_call("PowerCycle", {d(0)}));
+  EXPECT_EQ(parse({"power-cycle", "dps"}).call, node_call("PowerCycle", {d(0.5)}));  // as Node.power_cycle()
   EXPECT_EQ(parse({"power-cycle", "dps", "--off", "2 s"}).call, node_call("PowerCycle", {d(2)}));
-  for (const char* c : {"start", "stop", "preop", "reset", "reset-comm"})
+  // CiA 301's names go to the daemon as they are; the short aliases become them.
+  for (const char* c : {"start", "stop", "pre-operational", "reset-node", "reset-communication"})
     EXPECT_EQ(parse({"nmt", "dps", c}).call, node_call("Nmt", {s(c)}));
+  EXPECT_EQ(parse({"nmt", "dps", "preop"}).call, node_call("Nmt", {s("pre-operational")}));
+  EXPECT_EQ(parse({"nmt", "dps", "reset"}).call, node_call("Nmt", {s("reset-node")}));
+  EXPECT_EQ(parse({"nmt", "dps", "reset-comm"}).call, node_call("Nmt", {s("reset-communication")}));
 }
 
 TEST(CtlArgs, DcfPrintsOrWritesAFile) {
@@ -222,13 +234,15 @@ TEST(CtlArgs, MainExitCodes) {
   EXPECT_EQ(cansimctl_main({"set", "dps"}, out, err), 2);
   EXPECT_EQ(out.str(), "");
   // Only that verb's usage.
-  EXPECT_EQ(err.str(), "cansimctl: set: 1 argument given, expected 4\n\n"
-                       "usage: cansimctl set NODE CHANNEL VALUE UNIT [--ramp DURATION]\n"
-                       "Try 'cansimctl set --help' for more.\n");
+  EXPECT_EQ(err.str(),
+            "cansimctl: set: 1 argument given, expected 4\n\n"
+            "usage: cansimctl set NODE CHANNEL VALUE UNIT [--ramp DURATION]\n"
+            "Try 'cansimctl set --help' for more.\n");
   std::ostringstream bad_channel;
   EXPECT_EQ(cansimctl_main({"hold", "dps", "humidity"}, out, bad_channel), 2);
-  EXPECT_TRUE(bad_channel.str().starts_with("cansimctl: channel must be pressure or temperature, got 'humidity'\n\n"
-                                            "usage: cansimctl hold NODE CHANNEL\n"))
+  EXPECT_TRUE(
+      bad_channel.str().starts_with("cansimctl: channel must be pressure or temperature, got 'humidity'\n\n"
+                                    "usage: cansimctl hold NODE CHANNEL\n"))
       << bad_channel.str();
   // No verb known: the whole usage.
   std::ostringstream unknown;
@@ -282,7 +296,8 @@ TEST(CtlArgs, EachVerbHasItsHelp) {
 TEST(CtlArgs, ActingVerbsTakeGroups) {
   for (const char* verb : {"set", "override", "fault", "cancel", "power-cycle", "nmt"}) {
     std::vector<std::string> line = {verb, "generic/*"};
-    if (std::string(verb) == "set" || std::string(verb) == "override") line.insert(line.end(), {"pressure", "1", "bar"});
+    if (std::string(verb) == "set" || std::string(verb) == "override")
+      line.insert(line.end(), {"pressure", "1", "bar"});
     if (std::string(verb) == "fault") line.push_back("open");
     if (std::string(verb) == "cancel") line.push_back("3");
     if (std::string(verb) == "nmt") line.push_back("start");
@@ -302,7 +317,7 @@ std::vector<NodeRow> rows() {
     r.node_id = id;
     return r;
   };
-  return {row("vcan0/dps/0", "dps", 0x7F),        row("vcan0/generic/0", "generic", 0x10),
+  return {row("vcan0/dps/0", "dps", 0x7F), row("vcan0/generic/0", "generic", 0x10),
           row("vcan0/generic/10", "generic", 0x1A), row("vcan0/generic/2", "generic", 0x12),
           row("vcan1/generic-b/0", "generic-b", 0x10)};
 }
@@ -340,29 +355,124 @@ TEST(CtlOutput, GroupResultsPerNode) {
   EXPECT_EQ(text.str(), "NODE             RESULT\nvcan0/generic/0  3\nvcan0/generic/1  refused: no way\n");
   Printer(json, true).group(results);
   EXPECT_EQ(json.str(), R"j([{"node":"vcan0/generic/0","ok":true,"id":3},)j"
-                        R"j({"node":"vcan0/generic/1","ok":false,"error":"no way"}])j" "\n");
+                        R"j({"node":"vcan0/generic/1","ok":false,"error":"no way"}])j"
+                        "\n");
 }
 
 TEST(CtlOutput, ReadOfAProcessValuePrintsItsUnit) {
   ObjectInfo real{0x6130, 1, "AI input PV 1", "REAL32", 1.0, "bar"};
   ObjectInfo integer{0x7130, 1, "AI input PV 1 (INTEGER16)", "INTEGER16", 0.01, "bar"};
   ObjectInfo plain{0x1017, 0, "Producer heartbeat time", "UNSIGNED16", 1.0, ""};
+  ObjectInfo pascal{0x6130, 1, "AI input PV 1", "REAL32", 1.0, "Pa"};
   std::ostringstream out;
   Printer p(out, false);
-  p.value({0x6130, 1}, Value(3.5), &real);
-  p.value({0x7130, 1}, Value(std::int16_t(350)), &integer);
-  p.value({0x1017, 0}, Value(std::uint16_t(1000)), &plain);
-  EXPECT_EQ(out.str(), "3.5 bar\n350 (0x15e) = 3.50 bar\n1000 (0x3e8)\n");
+  p.value("vcan0/generic/0", {0x6130, 1}, Value(3.5), &real);
+  p.value("vcan0/generic/0", {0x7130, 1}, Value(std::int16_t(350)), &integer);
+  p.value("vcan0/generic/0", {0x1017, 0}, Value(std::uint16_t(1000)), &plain);
+  p.value("vcan0/p92c/0", {0x6130, 1}, Value(9990440.0), &pascal);
+  EXPECT_EQ(out.str(), "3.5 bar\n350 (0x15e) = 3.50 bar\n1000 (0x3e8)\n9 990 440 Pa\n");
+  // JSON: the value it means in its unit, the raw value, the CiA type (not a D-Bus letter).
   std::ostringstream json;
-  Printer(json, true).value({0x7130, 1}, Value(std::int16_t(350)), &integer);
-  EXPECT_EQ(json.str(), R"j({"index":28976,"sub":1,"type":"n","value":350,"unit":"bar","scale":0.01})j" "\n");
+  Printer(json, true).value("vcan0/generic/0", {0x7130, 1}, Value(std::int16_t(350)), &integer);
+  EXPECT_EQ(json.str(), R"j({"node":"vcan0/generic/0","index":28976,"sub":1,"name":"AI input PV 1 (INTEGER16)",)j"
+                        R"j("type":"INTEGER16","value":3.5,"unit":"bar","raw":350,"counts":null})j"
+                        "\n");
+  // A device whose PV is counts (the SMC by default): counts, and what they mean beside them.
+  ObjectInfo counts{0x6130, 1, "Process value (REAL32)", "REAL32", 1.0, "counts", CountScaling{0.00025, 0.0, "bar"}};
+  std::ostringstream smc, smc_json;
+  Printer(smc, false).value("vcan0/smc/0", {0x6130, 1}, Value(10008.0), &counts);
+  EXPECT_EQ(smc.str(), "10 008 counts = 2.502 bar\n");
+  Printer(smc_json, true).value("vcan0/smc/0", {0x6130, 1}, Value(10008.0), &counts);
+  EXPECT_EQ(smc_json.str(),
+            R"j({"node":"vcan0/smc/0","index":24880,"sub":1,"name":"Process value (REAL32)",)j"
+            R"j("type":"REAL32","value":2.5020000000000002,"unit":"bar","raw":10008.0,"counts":10008.0})j"
+            "\n");
+}
+
+TEST(CtlOutput, ActingVerbsAnswerWithJson) {
+  std::ostringstream text, json;
+  Printer(text, false).acted({"vcan0/dps/0", true});
+  Printer(text, false).acted({"vcan0/dps/0", true, 7});
+  EXPECT_EQ(text.str(), "7\n");  // nothing but a fault's id, as Unix tools do
+  Printer(json, true).acted({"vcan0/dps/0", true});
+  Printer(json, true).acted({"vcan0/dps/0", true, 7});
+  Printer(json, true).done();
+  EXPECT_EQ(json.str(), R"j({"node":"vcan0/dps/0","ok":true})j"
+                        "\n"
+                        R"j({"node":"vcan0/dps/0","ok":true,"id":7})j"
+                        "\n"
+                        R"j({"ok":true})j"
+                        "\n");
+}
+
+TEST(CtlOutput, OneVocabularyAcrossVerbs) {
+  NodeStatus s;
+  s.path = "/io/cansim/Cansimd1/node/vcan0/dps/0";
+  s.key = "vcan0/dps/0";
+  s.name = "dps";
+  s.interface = "vcan0";
+  s.node_id = 0x7F;
+  s.nmt_state = "operational";
+  s.powered = s.on_bus = true;
+  s.pressure = {3.5, 3.25, "bar", 0};
+  s.faults = {{2, "open", true}};
+  s.last_emcy = {1500000, 0x2201, 0x81, {1, 2, 3, 4, 5}};
+  std::ostringstream status;
+  Printer(status, true).status(s);
+  EXPECT_EQ(status.str(),
+            R"j({"node":"vcan0/dps/0","name":"dps","entry_index":0,"interface":"vcan0","node_id":127,"profile":"",)j"
+            R"j("personality":"","nmt_state":"operational","powered":true,"on_bus":true,)j"
+            R"j("pressure":{"value":3.25,"true_value":3.5,"unit":"bar","status":0,"counts":null},"temperature":null,)j"
+            R"j("overrides":[],"faults":[{"id":2,"kind":"open","active":true}],"emcy_count":0,)j"
+            R"j("last_emcy":{"time":1.5,"code":8705,"register":129,"vendor":"0102030405"},"recording":null,)j"
+            R"j("path":"/io/cansim/Cansimd1/node/vcan0/dps/0"})j"
+            "\n");
+  // watch: the same names (time, node, kind), the signal's values as fields.
+  Event e{std::int64_t(2500000),
+          "vcan0/dps/0",
+          "NmtStateChanged",
+          {{"old", Value(std::string("pre-operational"))}, {"new", Value(std::string("operational"))}}};
+  std::ostringstream watch;
+  Printer(watch, true).event(e);
+  EXPECT_EQ(watch.str(), R"j({"time":2.5,"node":"vcan0/dps/0","kind":"NmtStateChanged","fields":[)j"
+                         R"j({"name":"old","value":"pre-operational"},{"name":"new","value":"operational"}]})j"
+                         "\n");
+  Event fleet{std::nullopt, "fleet", "NodeAdded", {}};
+  std::ostringstream fleet_json;
+  Printer(fleet_json, true).event(fleet);
+  EXPECT_EQ(fleet_json.str(), R"j({"time":null,"node":null,"kind":"NodeAdded","fields":[]})j"
+                              "\n");
+  // faults: seconds, null for "until cancelled" and "once".
+  std::ostringstream faults;
+  Printer(faults, true).faults({{3, "drift", "pressure", true, 1000000, -1, 0, 1}});
+  EXPECT_EQ(faults.str(), R"j([{"id":3,"kind":"drift","channel":"pressure","active":true,"start":1.0,)j"
+                          R"j("duration":null,"period":null,"count":1}])j"
+                          "\n");
+  std::ostringstream time;
+  Printer(time, true).time(12345678);
+  EXPECT_EQ(time.str(), R"j({"time":12.345678})j"
+                        "\n");
+}
+
+TEST(CtlValues, MeasuresReadWellAtEveryMagnitude) {
+  EXPECT_EQ(format_measure(9990440.0), "9 990 440");  // a P92C's Pa, not 9.99044e+06
+  EXPECT_EQ(format_measure(-12345.5), "-12 345.5");
+  EXPECT_EQ(format_measure(1013.25), "1013.25");  // four digits stay together
+  EXPECT_EQ(format_measure(3.5), "3.5");
+  EXPECT_EQ(format_measure(double(2.4996371f)), "2.4996371");  // a REAL32: the float's own digits
+  EXPECT_EQ(format_measure(2.49963710000001), "2.49964");      // computed: six significant digits
+  EXPECT_EQ(format_measure(0.000123456789), "0.000123457");
+  EXPECT_EQ(format_measure(0.0), "0");
+  EXPECT_EQ(format_measure(NAN), "-");
+  EXPECT_EQ(format_number(1e6), "1000000");
+  EXPECT_EQ(format_number(0.1), "0.1");
 }
 
 TEST(CtlArgs, UsageListsEveryVerb) {
   std::string usage = usage_text();
-  for (const char* verb : {"list", "status", "set", "hold", "model", "restore-model", "override", "fault", "faults",
-                           "cancel", "power-cycle", "nmt", "read", "write", "record", "store", "restore", "watch",
-                           "add", "remove", "reload", "time", "stats"})
+  for (const char* verb : {"list",    "status", "set",         "hold",   "model",  "restore-model", "override", "fault",
+                           "faults",  "cancel", "power-cycle", "nmt",    "read",   "write",         "record",   "store",
+                           "restore", "watch",  "add",         "remove", "reload", "time",          "stats"})
     EXPECT_NE(usage.find(std::string("\n  ") + verb + " "), std::string::npos) << verb;
 }
 
@@ -481,50 +591,44 @@ TEST(CtlValues, Printing) {
 
 // ---------------------------------------------------------------- JSON
 
-TEST(CtlJson, QuotesAndEscapes) {
-  EXPECT_EQ(json_quote("plain"), "\"plain\"");
-  EXPECT_EQ(json_quote("a\"b\\c"), "\"a\\\"b\\\\c\"");
-  EXPECT_EQ(json_quote("l1\nl2\t\r"), "\"l1\\nl2\\t\\r\"");
-  EXPECT_EQ(json_quote(std::string("\x01\x1f", 2)), "\"\\u0001\\u001f\"");
-  EXPECT_EQ(json_quote("µs"), "\"µs\"");
-}
-
-TEST(CtlJson, WriterPlacesCommas) {
+TEST(CtlJson, NumbersStringsAndBytes) {
+  EXPECT_EQ(json_number(double(0.1f)).dump(), "0.1");  // a REAL32's own digits
+  EXPECT_EQ(json_number(0.1).dump(), "0.1");
+  EXPECT_EQ(json_number(NAN).dump(), "null");
+  EXPECT_EQ(json_number(INFINITY).dump(), "null");
+  EXPECT_EQ(json_value(Value(Bytes{1, 0xAB})).dump(), "\"01ab\"");
+  EXPECT_EQ(json_value(Value(std::string("a\"b\\c\nd"))).dump(), R"("a\"b\\c\nd")");
+  EXPECT_EQ(json_seconds(-1).dump(), "null");
+  EXPECT_EQ(json_seconds(1500000).dump(), "1.5");
+  // Bytes that are not UTF-8 are replaced, not thrown.
   std::ostringstream out;
-  JsonWriter json(out);
-  json.begin_object();
-  json.member("a", std::uint8_t(1));
-  json.member("b", "x");
-  json.key("c");
-  json.begin_array();
-  json.value(true);
-  json.value(-2.5);
-  json.value(std::nan(""));
-  json.begin_object();
-  json.end_object();
-  json.end_array();
-  json.member("d", std::int64_t(-3));
-  json.end_object();
-  EXPECT_EQ(out.str(), R"({"a":1,"b":"x","c":[true,-2.5,null,{}],"d":-3})");
+  print_json(out, Json{{"name", std::string("\xff")}});
+  EXPECT_EQ(out.str(), "{\"name\":\"\xEF\xBF\xBD\"}\n");
 }
 
 TEST(CtlJson, ReadValue) {
   std::ostringstream out;
-  Printer(out, true).value({0x6130, 1}, Value(std::uint32_t(1000)));
-  Printer(out, true).value({0x1008, 0}, Value(std::string("DPS \"x\"")));
-  Printer(out, true).value({0x2000, 0}, Value(Bytes{1, 0xAB}));
+  Printer(out, true).value("vcan0/dps/0", {0x6130, 1}, Value(std::uint32_t(1000)));
+  Printer(out, true).value("vcan0/dps/0", {0x1008, 0}, Value(std::string("DPS \"x\"")));
+  Printer(out, true).value("vcan0/dps/0", {0x2000, 0}, Value(Bytes{1, 0xAB}));
   EXPECT_EQ(out.str(),
-            "{\"index\":24880,\"sub\":1,\"type\":\"u\",\"value\":1000,\"unit\":null,\"scale\":1}\n"
-            "{\"index\":4104,\"sub\":0,\"type\":\"s\",\"value\":\"DPS \\\"x\\\"\",\"unit\":null,\"scale\":1}\n"
-            "{\"index\":8192,\"sub\":0,\"type\":\"ay\",\"value\":\"01ab\",\"unit\":null,\"scale\":1}\n");
+            R"({"node":"vcan0/dps/0","index":24880,"sub":1,"name":null,"type":null,"value":1000,"unit":null,)"
+            R"("raw":1000,"counts":null})"
+            "\n"
+            R"({"node":"vcan0/dps/0","index":4104,"sub":0,"name":null,"type":null,"value":"DPS \"x\"","unit":null,)"
+            R"("raw":"DPS \"x\"","counts":null})"
+            "\n"
+            R"({"node":"vcan0/dps/0","index":8192,"sub":0,"name":null,"type":null,"value":"01ab","unit":null,)"
+            R"("raw":"01ab","counts":null})"
+            "\n");
 }
 
 // ---------------------------------------------------------------- output
 
 TEST(CtlOutput, NodeTable) {
   std::ostringstream out;
-  Printer(out, false).nodes({{"/p", "vcan0/generic/0", "generic", "vcan0", 0x10, "generic-404", "generic",
-                              "operational"}});
+  Printer(out, false)
+      .nodes({{"/p", "vcan0/generic/0", "generic", "vcan0", 0x10, "generic-404", "generic", "operational"}});
   EXPECT_EQ(out.str(),
             "KEY              NAME     INTERFACE  ID    PROFILE      PERSONALITY  NMT\n"
             "vcan0/generic/0  generic  vcan0      0x10  generic-404  generic      operational\n");
@@ -551,63 +655,80 @@ TEST(CtlOutput, Status) {
             std::string::npos)
       << text;
 
+  // A device in counts: its PV beside what it means.
+  NodeStatus smc = s;
+  smc.pressure = {2.5, 2.50175, "bar", 0, 10007.0};
+  std::ostringstream smc_text;
+  Printer(smc_text, false).status(smc);
+  EXPECT_NE(smc_text.str().find("  pressure     2.50175 bar (10 007 counts) reported, 2.5 bar true, status 0x00\n"),
+            std::string::npos)
+      << smc_text.str();
+
   std::ostringstream json;
   Printer(json, true).status(s);
-  EXPECT_NE(json.str().find(R"("pressure":{"true":5,"reported":5.01,"unit":"bar","status":0})"), std::string::npos)
+  EXPECT_NE(json.str().find(R"("pressure":{"value":5.01,"true_value":5.0,"unit":"bar","status":0,"counts":null})"),
+            std::string::npos)
       << json.str();
-  EXPECT_NE(json.str().find(R"("temperature":{"true":null,"reported":null,"unit":"","status":0})"), std::string::npos)
-      << json.str();
+  EXPECT_NE(json.str().find(R"("temperature":null)"), std::string::npos) << json.str();
   EXPECT_NE(json.str().find(R"("last_emcy":{"time":1.5,"code":20480,"register":129,"vendor":"0001020304"})"),
             std::string::npos)
       << json.str();
 }
 
 TEST(CtlOutput, EventLines) {
-  Event e{12345678, "vcan0/dps/0", "ObjectWritten",
-          {{"index", Value(std::uint16_t(0x6131)), IntegerStyle::kHex}, {"sub", Value(std::uint8_t(1))},
-           {"value", Value(std::string("a b"))}, {"via", Value(std::string("sdo"))}}};
+  Event e{12345678,
+          "vcan0/dps/0",
+          "ObjectWritten",
+          {{"index", Value(std::uint16_t(0x6131)), IntegerStyle::kHex},
+           {"sub", Value(std::uint8_t(1))},
+           {"value", Value(std::string("a b"))},
+           {"via", Value(std::string("sdo"))}}};
   EXPECT_EQ(format_event(e), "   12.345678 vcan0/dps/0 ObjectWritten index=0x6131 sub=1 value=\"a b\" via=sdo");
   std::ostringstream json;
   Printer(json, true).event(e);
-  EXPECT_EQ(json.str(),
-            R"({"time":12.345678,"source":"vcan0/dps/0","event":"ObjectWritten",)"
-            R"("index":24881,"sub":1,"value":"a b","via":"sdo"})"
-            "\n");
+  EXPECT_EQ(json.str(), R"({"time":12.345678,"node":"vcan0/dps/0","kind":"ObjectWritten","fields":[)"
+                        R"({"name":"index","value":24881},{"name":"sub","value":1},{"name":"value","value":"a b"},)"
+                        R"({"name":"via","value":"sdo"}]})"
+                        "\n");
   EXPECT_EQ(format_event({std::nullopt, "fleet", "NodeAdded", {}}), "           - fleet NodeAdded");
 }
 
 TEST(CtlOutput, FaultsAndStats) {
   std::ostringstream out;
-  Printer(out, false).faults({{1, "drift", "pressure", true, 10000000, -1, 0, 0},
-                              {2, "noise", "", false, 500000, 250000, 2000000, 3}});
+  Printer(out, false)
+      .faults(
+          {{1, "drift", "pressure", true, 10000000, -1, 0, 0}, {2, "noise", "", false, 500000, 250000, 2000000, 3}});
   EXPECT_EQ(out.str(),
             "ID  KIND   CHANNEL   ACTIVE  START      DURATION         PERIOD  COUNT\n"
             "1   drift  pressure  yes     10.000000  until cancelled  -       0\n"
             "2   noise  -         no      0.500000   0.25 s           2 s     3\n");
   std::ostringstream stats;
-  Printer(stats, false).stats({{"vcan0", false, 250, 1, 2, 3, 4, 0.123, 0.0, "timed", "error-passive", 0.9, 0.85,
-                                0.8, 0.75, 1200, 15000, 20000, 3, 1024, 7}});
+  Printer(stats, false).stats({{"vcan0", false, 250, 1,    2,    3,     4,     0.123, 0.0,  "timed", "error-passive",
+                                0.9,     0.85,  0.8, 0.75, 1200, 15000, 20000, 300,   2500, 3,       1024,
+                                7}});
   EXPECT_EQ(stats.str(),
-            "INTERFACE  UP  KBIT/S  IN  OUT  DROPPED  OFFLINE  OFFERED  MEASURED\n"
-            "vcan0      no  250     1   2    3        4        12.3%    0.0%\n"
+            "INTERFACE  UP  KBIT/S  IN  OUT  DROPPED  OFFLINE\n"
+            "vcan0      no  250     1   2    3        4\n"
             "\n"
-            "INTERFACE  MODEL  STATE          CARRIED 1S  10S    OFFERED 1S  10S    DELAY P50  P99      MAX      QUEUED  LOST\n"
-            "vcan0      timed  error-passive  80.0%       75.0%  90.0%       85.0%  1.2 ms     15.0 ms  20.0 ms  3/1024  7\n");
+            "INTERFACE  MODEL  STATE          CARRIED 1S  10S    OFFERED 1S  10S    DELAY P50  P99      MAX      "
+            "SLIP P99  MAX     QUEUED  LOST\n"
+            "vcan0      timed  error-passive  80.0%       75.0%  90.0%       85.0%  1.2 ms     15.0 ms  20.0 ms  "
+            "0.3 ms    2.5 ms  3/1024  7\n");
 }
 
 TEST(CtlOutput, SmallReplies) {
   std::ostringstream text, json;
-  Printer(text, false).fault_id(3);
+  Printer(text, false).acted({"vcan0/dps/0", true, 3});
   Printer(text, false).time(1500000);
   Printer(text, false).added({{kNodePathPrefix, "vcan0/extra/0"}});
-  Printer(text, false).value({0x1017, 0}, Value(std::uint16_t(1000)));
+  Printer(text, false).value("vcan0/dps/0", {0x1017, 0}, Value(std::uint16_t(1000)));
   EXPECT_EQ(text.str(), "3\n1.500000 s\nvcan0/extra/0\n1000 (0x3e8)\n");
-  Printer(json, true).fault_id(3);
+  Printer(json, true).acted({"vcan0/dps/0", true, 3});
   Printer(json, true).time(1500000);
   Printer(json, true).added({{"/p", "vcan0/extra/0"}});
   EXPECT_EQ(json.str(),
-            "{\"id\":3}\n{\"simulated_time_us\":1500000,\"seconds\":1.5}\n"
-            "[{\"path\":\"/p\",\"key\":\"vcan0/extra/0\"}]\n");
+            "{\"node\":\"vcan0/dps/0\",\"ok\":true,\"id\":3}\n{\"time\":1.5}\n"
+            "[{\"node\":\"vcan0/extra/0\",\"path\":\"/p\"}]\n");
 }
 
 // ---------------------------------------------------------------- endpoints
@@ -631,9 +752,9 @@ TEST(CtlEndpoint, DefaultSocketThenBus) {
   EXPECT_EQ(choose_endpoint(o, {"/env/control", "", 1000}, nothing), (Endpoint{BusKind::kSocket, "/env/control"}));
 
   Environment user{"", "/run/user/1000", 1000};
-  EXPECT_EQ(default_socket_paths(user), (std::vector<std::string>{"/run/user/1000/cansimd/control",
-                                                                   "/run/cansimd/control",
-                                                                   "/tmp/cansimd-1000/control"}));
+  EXPECT_EQ(default_socket_paths(user),
+            (std::vector<std::string>{"/run/user/1000/cansimd/control", "/run/cansimd/control",
+                                      "/tmp/cansimd-1000/control"}));
   EXPECT_EQ(default_socket_paths({"", "", 0}),
             (std::vector<std::string>{"/run/cansimd/control", "/tmp/cansimd-0/control"}));
   auto only = [](std::string path) { return [path](const std::string& p) { return p == path; }; };
@@ -731,7 +852,8 @@ TEST(CtlDecode, PropertiesChanged) {
   // JSON: the faults as a list, as status gives them.
   std::ostringstream json;
   Printer(json, true).event(e);
-  EXPECT_NE(json.str().find(R"j("Faults":[{"id":1,"kind":"drift","active":true},{"id":2,"kind":"noise","active":false}])j"),
+  EXPECT_NE(json.str().find(R"j({"name":"Faults","value":[{"id":1,"kind":"drift","active":true},)j"
+                            R"j({"id":2,"kind":"noise","active":false}]})j"),
             std::string::npos)
       << json.str();
 }
@@ -739,10 +861,10 @@ TEST(CtlDecode, PropertiesChanged) {
 TEST(CtlDecode, NodeStatusSkipsUnknownProperties) {
   MessageFactory f;
   MessagePtr m = f.signal(kNodePath, kNodeInterface, "Test");
-  ASSERT_GE(sd_bus_message_append(m.get(), "a{sv}", 7, "Key", "s", "vcan0/dps/0", "Future", "(ii)", 1, 2, "NodeId",
-                                  "y", std::uint8_t(0x22), "Pressure", "(ddsy)", 1.0, 1.5, "bar", std::uint8_t(0),
-                                  "Index", "s", "wrong type", "Overrides", "a(sds)", 1, "pressure", 3.0, "bar",
-                                  "LastEmcy", "(xqyay)", std::int64_t(-1), std::uint16_t(0), std::uint8_t(0), 0),
+  ASSERT_GE(sd_bus_message_append(m.get(), "a{sv}", 7, "Key", "s", "vcan0/dps/0", "Future", "(ii)", 1, 2, "NodeId", "y",
+                                  std::uint8_t(0x22), "Pressure", "(ddsy)", 1.0, 1.5, "bar", std::uint8_t(0), "Index",
+                                  "s", "wrong type", "Overrides", "a(sds)", 1, "pressure", 3.0, "bar", "LastEmcy",
+                                  "(xqyay)", std::int64_t(-1), std::uint16_t(0), std::uint8_t(0), 0),
             0);
   NodeStatus s = read_node_status(MessageFactory::received(m));
   EXPECT_EQ(s.key, "vcan0/dps/0");

@@ -3,6 +3,8 @@
 // frames per second from two samples; and the natural order itself.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "ctl/top.hpp"
 #include "ctl/values.hpp"
 
@@ -97,6 +99,48 @@ TEST(CtlTop, GlobMatchesKeysNamesAndNameIndex) {
   EXPECT_TRUE(glob_matches("p?", "vcan0/pt/3", "pt"));
   EXPECT_FALSE(glob_matches("dps*", "vcan0/pt/3", "pt"));
   EXPECT_TRUE(glob_matches("", "vcan0/pt/3", "pt"));
+}
+
+// More nodes than the terminal has rows: the title stays on the first line.
+// The screen is drawn from the top-left corner; a newline after the last
+// row would scroll the whole screen up by one and take the title away.
+TEST(CtlTop, TheTitleStaysWhenTheFleetOutgrowsTheScreen) {
+  std::vector<NodeStatus> nodes;
+  for (int i = 0; i < 40; ++i) nodes.push_back(node("vcan0/pt/" + std::to_string(i), "pt", std::uint8_t(0x10 + i)));
+  std::vector<TopRow> rows;
+  FrameRates none;
+  for (const NodeStatus& s : top_nodes(nodes, "")) rows.push_back(top_row(s, none));
+  const std::size_t height = 24, page = height - 3;  // title, blank line, table header
+  const std::string screen = top_screen("cansimctl top: 40 node(s)", format_top_table(rows, 0, page), height, 80);
+  EXPECT_EQ(std::size_t(std::count(screen.begin(), screen.end(), '\n')), height - 1) << "one line per row, no scroll";
+  EXPECT_TRUE(screen.starts_with("\x1b[Hcansimctl top: 40 node(s)\x1b[K\n")) << screen.substr(0, 60);
+  EXPECT_TRUE(screen.ends_with("\x1b[K\x1b[J")) << "no newline after the last row";
+  EXPECT_NE(screen.find("vcan0/pt/20"), std::string::npos);
+  EXPECT_EQ(screen.find("vcan0/pt/21"), std::string::npos);
+  // A table longer than the screen is cut, never scrolled.
+  const std::string all = top_screen("title", format_top_table(rows), height, 80);
+  EXPECT_EQ(std::size_t(std::count(all.begin(), all.end(), '\n')), height - 1);
+  EXPECT_TRUE(all.starts_with("\x1b[Htitle\x1b[K\n"));
+  // Lines are cut at the width.
+  EXPECT_EQ(top_screen(std::string(100, 'x'), "", 5, 10), "\x1b[Hxxxxxxxxxx\x1b[K\n\x1b[K\x1b[J");
+}
+
+// Values read well at every magnitude; a device in counts says so, with
+// what they mean (status's reading, PressureCounts).
+TEST(CtlTop, CountsAndLargeValues) {
+  NodeStatus smc = node("vcan0/smc/0", "smc", 0x20);
+  smc.pressure = {2.5, 2.50175, "bar", 0x00, 10007.0};
+  NodeStatus p92c = node("vcan0/p92c/0", "p92c", 0x01);
+  p92c.pressure = {9990440.0, 9990440.0, "Pa", 0x00};
+  FrameRates none;
+  EXPECT_EQ(top_row(smc, none).pressure, "2.50175 / 2.5 bar (10 007 counts)");
+  EXPECT_EQ(top_row(p92c, none).pressure, "9 990 440 / 9 990 440 Pa");
+  const Json j = top_json(smc, none);
+  EXPECT_EQ(j["node"], "vcan0/smc/0");
+  EXPECT_EQ(j["pressure"]["counts"], 10007.0);
+  EXPECT_EQ(j["pressure"]["unit"], "bar");
+  EXPECT_EQ(j["frames_per_second"], nullptr);
+  EXPECT_EQ(top_json(p92c, none)["pressure"]["counts"], nullptr);
 }
 
 }  // namespace

@@ -74,8 +74,9 @@ class DispatchLoopTest : public ::testing::Test {
                  F(0x600 + id, {0x23, std::uint8_t(index), std::uint8_t(index >> 8), sub, std::uint8_t(v),
                                 std::uint8_t(v >> 8), std::uint8_t(v >> 16), std::uint8_t(v >> 24)}),
                  core.now());
-    ASSERT_EQ(sent(), (std::vector<CanFrame>{F(0x580 + id, {0x60, std::uint8_t(index), std::uint8_t(index >> 8), sub,
-                                                           0, 0, 0, 0})}));
+    ASSERT_EQ(
+        sent(),
+        (std::vector<CanFrame>{F(0x580 + id, {0x60, std::uint8_t(index), std::uint8_t(index >> 8), sub, 0, 0, 0, 0})}));
   }
   CanFrame upload_1000(std::uint8_t id) { return F(0x600 + id, {0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0}); }
   CanFrame answer_1000(std::uint8_t id) { return F(0x580 + id, {0x43, 0x00, 0x10, 0x00, 0x94, 0x01, 0x02, 0x00}); }
@@ -134,7 +135,7 @@ TEST_F(DispatchLoopTest, RpdoWith29BitCobIdListensToExtendedFrames) {
   core.receive(bus, F(0x000, {0x01, 0x10}), 0);
   sent();
   sdo_write_u32(0x10, 0x1400, 1, 0x80000210);
-  sdo_write_u32(0x10, 0x1400, 1, 0x20012345);  // CiA 301: bit 29 = 29-bit identifier
+  sdo_write_u32(0x10, 0x1400, 1, 0x20012345);              // CiA 301: bit 29 = 29-bit identifier
   core.receive(bus, F(0x345, {1, 0, 0, 0, 1, 0}), ms(1));  // 11-bit 0x345: not ours
   EXPECT_EQ(core.node(n).values().u(0x2100, 1), 0u);
   core.receive(bus, ext(0x12345, {0x04, 0x03, 0x02, 0x01, 0x02, 0x01}), ms(2));

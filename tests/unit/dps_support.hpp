@@ -33,9 +33,7 @@ class DpsFixture : public DeviceFixture<personalities::dps::DpsApplication, DpsS
   static constexpr std::uint8_t kId = 0x7F;
 
   // `edit` may change the profile (options, vendor settings) before it is prepared.
-  void build(const std::function<void(config::Profile&)>& edit = {}) {
-    build_node("dps", 0, make_app, edit);
-  }
+  void build(const std::function<void(config::Profile&)>& edit = {}) { build_node("dps", 0, make_app, edit); }
   // Boots and leaves the node pre-operational with an empty log.
   void boot() {
     power_on(ms(1));
@@ -59,7 +57,7 @@ class DpsFixture : public DeviceFixture<personalities::dps::DpsApplication, DpsS
 
  private:
   static std::unique_ptr<personalities::dps::DpsApplication> make_app(const config::Profile& p,
-                                                                     std::unique_ptr<DpsSource> src) {
+                                                                      std::unique_ptr<DpsSource> src) {
     return std::make_unique<personalities::dps::DpsApplication>(p.cia404, std::move(src),
                                                                 std::get<personalities::dps::Settings>(p.device), 0);
   }

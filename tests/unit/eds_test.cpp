@@ -104,22 +104,20 @@ TEST_P(EdsRoundTrip, DefaultDcfReadsBackWithItsNodeIdAndRate) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Profiles, EdsRoundTrip, ::testing::ValuesIn(kProfiles),
-                         [](const auto& info) {
-                           std::string n = info.param;
-                           for (char& c : n)
-                             if (c == '-') c = '_';
-                           return n;
-                         });
+INSTANTIATE_TEST_SUITE_P(Profiles, EdsRoundTrip, ::testing::ValuesIn(kProfiles), [](const auto& info) {
+  std::string n = info.param;
+  for (char& c : n)
+    if (c == '-') c = '_';
+  return n;
+});
 
 TEST(EdsExport, DescribesTheDeviceAndItsObjects) {
   const std::string text = export_eds(load_repo_profile("generic-404"));
   for (const char* line : {"[FileInfo]", "EDSVersion=4.0", "VendorNumber=0x00CA5D00", "ProductNumber=0x00000404",
                            "RevisionNumber=0x00010000", "BaudRate_250=1", "LSS_Supported=1", "SimpleBootUpSlave=1",
                            "Granularity=1", "NrOfRXPDO=1", "NrOfTXPDO=4", "[DummyUsage]", "[Comments]",
-                           "[MandatoryObjects]\nSupportedObjects=3\n1=0x1000\n2=0x1001\n3=0x1018",
-                           "[1018sub1]", "[1A00sub8]", "DefaultValue=$NODEID+0x180", "PDOMapping=1",
-                           "[ManufacturerObjects]"})
+                           "[MandatoryObjects]\nSupportedObjects=3\n1=0x1000\n2=0x1001\n3=0x1018", "[1018sub1]",
+                           "[1A00sub8]", "DefaultValue=$NODEID+0x180", "PDOMapping=1", "[ManufacturerObjects]"})
     EXPECT_THAT(text, HasSubstr(line));
   EXPECT_THAT(text, ::testing::Not(HasSubstr("[DeviceComissioning]")));
   EXPECT_THAT(text, ::testing::Not(HasSubstr("ParameterValue")));
@@ -163,12 +161,12 @@ std::uint64_t default_u(const config::Profile& p, std::uint16_t index, std::uint
 }
 
 TEST(EdsReader, NodeIdInEverySpelling) {
-  const config::Profile p = eds_profile(eds(
-      "[1400]\nObjectType=0x9\nSubNumber=4\n"
-      "[1400sub0]\nDataType=0x0005\nAccessType=ro\nDefaultValue=3\n"
-      "[1400sub1]\nDataType=0x0007\nAccessType=rw\nDefaultValue=$NODEID+0x200\n"
-      "[1400sub2]\nDataType=0x0007\nAccessType=rw\nDefaultValue=0x200+$NODEID\n"
-      "[1400sub3]\nDataType=0x0007\nAccessType=rw\nDefaultValue=$NodeID + 0x200\n"));
+  const config::Profile p =
+      eds_profile(eds("[1400]\nObjectType=0x9\nSubNumber=4\n"
+                      "[1400sub0]\nDataType=0x0005\nAccessType=ro\nDefaultValue=3\n"
+                      "[1400sub1]\nDataType=0x0007\nAccessType=rw\nDefaultValue=$NODEID+0x200\n"
+                      "[1400sub2]\nDataType=0x0007\nAccessType=rw\nDefaultValue=0x200+$NODEID\n"
+                      "[1400sub3]\nDataType=0x0007\nAccessType=rw\nDefaultValue=$NodeID + 0x200\n"));
   for (std::uint8_t sub = 1; sub <= 3; ++sub) {
     EXPECT_EQ(default_u(p, 0x1400, sub), 0x200u);
     EXPECT_TRUE(p.layout->find(0x1400, sub)->default_plus_node_id);
@@ -190,10 +188,10 @@ TEST(EdsReader, CaseSpacesCommentsCrlfAndBom) {
 }
 
 TEST(EdsReader, DecimalHexAndOctalNumbers) {
-  const config::Profile p = eds_profile(eds(
-      "[2000]\nDataType=0x0007\nAccessType=rw\nDefaultValue=010\nLowLimit=0x2\nHighLimit=100\n"
-      "[2001]\nDataType=0x0003\nAccessType=rw\nDefaultValue=0xFFFF\nLowLimit=-100\n"
-      "[2002]\nDataType=0x0008\nAccessType=rw\nDefaultValue=1.5\n"));
+  const config::Profile p =
+      eds_profile(eds("[2000]\nDataType=0x0007\nAccessType=rw\nDefaultValue=010\nLowLimit=0x2\nHighLimit=100\n"
+                      "[2001]\nDataType=0x0003\nAccessType=rw\nDefaultValue=0xFFFF\nLowLimit=-100\n"
+                      "[2002]\nDataType=0x0008\nAccessType=rw\nDefaultValue=1.5\n"));
   EXPECT_EQ(default_u(p, 0x2000, 0), 8u);  // CiA 306 §4.2: a leading 0 is octal
   const OdEntry* e = p.layout->find(0x2000, 0);
   EXPECT_EQ(decode_u(e->type, e->low), 2u);
@@ -205,9 +203,9 @@ TEST(EdsReader, DecimalHexAndOctalNumbers) {
 }
 
 TEST(EdsReader, EmptyNumericFieldsAndDomainWithoutDefault) {
-  const config::Profile p = eds_profile(eds(
-      "[1000]\nDataType=0x0007\nAccessType=ro\nDefaultValue=\nLowLimit=\nHighLimit=\nPDOMapping=\n"
-      "[2001]\nDataType=0x000F\nAccessType=rw\n"));
+  const config::Profile p =
+      eds_profile(eds("[1000]\nDataType=0x0007\nAccessType=ro\nDefaultValue=\nLowLimit=\nHighLimit=\nPDOMapping=\n"
+                      "[2001]\nDataType=0x000F\nAccessType=rw\n"));
   EXPECT_EQ(default_u(p, 0x1000, 0), 0u);
   EXPECT_FALSE(p.layout->find(0x1000, 0)->has_low);
   EXPECT_TRUE(p.layout->find(0x2001, 0)->default_bytes.empty());
@@ -215,11 +213,11 @@ TEST(EdsReader, EmptyNumericFieldsAndDomainWithoutDefault) {
 }
 
 TEST(EdsReader, CompactSubObjWithNamesAndValuesAndObjFlags) {
-  const config::Profile p = eds_profile(eds(
-      "[1016]\nParameterName=Consumer heartbeat time\nObjectType=0x8\nDataType=0x0007\nAccessType=rw\n"
-      "CompactSubObj=3\nDefaultValue=0\nObjFlags=0x1\n"
-      "[1016Name]\nNrOfEntries=1\n2=Heartbeat of node 5\n"
-      "[1016Value]\nNrOfEntries=1\n2=0x000501F4\n"));
+  const config::Profile p =
+      eds_profile(eds("[1016]\nParameterName=Consumer heartbeat time\nObjectType=0x8\nDataType=0x0007\nAccessType=rw\n"
+                      "CompactSubObj=3\nDefaultValue=0\nObjFlags=0x1\n"
+                      "[1016Name]\nNrOfEntries=1\n2=Heartbeat of node 5\n"
+                      "[1016Value]\nNrOfEntries=1\n2=0x000501F4\n"));
   EXPECT_EQ(default_u(p, 0x1016, 0), 3u);
   EXPECT_EQ(p.layout->find(0x1016, 0)->access, Access::kRo);
   EXPECT_EQ(default_u(p, 0x1016, 1), 0u);
@@ -230,12 +228,12 @@ TEST(EdsReader, CompactSubObjWithNamesAndValuesAndObjFlags) {
 }
 
 TEST(EdsReader, DcfParameterValueWinsOverDefaultValue) {
-  const config::Profile p = eds_profile(
-      eds("[1017]\nDataType=0x0006\nAccessType=rw\nDefaultValue=1000\nParameterValue=250\n"
-          "[1800]\nObjectType=0x9\nSubNumber=2\n[1800sub0]\nDataType=0x5\nAccessType=ro\nDefaultValue=1\n"
-          "[1800sub1]\nDataType=0x7\nAccessType=rw\nDefaultValue=$NODEID+0x180\nParameterValue=0x185\n"
-          "[DeviceComissioning]\nNodeID=5\nBaudrate=125\nNodeName=sensor\n"),
-      "node.dcf");
+  const config::Profile p =
+      eds_profile(eds("[1017]\nDataType=0x0006\nAccessType=rw\nDefaultValue=1000\nParameterValue=250\n"
+                      "[1800]\nObjectType=0x9\nSubNumber=2\n[1800sub0]\nDataType=0x5\nAccessType=ro\nDefaultValue=1\n"
+                      "[1800sub1]\nDataType=0x7\nAccessType=rw\nDefaultValue=$NODEID+0x180\nParameterValue=0x185\n"
+                      "[DeviceComissioning]\nNodeID=5\nBaudrate=125\nNodeName=sensor\n"),
+                  "node.dcf");
   EXPECT_EQ(default_u(p, 0x1017, 0), 250u);
   EXPECT_EQ(default_u(p, 0x1800, 1), 0x185u);
   EXPECT_FALSE(p.layout->find(0x1800, 1)->default_plus_node_id);
@@ -245,9 +243,9 @@ TEST(EdsReader, DcfParameterValueWinsOverDefaultValue) {
 }
 
 TEST(EdsReader, DeviceInfoGivesLssBitRatesAndDummies) {
-  const config::Profile p = eds_profile(
-      eds("[1000]\nDataType=0x7\nAccessType=ro\n[DummyUsage]\nDummy0001=0\nDummy0002=0\n",
-          "LSS_Supported=1\nBaudRate_125=1\nBaudRate_500=1\nBaudRate_250=0\n"));
+  const config::Profile p =
+      eds_profile(eds("[1000]\nDataType=0x7\nAccessType=ro\n[DummyUsage]\nDummy0001=0\nDummy0002=0\n",
+                      "LSS_Supported=1\nBaudRate_125=1\nBaudRate_500=1\nBaudRate_250=0\n"));
   EXPECT_TRUE(p.options->lss_supported);
   EXPECT_EQ(p.options->lss_bit_rates.text(), "2,4");
   EXPECT_EQ(p.bit_rate_kbit, 125u);  // no 250: the first rate the file lists
@@ -255,10 +253,10 @@ TEST(EdsReader, DeviceInfoGivesLssBitRatesAndDummies) {
 }
 
 TEST(EdsReader, PersistenceGroupsByRange) {
-  const config::Profile p = eds_profile(eds(
-      "[1017]\nDataType=0x6\nAccessType=rw\n[2000]\nDataType=0x7\nAccessType=rww\n"
-      "[2001]\nDataType=0x7\nAccessType=wo\n[1010]\nObjectType=0x8\nSubNumber=2\n"
-      "[1010sub0]\nDataType=0x5\nAccessType=ro\nDefaultValue=1\n[1010sub1]\nDataType=0x7\nAccessType=rw\n"));
+  const config::Profile p = eds_profile(
+      eds("[1017]\nDataType=0x6\nAccessType=rw\n[2000]\nDataType=0x7\nAccessType=rww\n"
+          "[2001]\nDataType=0x7\nAccessType=wo\n[1010]\nObjectType=0x8\nSubNumber=2\n"
+          "[1010sub0]\nDataType=0x5\nAccessType=ro\nDefaultValue=1\n[1010sub1]\nDataType=0x7\nAccessType=rw\n"));
   EXPECT_EQ(p.layout->find(0x1017, 0)->persist, kPersistCommunication);
   EXPECT_EQ(p.layout->find(0x2000, 0)->persist, kPersistApplication);
   EXPECT_EQ(p.layout->find(0x2001, 0)->persist, kPersistNone);
@@ -274,29 +272,38 @@ TEST(EdsReader, RejectsTheAmbiguousWithFileAndLine) {
   } cases[] = {
       {"[1000]\nDataType=0x7\nAccessType=ro\nDefaultValue=08\n",
        "bad.eds:4: [1000] DefaultValue: expected an integer, optionally plus $NODEID (e.g. $NODEID+0x180), got '08'"},
-      {"[1000]\nDataType=0x7\nAccessType=rx\n", "bad.eds:3: [1000] AccessType: expected one of ro, wo, rw, rwr, rww, const, got 'rx'"},
+      {"[1000]\nDataType=0x7\nAccessType=rx\n",
+       "bad.eds:3: [1000] AccessType: expected one of ro, wo, rw, rwr, rww, const, got 'rx'"},
       {"[1000]\nAccessType=ro\n", "bad.eds:1: [1000] DataType: missing required key"},
       {"[1000]\nDataType=0x0C\nAccessType=ro\n", "bad.eds:2: [1000] DataType: expected a CiA 301 basic data type"},
       {"[1000]\nDataType=0x5\nAccessType=ro\nDefaultValue=256\n",
        "bad.eds:4: [1000] DefaultValue: expected a value in the range of UNSIGNED8, got '256'"},
-      {"[1000]\nDataType=0x7\nAccessType=ro\nDefaultValue=$NODEID+$NODEID\n", "bad.eds:4: [1000] DefaultValue: expected an integer"},
-      {"[1000]\nDataType=0x7\nDataType=0x5\n", "bad.eds:3: [1000] DataType: expected each key once per section (first at line 2)"},
-      {"[1000]\nDataType=0x7\nAccessType=ro\n[1000]\n", "bad.eds:4: [1000]: expected each section once (first at line 1)"},
-      {"DataType=0x7\n", "bad.eds:1: (before the first section): expected a [section] before any key, got 'DataType=0x7'"},
+      {"[1000]\nDataType=0x7\nAccessType=ro\nDefaultValue=$NODEID+$NODEID\n",
+       "bad.eds:4: [1000] DefaultValue: expected an integer"},
+      {"[1000]\nDataType=0x7\nDataType=0x5\n",
+       "bad.eds:3: [1000] DataType: expected each key once per section (first at line 2)"},
+      {"[1000]\nDataType=0x7\nAccessType=ro\n[1000]\n",
+       "bad.eds:4: [1000]: expected each section once (first at line 1)"},
+      {"DataType=0x7\n",
+       "bad.eds:1: (before the first section): expected a [section] before any key, got 'DataType=0x7'"},
       {"[1000]\nDataType 0x7\n", "bad.eds:2: [1000]: expected [section], key=value or a ; comment, got 'DataType 0x7'"},
       {"[1000\n", "bad.eds:1: (before the first section): expected a section header [name], got '[1000'"},
-      {"[1018sub1]\nDataType=0x7\nAccessType=ro\n", "bad.eds:1: [1018sub1]: expected an object section [1018] for this sub-object"},
+      {"[1018sub1]\nDataType=0x7\nAccessType=ro\n",
+       "bad.eds:1: [1018sub1]: expected an object section [1018] for this sub-object"},
       {"[1018]\nObjectType=0x4\n", "bad.eds:2: [1018] ObjectType: expected ObjectType 0x7 (VAR)"},
       {"[1017]\nDataType=0x6\nAccessType=rw\n[1017sub1]\nDataType=0x6\nAccessType=rw\n",
        "bad.eds:4: [1017sub1]: expected no sub-object sections for a VAR object"},
       {"[1000x]\n", "bad.eds:1: [1000x]: expected an object section [xxxx], [xxxxsubN], [xxxxName] or [xxxxValue]"},
-      {"[1000]\nDataType=0x7\nAccessType=ro\nPDOMapping=yes please\n", "bad.eds:4: [1000] PDOMapping: expected 0 or 1, got 'yes please'"},
+      {"[1000]\nDataType=0x7\nAccessType=ro\nPDOMapping=yes please\n",
+       "bad.eds:4: [1000] PDOMapping: expected 0 or 1, got 'yes please'"},
       {"[1016]\nObjectType=0x8\nSubNumber=1\n[1016sub0]\nDataType=0x5\nAccessType=ro\n[1016Name]\n1=x\n",
        "bad.eds:7: [1016Name]: expected CompactSubObj in [1016] for this section"},
       {"[1000]\nDataType=0x7\nAccessType=ro\n[DeviceComissioning]\nNodeID=200\n",
        "bad.eds:5: [DeviceComissioning] NodeID: expected a node-ID 1..127 or 255 (LSS-unconfigured), got '200'"},
-      {"[2000]\nDataType=0x9\nAccessType=ro\nLowLimit=1\n", "bad.eds:4: [2000] LowLimit: expected no limit for VISIBLE_STRING, got '1'"},
-      {"[2000]\nDataType=0xA\nAccessType=ro\nDefaultValue=ABC\n", "bad.eds:4: [2000] DefaultValue: expected hex bytes, e.g. 0A1B2C, got 'ABC'"},
+      {"[2000]\nDataType=0x9\nAccessType=ro\nLowLimit=1\n",
+       "bad.eds:4: [2000] LowLimit: expected no limit for VISIBLE_STRING, got '1'"},
+      {"[2000]\nDataType=0xA\nAccessType=ro\nDefaultValue=ABC\n",
+       "bad.eds:4: [2000] DefaultValue: expected hex bytes, e.g. 0A1B2C, got 'ABC'"},
       {"[FileInfo]\n", "bad.eds:1: (top level): expected at least one object section [xxxx]"},
       {std::string("[1000\x01]\n"), "bad.eds:1: [1000\\x01]: expected an object section [xxxx]"},
       {"[2000]\nDataType=0x8\nAccessType=ro\nDefaultValue=1e39\n",
@@ -366,7 +373,7 @@ std::vector<Upload> uploads(const config::Profile& p, std::uint8_t id) {
 
 // ---------------------------------------------------------------- what masters tolerate
 
-// Issue #26 (1): a flag in any CiA 306 number form, as every number.
+// A flag in any CiA 306 number form, as every number.
 TEST(EdsTolerant, FlagsInAnyNumberForm) {
   const config::Profile p = eds_profile(
       eds("[2000]\nDataType=0x7\nAccessType=rw\nPDOMapping=0x1\n[2001]\nDataType=0x7\nAccessType=rw\nPDOMapping=0x0\n"
@@ -386,18 +393,18 @@ TEST(EdsTolerant, FlagsInAnyNumberForm) {
               HasSubstr("bad.eds:4: [1000] PDOMapping: expected 0 or 1, got '0x2'"));
 }
 
-// Issue #26 (2): "ParameterValue=" (CANopenEditor's unset value) is not
+// "ParameterValue=" (CANopenEditor's unset value) is not
 // given: DefaultValue counts, $NODEID included; "2=" in [xxxxValue] too.
 TEST(EdsTolerant, EmptyKeysAreNotGiven) {
-  const config::Profile p = eds_profile(
-      eds("[1017]\nDataType=0x0006\nAccessType=rw\nDefaultValue=1000\nParameterValue=\n"
-          "[1008]\nDataType=0x0009\nAccessType=const\nDefaultValue=Gripper GX-2\nParameterValue=\n"
-          "[1014]\nDataType=0x0007\nAccessType=rw\nDefaultValue=$NODEID+0x80\nParameterValue=\n"
-          "[1015]\nDataType=0x0006\nAccessType=rw\nDefaultValue=\nParameterValue=\n"
-          "[1016]\nObjectType=0x8\nDataType=0x0007\nAccessType=rw\nCompactSubObj=2\nDefaultValue=0x10064\n"
-          "[1016Value]\nNrOfEntries=2\n2=\n0x1=0x50064\n"
-          "[DeviceComissioning]\nNodeID=\nBaudrate=\n"),
-      "editor.dcf");
+  const config::Profile p =
+      eds_profile(eds("[1017]\nDataType=0x0006\nAccessType=rw\nDefaultValue=1000\nParameterValue=\n"
+                      "[1008]\nDataType=0x0009\nAccessType=const\nDefaultValue=Gripper GX-2\nParameterValue=\n"
+                      "[1014]\nDataType=0x0007\nAccessType=rw\nDefaultValue=$NODEID+0x80\nParameterValue=\n"
+                      "[1015]\nDataType=0x0006\nAccessType=rw\nDefaultValue=\nParameterValue=\n"
+                      "[1016]\nObjectType=0x8\nDataType=0x0007\nAccessType=rw\nCompactSubObj=2\nDefaultValue=0x10064\n"
+                      "[1016Value]\nNrOfEntries=2\n2=\n0x1=0x50064\n"
+                      "[DeviceComissioning]\nNodeID=\nBaudrate=\n"),
+                  "editor.dcf");
   EXPECT_EQ(default_u(p, 0x1017, 0), 1000u);
   const auto& name = p.layout->find(0x1008, 0)->default_bytes;
   EXPECT_EQ(std::string(name.begin(), name.end()), "Gripper GX-2");
@@ -422,7 +429,7 @@ std::string sdo_server(const char* rx, const char* rx_pv, const char* tx, const 
   return buf;
 }
 
-// Issue #26 (3): CiA 301 fixes the default SDO server at 600h / 580h +
+// CiA 301 fixes the default SDO server at 600h / 580h +
 // node-ID. Line 14 is [1200sub1] DefaultValue, 15 its ParameterValue.
 TEST(EdsTolerant, DefaultSdoServerAtItsPredefinedCobIds) {
   struct Case {
@@ -461,14 +468,13 @@ TEST(EdsTolerant, DefaultSdoServerAtItsPredefinedCobIds) {
   }
 }
 
-// Issue #26 (4), (5): DOMAIN "0", NodeID=0 / Baudrate=0 (not set).
+// DOMAIN "0", NodeID=0 / Baudrate=0 (not set).
 TEST(EdsTolerant, DomainZeroAndUnsetCommissioning) {
-  const config::Profile p = eds_profile(
-      eds("[1F50]\nDataType=0x000F\nAccessType=rw\nDefaultValue=0\n"
-          "[2000]\nDataType=0x000F\nAccessType=rw\nDefaultValue=0x0\n"
-          "[DeviceComissioning]\nNodeID=0\nNodeName=\nBaudrate=0\nNetNumber=0\n",
-          "BaudRate_125=1\n"),
-      "editor.dcf");
+  const config::Profile p = eds_profile(eds("[1F50]\nDataType=0x000F\nAccessType=rw\nDefaultValue=0\n"
+                                            "[2000]\nDataType=0x000F\nAccessType=rw\nDefaultValue=0x0\n"
+                                            "[DeviceComissioning]\nNodeID=0\nNodeName=\nBaudrate=0\nNetNumber=0\n",
+                                            "BaudRate_125=1\n"),
+                                        "editor.dcf");
   EXPECT_TRUE(p.layout->find(0x1F50, 0)->default_bytes.empty());
   EXPECT_TRUE(p.layout->find(0x2000, 0)->default_bytes.empty());
   EXPECT_EQ(p.node_id, 1);
@@ -481,19 +487,19 @@ TEST(EdsTolerant, DomainZeroAndUnsetCommissioning) {
                   "got '0'; taken as not set (node-ID 1) (and 1 more like it in this file)"));
 }
 
-// Issue #26 (6): what every master tolerates.
+// What every master tolerates.
 TEST(EdsTolerant, InconsistenciesLoadWithOneWarningEach) {
   const std::string text =
-      "[MandatoryObjects]\nSupportedObjects=3\n1=0x1000\n2=0x1001\n"     // lines 2-5
-      "[OptionalObjects]\nSupportedObjects=2\n1=0x1017\n2=0x1800\n"      // 6-9
-      "[1000]\nDataType=0x7\nAccessType=ro\n"                             // 10-12
-      "[1001]\nDataType=0x5\nAccessType=ro\n"                             // 13-15
-      "[1018]\nObjectType=0x9\nSubNumber=5\n"                             // 16-18
-      "[1018sub0]\nDataType=0x5\nAccessType=ro\nDefaultValue=1\n"        // 19-22
-      "[1018sub1]\nDataType=0x7\nAccessType=ro\nDefaultValue=0x1234\n"   // 23-26
-      "[6130]\nObjectType=0x8\nSubNumber=2\n"                             // 27-29
-      "[6130sub0]\nDataType=0x5\nAccessType=ro\nDefaultValue=1\n"        // 30-33
-      "[2100]\nDataType=0x8\nAccessType=rw\nDefaultValue=0x3e6b851f\n"   // 34-37
+      "[MandatoryObjects]\nSupportedObjects=3\n1=0x1000\n2=0x1001\n"    // lines 2-5
+      "[OptionalObjects]\nSupportedObjects=2\n1=0x1017\n2=0x1800\n"     // 6-9
+      "[1000]\nDataType=0x7\nAccessType=ro\n"                           // 10-12
+      "[1001]\nDataType=0x5\nAccessType=ro\n"                           // 13-15
+      "[1018]\nObjectType=0x9\nSubNumber=5\n"                           // 16-18
+      "[1018sub0]\nDataType=0x5\nAccessType=ro\nDefaultValue=1\n"       // 19-22
+      "[1018sub1]\nDataType=0x7\nAccessType=ro\nDefaultValue=0x1234\n"  // 23-26
+      "[6130]\nObjectType=0x8\nSubNumber=2\n"                           // 27-29
+      "[6130sub0]\nDataType=0x5\nAccessType=ro\nDefaultValue=1\n"       // 30-33
+      "[2100]\nDataType=0x8\nAccessType=rw\nDefaultValue=0x3e6b851f\n"  // 34-37
       "[2101]\nDataType=0x11\nAccessType=rw\nDefaultValue=0x3FF8000000000000\n"
       "[2102]\nDataType=0x7\nAccessType=rw\nLowLimit=$NODEID+0x180\nHighLimit=0x1FF\n";  // 42-46
   const config::Profile p = eds_profile("[DeviceInfo]\n" + text, "vendor.eds");
@@ -527,7 +533,8 @@ TEST(EdsTolerant, StrictEdsRefusesWhatItWouldRepair) {
     std::string text;
     std::string message;
   } cases[] = {
-      {"[1000]\nDataType=0x7\nAccessType=ro\nLowLimit=$NODEID+1\n", "bad.eds:4: [1000] LowLimit: expected an integer, got '$NODEID+1'"},
+      {"[1000]\nDataType=0x7\nAccessType=ro\nLowLimit=$NODEID+1\n",
+       "bad.eds:4: [1000] LowLimit: expected an integer, got '$NODEID+1'"},
       {"[2000]\nDataType=0x8\nAccessType=ro\nDefaultValue=0x3F800000\n",
        "bad.eds:4: [2000] DefaultValue: expected a decimal floating-point number, got '0x3F800000'"},
       {"[1018]\nObjectType=0x9\nSubNumber=3\n[1018sub0]\nDataType=0x5\nAccessType=ro\n",
@@ -661,8 +668,8 @@ std::uint32_t uploaded_u32(SimBus& bus, const config::Profile& p, std::uint8_t i
   return v;
 }
 
-// The 181 wrong objects of issue #26 (2) in small: what an empty
-// ParameterValue hid, and the configured values that are there.
+// A CANopenEditor DCF in small (a real one had 181 objects wrong): what an
+// empty ParameterValue hid, and the configured values that are there.
 TEST(EdsForeign, EditorDcfAnswersItsValues) {
   const config::Profile p = config::load_eds_profile(foreign_file("editor-gripper.dcf"));
   EXPECT_EQ(p.node_id, 10);
@@ -731,6 +738,51 @@ TEST(EdsForeign, VendorEdsLoadsWithOneWarningPerKind) {
   EXPECT_THROW(config::load_eds_profile(foreign_file("vendor-transmitter.eds"), false, true), config::ConfigError);
 }
 
+// python-canopen's own sample (tests/data/eds/python-canopen-sample.eds, as
+// it ships it): object 0x2020 has a manufacturer complex data type (0x40),
+// which loads as an empty DOMAIN with one warning naming its line, as
+// python-canopen loads it; --strict-eds refuses it there.
+TEST(EdsForeign, PythonCanopensSampleLoadsItsComplexTypeAsDomain) {
+  const std::string path = foreign_file("python-canopen-sample.eds");
+  const config::Profile p = config::load_eds_profile(path);
+  std::vector<std::string> complex;
+  for (const std::string& w : p.warnings)
+    if (w.find("DataType") != std::string::npos) complex.push_back(w);
+  ASSERT_EQ(complex.size(), 1u) << ::testing::PrintToString(p.warnings);
+  EXPECT_EQ(complex[0], path +
+                            ":896: [2020] DataType: expected a CiA 301 basic data type 0x0001..0x001B (BOOLEAN, "
+                            "INTEGERn, UNSIGNEDn, REAL32/64, strings, DOMAIN), got '0x40'; read as an empty DOMAIN, "
+                            "its value and limits not read");
+  const OdEntry* e = p.layout->find(0x2020, 0);
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e->type, DataType::kDomain);
+  EXPECT_EQ(e->name, "Complex data type");
+  EXPECT_EQ(p.node_id, 0x10);
+  // The node runs and answers: the complex object as an empty DOMAIN, the others as written.
+  SimBus bus;
+  bus.add(p, p.node_id);
+  bus.power_on_all();
+  bus.run_for(ms(10));
+  EXPECT_EQ(upload(bus, p.node_id, *e).abort, 0u);
+  EXPECT_EQ(uploaded_u32(bus, p, p.node_id, 0x1800, 1), 0x190u);
+  EXPECT_EQ(uploaded_u32(bus, p, p.node_id, 0x3003, 0), 0u);  // an ARRAY listing no entries
+  // --strict-eds refuses the file (its first repair), and a complex type where it stands.
+  EXPECT_THROW(config::load_eds_profile(path, false, true), config::ConfigError);
+  const std::string complex_type =
+      eds("[2020]\nParameterName=Complex data type\nObjectType=0x7\nAccessType=RW\n"
+          "DataType=0x40\nDefaultValue=0x0\nLowLimit=0x3\nHighLimit=0x1\n");
+  EXPECT_EQ(eds_profile(complex_type).layout->find(0x2020, 0)->type, DataType::kDomain);
+  try {
+    eds_profile(complex_type, "t.eds", true);
+    FAIL() << "--strict-eds loaded a manufacturer complex type";
+  } catch (const config::ConfigError& err) {
+    EXPECT_THAT(err.what(), HasSubstr("t.eds:8: [2020] DataType: expected a CiA 301 basic data type"));
+  }
+  // Beyond the data type range (CiA 306 §4.6.3: 0x0001-0x025F): an error, strict or not.
+  EXPECT_THROW(eds_profile(eds("[2000]\nDataType=0x0260\nAccessType=rw\n")), config::ConfigError);
+  EXPECT_THROW(eds_profile(eds("[2000]\nDataType=0\nAccessType=rw\n")), config::ConfigError);
+}
+
 class EdsNodes : public ::testing::TestWithParam<const char*> {};
 
 // Options (vendor quirks) and the default bit rate are not in an EDS: the
@@ -796,7 +848,7 @@ TEST(EdsNodes, LssAsTheEdsSays) {
 TEST(EdsNodes, Cia404ObjectsOfAnEdsGetTheMeasurementChain) {
   config::Profile p = eds_profile(export_eds(load_repo_profile("generic-404")), "generic-404.eds");
   ASSERT_EQ(p.cia404->channels.size(), 2u);
-  EXPECT_EQ(p.cia404->channels[1].kind, model::QuantityKind::kTemperature);  // from 0x6131:02's default
+  EXPECT_EQ(p.cia404->channels[1].source, physics::Channel::Temperature);  // from 0x6131:02's default
   EXPECT_EQ(p.layout->find(0x6130, 1)->hooks, kHookRead);
   EXPECT_EQ(p.layout->find(0x6130, 2)->hooks, kHookRead);
   auto app = personalities::make_application(p, {7, 0, "vcan0/eds", {}});
@@ -853,7 +905,8 @@ TEST(EdsFleet, ErrorsInTheEdsNameTheEdsFile) {
     config::parse_fleet(fleet, (dir / "fleet.yaml").string(), config::ProfileSearch{});
     ADD_FAILURE() << "no error";
   } catch (const config::ConfigError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("broken.eds:3: [1000] AccessType: expected one of ro, wo, rw, rwr, rww, const, got 'rx'"));
+    EXPECT_THAT(e.what(),
+                HasSubstr("broken.eds:3: [1000] AccessType: expected one of ro, wo, rw, rwr, rww, const, got 'rx'"));
   }
   std::filesystem::remove_all(dir);
 }

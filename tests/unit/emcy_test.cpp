@@ -34,8 +34,8 @@ TEST_F(EmcyTest, ErrorRegisterBitsFromCodeClassesAndCaller) {
     std::uint16_t code;
     std::uint8_t bits;
     std::uint8_t reg;
-  } cases[] = {{0x1000, 0, 0x01}, {0x2310, 0, 0x03}, {0x3120, 0, 0x05}, {0x4210, 0, 0x09},
-               {0x5000, 0, 0x01}, {0x6100, 0, 0x01}, {0x8110, 0, 0x11}, {0x8210, 0, 0x11},
+  } cases[] = {{0x1000, 0, 0x01}, {0x2310, 0, 0x03},    {0x3120, 0, 0x05}, {0x4210, 0, 0x09},
+               {0x5000, 0, 0x01}, {0x6100, 0, 0x01},    {0x8110, 0, 0x11}, {0x8210, 0, 0x11},
                {0xFF01, 0, 0x81}, {0x6300, 0x20, 0x21}, {0xF011, 0, 0x01}};
   for (const Case& c : cases) {
     n->emcy().raise(c.code, c.bits, now());
@@ -54,8 +54,8 @@ TEST_F(EmcyTest, VendorRegisterModes) {
   SimNode& n = start("{emcy_register_generic_bit: false, emcy_register_class_bits: false}");
   n->emcy().raise(0x8120, 0x88, now());
   n->emcy().raise(0x8130, 0, now());
-  EXPECT_EQ(take(), S({{0, F(0x85, {0x20, 0x81, 0x88, 0, 0, 0, 0, 0})},
-                       {0, F(0x85, {0x30, 0x81, 0x88, 0, 0, 0, 0, 0})}}));
+  EXPECT_EQ(take(),
+            S({{0, F(0x85, {0x20, 0x81, 0x88, 0, 0, 0, 0, 0})}, {0, F(0x85, {0x30, 0x81, 0x88, 0, 0, 0, 0, 0})}}));
 }
 
 TEST_F(EmcyTest, ErrorResetWhenTheLastErrorClears) {
@@ -184,9 +184,9 @@ TEST_F(EmcyTest, RaisedBeforeBootUpGoesOutAfterIt) {
 
 TEST_F(EmcyTest, CobIdRules) {
   SimNode& n = start();
-  EXPECT_EQ(wr32(n, 0x1014, 0, 0x86), SdoAbort::kInvalidValue);  // valid: CAN-ID fixed
+  EXPECT_EQ(wr32(n, 0x1014, 0, 0x86), SdoAbort::kInvalidValue);        // valid: CAN-ID fixed
   EXPECT_EQ(wr32(n, 0x1014, 0, 0x40000085), SdoAbort::kInvalidValue);  // bit 30 reserved
-  ASSERT_EQ(wr32(n, 0x1014, 0, 0x80000085), SdoAbort::kNone);  // invalid: no EMCY
+  ASSERT_EQ(wr32(n, 0x1014, 0, 0x80000085), SdoAbort::kNone);          // invalid: no EMCY
   n->emcy().raise(0x1000, 0, now());
   EXPECT_EQ(take(), "");
   EXPECT_EQ(rd(n, 0x1003, 1), 0x1000u);

@@ -17,8 +17,9 @@ struct CountingHandler : FdHandler {
 class DeferredTest : public ::testing::Test {
  protected:
   void SetUp() override {
+    ASSERT_TRUE(loop.open()) << loop.error();
     ASSERT_EQ(::pipe(fds), 0);
-    loop.add_deferred(fds[0], EPOLLIN, &handler);
+    ASSERT_TRUE(loop.add_deferred(fds[0], EPOLLIN, &handler)) << loop.error();
   }
   void TearDown() override {
     loop.remove_deferred(fds[0]);
@@ -79,6 +80,34 @@ TEST_F(DeferredTest, NothingReadyCostsNoDispatch) {
   EXPECT_EQ(wait(0), 0);
   EXPECT_EQ(loop.poll_deferred(), 0);
   EXPECT_EQ(handler.calls, 0);
+}
+
+// io's failures are return values with the reason (io/failure.hpp), never exceptions.
+TEST(EventLoopFailures, AreReturnedWithTheirReason) {
+  EventLoop loop;
+  CountingHandler handler;
+  EXPECT_FALSE(loop.add(0, EPOLLIN, &handler));  // not open yet: no epoll set
+  EXPECT_EQ(loop.error(), "epoll_ctl(ADD): Bad file descriptor");
+  ASSERT_TRUE(loop.open()) << loop.error();
+  EXPECT_FALSE(loop.add(-1, EPOLLIN, &handler));
+  EXPECT_EQ(loop.error(), "epoll_ctl(ADD): Bad file descriptor");
+  EXPECT_FALSE(loop.modify_deferred(12345, EPOLLIN, &handler));
+  EXPECT_EQ(loop.error(), "epoll_ctl(MOD): Bad file descriptor");
+  EXPECT_TRUE(loop.arm_timer(kNever));
+}
+
+// The longest pass of the last 10 s: a long pass counts until its second is
+// 10 s old, then only what came after.
+TEST(PassMeter, TheLongestPassOfTheLastTenSeconds) {
+  PassMeter m;
+  EXPECT_EQ(m.longest(0), 0);
+  m.pass(1'400'000, 400'000);  // 400 ms in second 1
+  m.pass(2'003'000, 3'000);
+  EXPECT_EQ(m.longest(2'500'000), 400'000);
+  EXPECT_EQ(m.longest(10'900'000), 400'000);
+  EXPECT_EQ(m.longest(11'000'000), 3'000);  // second 1 is out of the window
+  m.pass(21'000'500, 500);                  // the same bin as second 1 and 11, reused
+  EXPECT_EQ(m.longest(21'000'600), 500);
 }
 
 }  // namespace

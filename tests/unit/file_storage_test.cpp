@@ -146,21 +146,81 @@ TEST_F(FileStorageTest, AFifoIsNotWaitedFor) {
   EXPECT_EQ(s.error(), s.path() + ": not a regular file (ignored: the node starts with its defaults)");
 }
 
-TEST_F(FileStorageTest, ASymbolicLinkOnlyIntoTheStateFolder) {
+// A link is never followed, not even into the state folder: reading it
+// could run until out of memory (/dev/zero), storing through it would write
+// wherever it points.
+TEST_F(FileStorageTest, ASymbolicLinkIsNeverFollowed) {
   FileStorage s(dir, "k");
-  fs::create_symlink("/dev/zero", s.path());  // read until out of memory, before
+  fs::create_symlink("/dev/zero", s.path());
   Bytes got;
   ::alarm(10);
   EXPECT_FALSE(s.load(got));
   ::alarm(0);
-  EXPECT_NE(s.error().find("a symbolic link out of the state folder"), std::string::npos) << s.error();
+  EXPECT_NE(s.error().find("a symbolic link (state files are never followed)"), std::string::npos) << s.error();
   fs::remove(s.path());
   FileStorage other(dir, "other");
   ASSERT_TRUE(other.save(Bytes{7, 8}));
   fs::create_symlink(other.path(), s.path());
   FileStorage linked(dir, "k");
-  ASSERT_TRUE(linked.load(got));
+  EXPECT_FALSE(linked.load(got));
+  // A store replaces the link itself; the file it pointed at keeps its bytes.
+  ASSERT_TRUE(linked.save(Bytes{1}));
+  EXPECT_FALSE(fs::is_symlink(s.path()));
+  FileStorage again(dir, "other");
+  ASSERT_TRUE(again.load(got));
   EXPECT_EQ(got, (Bytes{7, 8}));
+}
+
+// What an outsider with write access to the state folder may put at the
+// temp file's name between two stores: a FIFO held the loop (until a reader
+// came), a link made the store write through it and left `.params` a link out
+// of the folder. Both are replaced by a new regular file.
+TEST_F(FileStorageTest, AFifoOrALinkAtTheTempFileNeitherBlocksNorRedirects) {
+  FileStorage s(dir, "k");
+  ASSERT_TRUE(s.save(Bytes{1}));
+  const std::string tmp = s.path() + ".tmp";
+  ASSERT_EQ(::mkfifo(tmp.c_str(), 0600), 0);
+  ::alarm(10);
+  ASSERT_TRUE(s.save(Bytes{2}));
+  ::alarm(0);
+  const std::string outside = dir + "/outside";
+  std::ofstream(outside) << "keep";
+  fs::create_symlink(outside, tmp);
+  ASSERT_TRUE(s.save(Bytes{3}));
+  EXPECT_FALSE(fs::is_symlink(s.path()));
+  EXPECT_FALSE(fs::exists(tmp));
+  std::ifstream in(outside);
+  std::string text;
+  in >> text;
+  EXPECT_EQ(text, "keep");
+  FileStorage fresh(dir, "k");
+  Bytes got;
+  ASSERT_TRUE(fresh.load(got));
+  EXPECT_EQ(got, (Bytes{3}));
+}
+
+// A state file with a second name (a hard link made elsewhere) is not read:
+// recordings refuse such files too, so neither can write into the other.
+TEST_F(FileStorageTest, AHardLinkedStateFileIsRefused) {
+  FileStorage s(dir, "k");
+  ASSERT_TRUE(s.save(Bytes{4}));
+  fs::create_hard_link(s.path(), dir + "/second-name");
+  FileStorage fresh(dir, "k");
+  Bytes got;
+  EXPECT_FALSE(fresh.load(got));
+  EXPECT_NE(fresh.error().find("a file with another name (a hard link)"), std::string::npos) << fresh.error();
+}
+
+// Stored parameters someone else owns are not the daemon's.
+TEST_F(FileStorageTest, AFileOfAnotherUserIsRefused) {
+  if (::geteuid() != 0) GTEST_SKIP() << "needs root to give a file away";
+  FileStorage s(dir, "k");
+  ASSERT_TRUE(s.save(Bytes{5}));
+  ASSERT_EQ(::chown(s.path().c_str(), 65534, 65534), 0);
+  FileStorage fresh(dir, "k");
+  Bytes got;
+  EXPECT_FALSE(fresh.load(got));
+  EXPECT_NE(fresh.error().find("not owned by cansimd's user"), std::string::npos) << fresh.error();
 }
 
 TEST_F(FileStorageTest, AFileLargerThanTheBoundIsNotRead) {

@@ -10,7 +10,7 @@
 #include "config/fleet.hpp"
 #include "config/profile.hpp"
 #include "daemon/daemon.hpp"
-#include "personalities/measurement_control.hpp"
+#include "personalities/sensor_application.hpp"
 
 namespace cansim::config {
 namespace {
@@ -74,8 +74,9 @@ TEST_F(FleetTest, CountReplicatesOverConsecutiveNodeIdsWithDistinctSerialsAndKey
 // Without `interfaces:`, the fleet's buses are the ones its entries name, at
 // the default rate; with it, an undeclared name is an error (see below).
 TEST_F(FleetTest, InterfacesDefaultToTheOnesTheNodesName) {
-  FleetConfig f = parse("nodes: [{profile: generic-404, interface: vcan3, node_id: 0x10, count: 20, name: pt},\n"
-                        "        {profile: generic-404, interface: can1, name: b}]\n");
+  FleetConfig f = parse(
+      "nodes: [{profile: generic-404, interface: vcan3, node_id: 0x10, count: 20, name: pt},\n"
+      "        {profile: generic-404, interface: can1, name: b}]\n");
   ASSERT_EQ(f.interfaces.size(), 2u);
   EXPECT_EQ(f.interfaces[0].name, "vcan3");
   EXPECT_EQ(f.interfaces[1].name, "can1");
@@ -93,8 +94,12 @@ TEST_F(FleetTest, PhysicsOverridesMakeAPrivateProfile) {
   const std::string smc = std::string(CANSIM_SOURCE_DIR) + "/profiles/smc.yaml";
   FleetConfig f = parse(std::string(kIfaces) +
                         "nodes:\n"
-                        "  - {profile: " + smc + ", interface: vcan0, node_id: 1}\n"
-                        "  - profile: " + smc + "\n"
+                        "  - {profile: " +
+                        smc +
+                        ", interface: vcan0, node_id: 1}\n"
+                        "  - profile: " +
+                        smc +
+                        "\n"
                         "    interface: vcan0\n"
                         "    node_id: 2\n"
                         "    physics: {pressure: 4 bar}\n"
@@ -124,15 +129,16 @@ TEST_F(FleetTest, PhysicsOverrideErrorsNameTheFleetFile) {
   }
 }
 
-// Issue #26: an entry's override is reported where the entry writes it
+// An entry's override is reported where the entry writes it
 // (fleet file, line, column, nodes[i].<section>...), never as the profile's.
 TEST(FleetOverrides, AMisspeltVendorKeyNamesTheFleetFile) {
   ProfileSearch search;
   search.dirs.push_back(std::string(CANSIM_SOURCE_DIR) + "/profiles");
   try {
-    parse_fleet("interfaces:\n  vcan0: {bit_rate: 250}\nnodes:\n"
-                "  - {profile: p92c, interface: vcan0, node_id: 5, vendor: {serial_nmber_base: 9}}\n",
-                "that.yaml", search);
+    parse_fleet(
+        "interfaces:\n  vcan0: {bit_rate: 250}\nnodes:\n"
+        "  - {profile: p92c, interface: vcan0, node_id: 5, vendor: {serial_nmber_base: 9}}\n",
+        "that.yaml", search);
     ADD_FAILURE() << "no error";
   } catch (const ConfigError& e) {
     EXPECT_THAT(e.what(), ::testing::StartsWith("that.yaml:4:60: nodes[0].vendor.serial_nmber_base: unknown key "
@@ -158,9 +164,9 @@ TEST_F(FleetTest, EveryOverrideSectionNamesTheFleetFileLineAndColumn) {
       {"faults: [{kind: drift, at: soon}]}", "D/fleet.yaml:5:73: nodes[0].faults[0].at: expected a time"},
   };
   for (const Case& c : cases)
-    EXPECT_THAT(error_of(std::string(kIfaces) + "nodes:\n  - {profile: generic-404, interface: vcan0, " + c.entry +
-                         "\n"),
-                ::testing::StartsWith(c.error))
+    EXPECT_THAT(
+        error_of(std::string(kIfaces) + "nodes:\n  - {profile: generic-404, interface: vcan0, " + c.entry + "\n"),
+        ::testing::StartsWith(c.error))
         << c.entry;
 }
 
@@ -197,12 +203,64 @@ TEST_F(FleetTest, ProfilesAreFoundByNameOrPath) {
 }
 
 TEST_F(FleetTest, BusModelPerInterface) {
-  FleetConfig f = parse("interfaces:\n  vcan0: {bus_model: ideal}\n  vcan1: {bit_rate: 125, bus_model: timed}\n"
-                        "  vcan2:\nnodes: []\n");
+  FleetConfig f = parse(
+      "interfaces:\n  vcan0: {bus_model: ideal}\n  vcan1: {bit_rate: 125, bus_model: timed}\n"
+      "  vcan2:\nnodes: []\n");
   ASSERT_EQ(f.interfaces.size(), 3u);
   EXPECT_EQ(f.interfaces[0].bus_model, BusModelChoice::kIdeal);
   EXPECT_EQ(f.interfaces[1].bus_model, BusModelChoice::kTimed);
   EXPECT_EQ(f.interfaces[2].bus_model, BusModelChoice::kAuto);  // timed on vcan, the controller's on can
+}
+
+TEST_F(FleetTest, SocketcandBusesListenOnLoopbackUnlessAllowedElsewhere) {
+  FleetConfig f = parse(
+      "interfaces:\n  bench: {transport: socketcand, listen: \"127.0.0.1:0\"}\n"
+      "  six: {transport: socketcand, listen: \"[::1]:4000\", bus_model: ideal}\n"
+      "  wide: {transport: socketcand, listen: \"0.0.0.0:29537\", allow_remote: true}\n"
+      "  plain: {transport: socketcand}\n  vcan0: {transport: socketcan}\nnodes: []\n");
+  ASSERT_EQ(f.interfaces.size(), 5u);
+  EXPECT_TRUE(f.interfaces[0].socketcand());
+  EXPECT_EQ(f.interfaces[0].listen_host, "127.0.0.1");
+  EXPECT_EQ(f.interfaces[0].listen_port, 0);
+  EXPECT_EQ(f.interfaces[1].listen_host, "::1");
+  EXPECT_EQ(f.interfaces[1].listen_port, 4000);
+  EXPECT_EQ(f.interfaces[1].bus_model, BusModelChoice::kIdeal);
+  EXPECT_TRUE(f.interfaces[2].allow_remote);
+  EXPECT_EQ(f.interfaces[3].listen_host, "127.0.0.1");
+  EXPECT_EQ(f.interfaces[3].listen_port, kSocketcandDefaultPort);
+  EXPECT_FALSE(f.interfaces[4].socketcand());
+  const std::pair<const char*, const char*> bad[] = {
+      {"  b: {transport: socketcand, listen: \"10.0.0.1:1\"}",
+       "D/fleet.yaml:2:38: interfaces.b.listen: expected a loopback address (127.0.0.1, ::1): the socketcand protocol "
+       "has no authentication, anyone who reaches 10.0.0.1 could send frames on this bus; add allow_remote: true to "
+       "listen there, got '10.0.0.1:1'"},
+      {"  b: {transport: socketcand, listen: localhost:1}",
+       "D/fleet.yaml:2:38: interfaces.b.listen: expected HOST:PORT with a numeric address, e.g. 127.0.0.1:29536 or "
+       "[::1]:0 (port 0: a free one), got 'localhost:1'"},
+      {"  b: {transport: socketcand, listen: \"127.0.0.1:70000\"}",
+       "D/fleet.yaml:2:38: interfaces.b.listen: expected HOST:PORT with a numeric address, e.g. 127.0.0.1:29536 or "
+       "[::1]:0 (port 0: a free one), got '127.0.0.1:70000'"},
+      {"  vcan0: {listen: \"127.0.0.1:1\"}",
+       "D/fleet.yaml:2:19: interfaces.vcan0.listen: expected only with transport: socketcand, got '127.0.0.1:1'"},
+      {"  b: {transport: tcp}",
+       "D/fleet.yaml:2:18: interfaces.b.transport: expected socketcan (a kernel interface) or socketcand, got 'tcp'"},
+  };
+  for (auto [iface, error] : bad) EXPECT_EQ(error_of(std::string("interfaces:\n") + iface + "\nnodes: []\n"), error);
+  std::string host;
+  std::uint16_t port = 0;
+  EXPECT_TRUE(parse_listen_address("127.0.0.2", host, port));
+  EXPECT_EQ(port, kSocketcandDefaultPort);
+  EXPECT_TRUE(parse_listen_address("[::1]", host, port));
+  EXPECT_EQ(host, "::1");
+  EXPECT_TRUE(parse_listen_address("::1:5", host, port));  // an IPv6 address: a port needs brackets
+  EXPECT_EQ(host, "::1:5");
+  EXPECT_EQ(port, kSocketcandDefaultPort);
+  EXPECT_FALSE(parse_listen_address("[::1]5", host, port));
+  EXPECT_FALSE(parse_listen_address("127.0.0.1:", host, port));
+  EXPECT_TRUE(is_loopback_address("127.1.2.3"));
+  EXPECT_TRUE(is_loopback_address("::ffff:127.0.0.1"));
+  EXPECT_FALSE(is_loopback_address("::"));
+  EXPECT_FALSE(is_loopback_address("localhost"));
 }
 
 TEST_F(FleetTest, ErrorsNameFileLineKeyAndExpectation) {
@@ -212,10 +270,12 @@ TEST_F(FleetTest, ErrorsNameFileLineKeyAndExpectation) {
   };
   const std::string n = "nodes:\n  - {profile: generic-404, interface: vcan0";
   std::vector<Case> cases = {
-      {"bogus: 1\n", "D/fleet.yaml:1:1: bogus: unknown key (expected one of: seed, interfaces, nodes), got 'bogus'"},
+      {"bogus: 1\n",
+       "D/fleet.yaml:1:1: bogus: unknown key (expected one of: seed, interfaces, nodes, plants), got 'bogus'"},
       {std::string(kIfaces), "D/fleet.yaml:1:1: nodes: missing required key 'nodes'"},
       {"interfaces:\n  vcan0: {bitrate: 250}\nnodes: []\n",
-       "D/fleet.yaml:2:11: interfaces.vcan0.bitrate: unknown key (expected one of: bit_rate, bus_model), got 'bitrate'"},
+       "D/fleet.yaml:2:11: interfaces.vcan0.bitrate: unknown key (expected one of: bit_rate, bus_model, transport, "
+       "listen, allow_remote), got 'bitrate'"},
       {"interfaces:\n  vcan0: {bit_rate: 125, bus_model: fast}\nnodes: []\n",
        "D/fleet.yaml:2:37: interfaces.vcan0.bus_model: expected timed or ideal, got 'fast'"},
       {"interfaces:\n  vcan0: {bit_rate: 300}\nnodes: []\n",
@@ -224,7 +284,8 @@ TEST_F(FleetTest, ErrorsNameFileLineKeyAndExpectation) {
       {std::string(kIfaces) + "nodes:\n  - {interface: vcan0}\n",
        "D/fleet.yaml:5:5: nodes[0].profile: missing required key 'profile'"},
       {std::string(kIfaces) + "nodes:\n  - {profile: nope, interface: vcan0}\n",
-       "D/fleet.yaml:5:15: nodes[0].profile: expected a profile file or a profile name found in: D/profiles, /tmp/profiles, "
+       "D/fleet.yaml:5:15: nodes[0].profile: expected a profile file or a profile name found in: D/profiles, "
+       "/tmp/profiles, "
        "profiles, got 'nope'"},
       {std::string(kIfaces) + "nodes:\n  - {profile: generic-404, interface: vcan7}\n",
        "D/fleet.yaml:5:39: nodes[0].interface: expected an interface declared under 'interfaces:' (vcan0, vcan1), "
@@ -240,11 +301,14 @@ TEST_F(FleetTest, ErrorsNameFileLineKeyAndExpectation) {
       {std::string(kIfaces) + n + ", name: 'a b'}\n",
        "D/fleet.yaml:5:52: nodes[0].name: expected a name of letters, digits, '-', '_' or '.', got 'a b'"},
       {std::string(kIfaces) + n + ", options: {no_such: 1}}\n",
-       "D/fleet.yaml:5:56: nodes[0].options.no_such: unknown option (see README, 'Profile options'), got 'no_such'"},
-      {std::string(kIfaces) + n + ", node_id: 5}\n" + "  - {profile: generic-404, interface: vcan0, node_id: 3, count: 3}\n",
+       "D/fleet.yaml:5:56: nodes[0].options.no_such: unknown option (see docs/profiles.md, 'Profile options'), got "
+       "'no_such'"},
+      {std::string(kIfaces) + n + ", node_id: 5}\n" +
+           "  - {profile: generic-404, interface: vcan0, node_id: 3, count: 3}\n",
        "D/fleet.yaml:6:5: nodes[1].node_id: node-ID 5 (0x05) is already used on vcan0 by nodes[0]; expected a free "
        "node-ID"},
-      {std::string(kIfaces) + n + ", name: a}\n" + "  - {profile: generic-404, interface: vcan0, node_id: 9, name: a}\n",
+      {std::string(kIfaces) + n + ", name: a}\n" +
+           "  - {profile: generic-404, interface: vcan0, node_id: 9, name: a}\n",
        "D/fleet.yaml:6:5: nodes[1].name: expected a name unique on interface vcan0 ('a' is used twice)"},
       {"interfaces: [\n", "D/fleet.yaml:2:1: YAML syntax error: end of sequence flow not found"},
   };
@@ -271,8 +335,8 @@ TEST_F(FleetTest, SingleNodeFleetUsesTheProfileBitRateAndNodeId) {
 }
 
 TEST_F(FleetTest, CheckBuildsEveryNodeAndTheDemoConfigIsValid) {
-  FleetConfig f = parse(std::string(kIfaces) +
-                        "nodes:\n  - {profile: generic-404, interface: vcan0, count: 2, name: g}\n");
+  FleetConfig f =
+      parse(std::string(kIfaces) + "nodes:\n  - {profile: generic-404, interface: vcan0, count: 2, name: g}\n");
   EXPECT_EQ(daemon::check_fleet(f), dir + "/fleet.yaml: ok, 2 node(s) on 2 interface(s)");
   std::string demo = std::string(CANSIM_SOURCE_DIR) + "/config/cansimd.yaml";
   FleetConfig d = load_fleet(demo, daemon::profile_search(demo));
@@ -281,17 +345,19 @@ TEST_F(FleetTest, CheckBuildsEveryNodeAndTheDemoConfigIsValid) {
 }
 
 TEST_F(FleetTest, CheckWarnsOncePerEntryAboutNodesAtAnotherBitRateThanTheirBus) {
-  FleetConfig f = parse("interfaces:\n  vcan0: {bit_rate: 1000}\n  vcan1: {bit_rate: 250}\nnodes:\n"
-                        "  - {profile: generic-404, interface: vcan0, node_id: 0x10, count: 3, name: gen}\n"
-                        "  - {profile: generic-404, interface: vcan0, node_id: 0x20, bit_rate: 1000, name: fine}\n"
-                        "  - {profile: generic-404, interface: vcan1, node_id: 0x30, bit_rate: 125, name: slow}\n"
-                        "  - {profile: generic-404, interface: vcan1, node_id: 255, count: 2, bit_rate: 500, name: lss}\n");
+  FleetConfig f = parse(
+      "interfaces:\n  vcan0: {bit_rate: 1000}\n  vcan1: {bit_rate: 250}\nnodes:\n"
+      "  - {profile: generic-404, interface: vcan0, node_id: 0x10, count: 3, name: gen}\n"
+      "  - {profile: generic-404, interface: vcan0, node_id: 0x20, bit_rate: 1000, name: fine}\n"
+      "  - {profile: generic-404, interface: vcan1, node_id: 0x30, bit_rate: 125, name: slow}\n"
+      "  - {profile: generic-404, interface: vcan1, node_id: 255, count: 2, bit_rate: 500, name: lss}\n");
   std::vector<std::string> warnings;
   EXPECT_EQ(daemon::check_fleet(f, &warnings), dir + "/fleet.yaml: ok, 7 node(s) on 2 interface(s)");
   ASSERT_EQ(warnings.size(), 3u);
-  EXPECT_EQ(warnings[0],
-            "vcan0/gen: 3 nodes (node-IDs 0x10..0x12) run at 250 kbit/s but vcan0 at 1000 kbit/s: they stay silent "
-            "until the rates match. Fix: set `bit_rate: 1000` on the node entry (or `bit_rate: 250` on interface vcan0)");
+  EXPECT_EQ(
+      warnings[0],
+      "vcan0/gen: 3 nodes (node-IDs 0x10..0x12) run at 250 kbit/s but vcan0 at 1000 kbit/s: they stay silent "
+      "until the rates match. Fix: set `bit_rate: 1000` on the node entry (or `bit_rate: 250` on interface vcan0)");
   EXPECT_EQ(warnings[1],
             "vcan1/slow: 1 node (node-ID 0x30) runs at 125 kbit/s but vcan1 at 250 kbit/s: it stays silent until the "
             "rates match. Fix: set `bit_rate: 250` on the node entry (or `bit_rate: 125` on interface vcan1)");
@@ -317,21 +383,27 @@ TEST_F(FleetTest, TheDaemonLogsAMismatchOncePerEntryWithTheCountAndTheFix) {
     settings.control_socket = "none";
     daemon::Daemon d(settings);
     // A bus that does not exist: the nodes run off the bus, the warning is the same.
-    d.add_nodes("interfaces: {cansimfz0: {bit_rate: 1000}}\nnodes:\n"
-                "  - {profile: " + dir + "/profiles/generic-404.yaml, interface: cansimfz0, node_id: 1, count: 100, name: g}\n"
-                "  - {profile: " + dir + "/profiles/generic-404.yaml, interface: cansimfz0, node_id: 101, bit_rate: 1000}\n");
+    d.add_nodes(
+        "interfaces: {cansimfz0: {bit_rate: 1000}}\nnodes:\n"
+        "  - {profile: " +
+        dir +
+        "/profiles/generic-404.yaml, interface: cansimfz0, node_id: 1, count: 100, name: g}\n"
+        "  - {profile: " +
+        dir + "/profiles/generic-404.yaml, interface: cansimfz0, node_id: 101, bit_rate: 1000}\n");
     EXPECT_EQ(d.nodes().size(), 101u);
   }
   spdlog::set_default_logger(previous);
   const std::string text = log.str();
   std::size_t warnings = 0;
-  for (auto at = text.find("kbit/s but cansimfz0 at"); at != std::string::npos; at = text.find("kbit/s but cansimfz0 at", at + 1))
+  for (auto at = text.find("kbit/s but cansimfz0 at"); at != std::string::npos;
+       at = text.find("kbit/s but cansimfz0 at", at + 1))
     ++warnings;
   EXPECT_EQ(warnings, 1u) << text;
-  EXPECT_NE(text.find("cansimfz0/g: 100 nodes (node-IDs 0x01..0x64) run at 250 kbit/s but cansimfz0 at 1000 kbit/s: they "
-                      "stay silent until the rates match. Fix: set `bit_rate: 1000` on the node entry (or `bit_rate: 250` "
-                      "on interface cansimfz0)"),
-            std::string::npos)
+  EXPECT_NE(
+      text.find("cansimfz0/g: 100 nodes (node-IDs 0x01..0x64) run at 250 kbit/s but cansimfz0 at 1000 kbit/s: they "
+                "stay silent until the rates match. Fix: set `bit_rate: 1000` on the node entry (or `bit_rate: 250` "
+                "on interface cansimfz0)"),
+      std::string::npos)
       << text;
 }
 
@@ -347,7 +419,7 @@ TEST_F(FleetTest, RecordFilesPerNode) {
   EXPECT_EQ(f.nodes[2].record_file, "r/b-9.csv");
   EXPECT_EQ(f.nodes[3].record_file, "");
   // --record DIR fills in the nodes without their own file; the fingerprint follows.
-  const std::string before = f.nodes[3].fingerprint;
+  const Digest before = f.nodes[3].fingerprint;
   apply_record_option(f, "out", false);
   EXPECT_EQ(f.nodes[0].record_file, "r/a-5.csv");
   EXPECT_EQ(f.nodes[3].record_file, "out/vcan1-generic-404-16-0.csv");
@@ -361,16 +433,16 @@ TEST_F(FleetTest, RecordFilesPerNode) {
 
 TEST_F(FleetTest, ANodeRecordsItsReadingsAndCheckDoesNotTouchTheFile) {
   const std::string file = dir + "/rec/g.csv";
-  FleetConfig f = parse(std::string(kIfaces) +
-                        "nodes:\n  - {profile: generic-404, interface: vcan0, record: '" + file + "'}\n");
+  FleetConfig f =
+      parse(std::string(kIfaces) + "nodes:\n  - {profile: generic-404, interface: vcan0, record: '" + file + "'}\n");
   daemon::check_fleet(f);
   EXPECT_FALSE(fs::exists(file));
   {
     auto app = daemon::make_node_application(f.nodes[0], 1);
-    personalities::MeasurementControl* cia = personalities::measurement_control(app.get());
-    ASSERT_NE(cia, nullptr);
-    for (int i = 0; i < 3; ++i) cia->chain().source().sample(physics::Channel::Pressure, ms(10) * i);
-    cia->chain().source().sample(physics::Channel::Temperature, ms(20));  // same instant: no new row
+    auto* sensor = dynamic_cast<personalities::SensorApplication*>(app.get());
+    ASSERT_NE(sensor, nullptr);
+    for (int i = 0; i < 3; ++i) sensor->chain().source().sample(physics::Channel::Pressure, ms(10) * i);
+    sensor->chain().source().sample(physics::Channel::Temperature, ms(20));  // same instant: no new row
   }
   std::ifstream in(file);
   std::string line;

@@ -212,15 +212,15 @@ TEST_F(Accept, Units) {
   source->bar = 1.5;
   ASSERT_TRUE(write32(0x6131, 1, 0x02220000));  // hPa
   EXPECT_NEAR(real(0x6130, 1), 1500.0f, 0.01f);
-  EXPECT_EQ(u(0x6132, 1), 0u);                   // 3 digits in bar = 0 in hPa
+  EXPECT_EQ(u(0x6132, 1), 0u);                    // 3 digits in bar = 0 in hPa
   EXPECT_NEAR(real(0x6149, 1), 10000.0f, 0.01f);  // span end converted
   ASSERT_TRUE(write32(0x2032, 0, 0x3D8D3466));
-  ASSERT_TRUE(write32(0x6131, 1, 0x00A00000));   // psi as user unit
+  ASSERT_TRUE(write32(0x6131, 1, 0x00A00000));  // psi as user unit
   EXPECT_NEAR(real(0x6130, 1), 21.7557f, 0.001f);
   EXPECT_EQ(u(0x6132, 1), 2u);
   EXPECT_EQ(i16(0x7130, 1), 2176);
   EXPECT_NEAR(real(0x6149, 1), 145.038f, 0.01f);
-  ASSERT_TRUE(write32(0x6131, 2, 0x00A00000));   // degF
+  ASSERT_TRUE(write32(0x6131, 2, 0x00A00000));  // degF
   EXPECT_NEAR(real(0x6130, 2), 72.5f, 0.001f);
   EXPECT_NEAR(real(0x6148, 2), -40.0f, 0.001f);
   EXPECT_NEAR(real(0x6149, 2), 185.0f, 0.001f);
@@ -321,7 +321,8 @@ TEST_F(Accept, LssAndEmcy) {
   master(0x7E5, {0x04, 0x00, 0, 0, 0, 0, 0, 0});
   nmt(0x82, 0x00);
   EXPECT_EQ(frames_for(ms(1)), one(0x70A, {0x00}));
-  EXPECT_EQ(sdo({0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0}, 0x0A), one(0x58A, {0x42, 0x00, 0x10, 0x00, 0x94, 0x01, 0x02, 0x00}));
+  EXPECT_EQ(sdo({0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0}, 0x0A),
+            one(0x58A, {0x42, 0x00, 0x10, 0x00, 0x94, 0x01, 0x02, 0x00}));
   // EMCY: sensor failure in operational, then cleared.
   nmt(0x01, 0x0A);
   bus.run_for(ms(20));
@@ -333,7 +334,8 @@ TEST_F(Accept, LssAndEmcy) {
   EXPECT_EQ(u(0x1003, 1), 0x2201u);
   source->status = 0;
   EXPECT_EQ(frames_for(ms(20)), one(0x8A, {0x00, 0x00, 0x00, 0, 0, 0, 0, 0}));
-  EXPECT_EQ(sdo({0x22, 0x03, 0x10, 0x00, 0x01, 0, 0, 0}, 0x0A), one(0x58A, {0x80, 0x03, 0x10, 0x00, 0x30, 0x00, 0x09, 0x06}));
+  EXPECT_EQ(sdo({0x22, 0x03, 0x10, 0x00, 0x01, 0, 0, 0}, 0x0A),
+            one(0x58A, {0x80, 0x03, 0x10, 0x00, 0x30, 0x00, 0x09, 0x06}));
   EXPECT_EQ(sdo({0x22, 0x03, 0x10, 0x00, 0x00, 0, 0, 0}, 0x0A), one(0x58A, {0x60, 0x03, 0x10, 0x00, 0, 0, 0, 0}));
   EXPECT_EQ(u(0x1003, 0), 0u);
 }

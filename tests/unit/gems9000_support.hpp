@@ -84,7 +84,9 @@ class GemsFixture : public DeviceFixture<personalities::gems9000::GemsApplicatio
   static std::vector<CanFrame> aborted(std::uint16_t index, std::uint8_t sub, std::uint32_t code) {
     return sdo_aborted(kId, index, sub, code);
   }
-  static std::vector<CanFrame> confirmed(std::uint16_t index, std::uint8_t sub) { return sdo_confirmed(kId, index, sub); }
+  static std::vector<CanFrame> confirmed(std::uint16_t index, std::uint8_t sub) {
+    return sdo_confirmed(kId, index, sub);
+  }
 };
 
 }  // namespace cansim::test

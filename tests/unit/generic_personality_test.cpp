@@ -5,7 +5,9 @@
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
+#include "personalities/generic.hpp"
 #include "personalities/registry.hpp"
+#include "personalities/sensor_source.hpp"
 #include "support/device.hpp"
 
 namespace cansim::test {
@@ -20,7 +22,8 @@ float read_f(SimNode& n, std::uint16_t i, std::uint8_t s, TimeUs now) {
 }
 
 TEST(Generic, UnknownPersonalityNamesFileLineAndKey) {
-  const std::string text = "name: t\npersonality: wizard\nobjects:\n  - {index: 0x1000, type: UNSIGNED32, access: ro}\n";
+  const std::string text =
+      "name: t\npersonality: wizard\nobjects:\n  - {index: 0x1000, type: UNSIGNED32, access: ro}\n";
   EXPECT_THAT(load_error(text), HasSubstr("t.yaml:2:14: personality: unknown personality 'wizard' (expected: generic"));
 }
 
@@ -38,6 +41,52 @@ TEST(Generic, VendorSectionIsValidated) {
               HasSubstr("unit of the wrong quantity"));
   EXPECT_THAT(with_vendor("{cia404: {channels: [{sub: 1, units: [atm]}]}}"),
               HasSubstr("this unit has no CiA 303-2 code built in: give 'code'"));
+}
+
+// Every chain setting is parsed by its declared kind (model/cia404_settings.hpp).
+TEST(Generic, ChainSettingsParseByTheirKind) {
+  const config::Profile p = prepared_repo_yaml("generic-404", [](YAML::Node& root) {
+    root["vendor"] = YAML::Load(
+        "{cia404: {event_check_period: 20 ms, event_tpdo_types: '0,254', event_channels: all, limit_trigger: level,"
+        " filter_type_without_object: repeating_average, autozero_signature: 0x12345678, digits_on_unit_change: clamp,"
+        " autozero_target: correction, unit_informational: true, span_compare: input, negative_abort: 0x06090030}}");
+  });
+  const model::Cia404Settings& s = p.cia404->settings;
+  EXPECT_EQ(s.event_check_period_us, 20000);
+  EXPECT_EQ(s.event_tpdo_types.text(), "0,254");
+  EXPECT_TRUE(s.events_all_channels);
+  EXPECT_TRUE(s.limit_level);
+  EXPECT_EQ(s.filter_type_without_object, model::FilterTypeCode::kRepeatingAverage);
+  EXPECT_EQ(s.autozero_signature, 0x12345678u);
+  EXPECT_EQ(s.digits_on_unit_change, model::DigitsOnUnitChange::kClamp);
+  EXPECT_TRUE(s.autozero_to_correction);
+  EXPECT_TRUE(s.unit_informational);
+  EXPECT_TRUE(s.span_compares_input);
+  EXPECT_EQ(s.negative_abort, SdoAbort::kInvalidValue);
+  EXPECT_EQ(s.bad_unit_abort, SdoAbort::kInvalidValue);  // not given: the CiA 404 default
+}
+
+TEST(Generic, ABadChainSettingNamesItsPlaceAndItsKind) {
+  auto with_cia404 = [](const char* cia404) {
+    return repo_yaml_error("generic-404", [&](YAML::Node& root) { root["vendor"]["cia404"] = YAML::Load(cia404); });
+  };
+  EXPECT_THAT(with_cia404("{event_check_period: -1 s}"),
+              HasSubstr("vendor.cia404.event_check_period: expected a time >= 0"));
+  EXPECT_THAT(with_cia404("{event_tpdo_types: '1-300'}"), HasSubstr("vendor.cia404.event_tpdo_types: expected ranges"));
+  EXPECT_THAT(
+      with_cia404("{filter_type_without_object: median}"),
+      HasSubstr("vendor.cia404.filter_type_without_object: expected one of none, moving_average, repeating_average"));
+  EXPECT_THAT(with_cia404("{digits_on_unit_change: round}"),
+              HasSubstr("vendor.cia404.digits_on_unit_change: expected one of keep, reject, clamp, adjust"));
+  EXPECT_THAT(with_cia404("{autozero_target: both}"),
+              HasSubstr("vendor.cia404.autozero_target: expected offset or correction"));
+  EXPECT_THAT(with_cia404("{unit_informational: maybe}"), HasSubstr("vendor.cia404.unit_informational:"));
+  EXPECT_THAT(with_cia404("{bad_unit_abort: 0x100000000}"), HasSubstr("vendor.cia404.bad_unit_abort:"));
+  EXPECT_THAT(
+      with_cia404("{autozero_sig: 1}"),
+      HasSubstr("vendor.cia404.autozero_sig: unknown key (expected one of: event_check_period, event_tpdo_types"));
+  EXPECT_THAT(with_cia404("{channels: [{sub: 1, quantity: humidity}]}"),
+              HasSubstr("vendor.cia404.channels[0].quantity: expected pressure or temperature"));
 }
 
 TEST(Generic, PhysicsErrorsComeFromTheProfileFile) {
@@ -176,6 +225,82 @@ TEST_F(GenericFaults, AFaultThatOutlastsAResetIsSignalledAgain) {
   const std::vector<CanFrame> again = emcys(ms(500), ms(1000));
   ASSERT_EQ(again.size(), 1u) << ::testing::PrintToString(again);
   EXPECT_EQ(again[0].data[0] | again[0].data[1] << 8, 0x5030);
+}
+
+// ---- an idle node does not evaluate its sensor; its checks still see
+// every change on their grid (every 100 ms from the reset)
+
+physics::Sensor& sensor_of(Application& app) {
+  auto& generic = static_cast<personalities::generic::GenericApplication&>(app);
+  return static_cast<personalities::SensorSource&>(generic.chain().source()).sensor();
+}
+
+TEST(Generic, AnIdleNodeDoesNotEvaluateItsSensor) {
+  config::Profile p = load_repo_profile("generic-404");
+  SimBus bus;
+  auto app = personalities::make_application(p, {7, 0, "vcan0/g", {}});
+  SimNode& n = bus.add(p, 0x10, app.get());
+  bus.power_on_all();
+  bus.run_until(ms(60'000));  // pre-operational: heartbeats only
+  EXPECT_LT(sensor_of(*app).last().pressure.sample_index, 1000) << "sampled after the first second";
+  const float bar = read_f(n, 0x6130, 1, bus.now());  // an SDO read evaluates it
+  EXPECT_GT(bar, 4.0f);
+  EXPECT_LT(bar, 6.0f);
+  EXPECT_EQ(sensor_of(*app).last().pressure.sample_index, 60'000);
+}
+
+TEST_F(GenericFaults, AProfileFaultIsSignalledAtItsStartWhileTheNodeIsIdle) {
+  start("[{kind: open, after: 1 s, duration: 2 s}]");
+  bus.run_until(ms(3500));
+  std::vector<TimeUs> at;
+  for (const Sent& s : bus.log())
+    if (s.frame.id == 0x90) at.push_back(s.time);
+  EXPECT_EQ(at, (std::vector<TimeUs>{ms(1000), ms(3000)}));  // raised, then the error reset
+}
+
+// A step beyond the span between two checks: the range EMCY at the next.
+TEST_F(GenericFaults, AStepBeyondTheSpanIsSignalledAtTheNextCheck) {
+  start("[]");
+  bus.run_until(ms(10'050));
+  ASSERT_EQ(emcys(0, ms(10'050)), std::vector<CanFrame>{});
+  auto* control = personalities::measurement_control(app.get());
+  ASSERT_TRUE(control->step(sim->node(), physics::Channel::Pressure, 14e5, bus.now()));
+  bus.run_until(ms(10'300));
+  std::vector<TimeUs> at;
+  for (const Sent& s : bus.log())
+    if (s.frame.id == 0x90) at.push_back(s.time);
+  EXPECT_EQ(at, std::vector<TimeUs>{ms(10'100)});
+}
+
+// A ramp through the span end (crossing at 5.975 s): the range EMCY at the
+// first check that sees it, 6.0 s.
+TEST_F(GenericFaults, ARampIsSignalledAtTheFirstCheckBeyondTheSpan) {
+  start("[]");
+  bus.run_until(ms(1000));
+  auto* control = personalities::measurement_control(app.get());
+  ASSERT_TRUE(control->ramp(sim->node(), physics::Channel::Pressure, 15.05e5, 10.0, bus.now()));
+  bus.run_until(ms(8000));
+  std::vector<TimeUs> at;
+  for (const Sent& s : bus.log())
+    if (s.frame.id == 0x90) at.push_back(s.time);
+  EXPECT_EQ(at, std::vector<TimeUs>{ms(6000)});
+}
+
+// A fault armed at run time between two checks (a drift of 60 bar/s: 8 bar
+// at 2.1 s, 14 bar at 2.2 s): the range EMCY at the first check beyond.
+TEST_F(GenericFaults, AFaultArmedAtRunTimeIsSeenByTheNextChecks) {
+  start("[]");
+  bus.run_until(ms(2050));
+  physics::FaultSpec drift;
+  drift.kind = physics::FaultKind::Drift;
+  drift.drift_per_s = 60e5;
+  auto* control = personalities::measurement_control(app.get());
+  ASSERT_NE(control->arm_fault(sim->node(), drift, bus.now()), physics::kInvalidFaultHandle);
+  bus.run_until(ms(2300));
+  std::vector<TimeUs> at;
+  for (const Sent& s : bus.log())
+    if (s.frame.id == 0x90) at.push_back(s.time);
+  EXPECT_EQ(at, std::vector<TimeUs>{ms(2200)});
 }
 
 }  // namespace

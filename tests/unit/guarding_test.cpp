@@ -26,10 +26,9 @@ TEST_F(Guarding, ToggleAlternatesAndCarriesTheState) {
   nmt(0x02, 5);
   bus.run_until(ms(30));
   rtr();
-  EXPECT_EQ(take(), S({{0, F(0x705, {0x7F})},
-                       {ms(10), F(0x705, {0xFF})},
-                       {ms(20), F(0x705, {0x05})},
-                       {ms(30), F(0x705, {0x84})}}));
+  EXPECT_EQ(
+      take(),
+      S({{0, F(0x705, {0x7F})}, {ms(10), F(0x705, {0xFF})}, {ms(20), F(0x705, {0x05})}, {ms(30), F(0x705, {0x84})}}));
   (void)n;
 }
 

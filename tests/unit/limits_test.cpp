@@ -1,9 +1,10 @@
-// The bounds of config/limits.hpp (README "Limits"): what a client sends is
+// The bounds of config/limits.hpp (docs/limits.md): what a client sends is
 // refused with io.cansim.Error.TooLarge before it is parsed; files a client
 // names are read without blocking and never echoed; profiles for AddNodes
 // come from the profile folders only; the endpoints bound clients, their
 // handshake and what they leave unread; removed nodes give their memory back.
 #include <gtest/gtest.h>
+#include <sys/wait.h>
 #include <malloc.h>
 #include <spdlog/spdlog.h>
 #include <sys/socket.h>
@@ -11,6 +12,7 @@
 #include <sys/un.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -25,6 +27,7 @@
 #include "daemon/daemon.hpp"
 #include "support/captured_log.hpp"
 #include "support/control_fleet.hpp"
+#include "support/sanitizer.hpp"
 
 namespace cansim {
 namespace {
@@ -186,7 +189,9 @@ TEST(ConfinedProfiles, TheDaemonAllowsTheFleetsFolders) {
   daemon::DaemonSettings settings;
   settings.state_dir = dir.path + "/state";
   settings.config_file = dir.path + "/fleet.yaml";
-  settings.load = [&] { return config::load_fleet(settings.config_file, daemon::profile_search(settings.config_file)); };
+  settings.load = [&] {
+    return config::load_fleet(settings.config_file, daemon::profile_search(settings.config_file));
+  };
   daemon::Daemon d(settings);
   CapturedLog quiet;
   d.reload();
@@ -232,14 +237,16 @@ TEST(AddNodesBounds, EntriesNodesAndFleetSize) {
   } catch (const config::TooLarge& e) {  // the place of the list, as every other error of a fragment
     EXPECT_EQ(std::string(e.what()), "<A>:1:1: nodes: 5 node entries; expected at most 4 in one call");
   }
-  const std::string two_groups = "- {profile: generic-404, interface: va, node_id: 1, count: 100, name: a}\n"
-                                 "- {profile: generic-404, interface: vb, node_id: 1, count: 100, name: b}\n";
+  const std::string two_groups =
+      "- {profile: generic-404, interface: va, node_id: 1, count: 100, name: a}\n"
+      "- {profile: generic-404, interface: vb, node_id: 1, count: 100, name: b}\n";
   EXPECT_THROW(config::parse_fleet_fragment(two_groups, "<A>", search, {}), config::TooLarge);
   config::FleetConfig running;
   running.nodes.resize(limits::kFleetNodes - 1);
-  EXPECT_NO_THROW(config::parse_fleet_fragment("{profile: generic-404, interface: va, node_id: 1}", "<A>", search, running));
-  EXPECT_THROW(config::parse_fleet_fragment("{profile: generic-404, interface: va, node_id: 1, count: 2}", "<A>", search,
-                                            running),
+  EXPECT_NO_THROW(
+      config::parse_fleet_fragment("{profile: generic-404, interface: va, node_id: 1}", "<A>", search, running));
+  EXPECT_THROW(config::parse_fleet_fragment("{profile: generic-404, interface: va, node_id: 1, count: 2}", "<A>",
+                                            search, running),
                config::TooLarge);
 }
 
@@ -349,7 +356,8 @@ TEST_F(ControlLimits, RecordingRefusesAFifo) {
   const std::string fifo = dir.path + "/fifo";
   ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
   ::alarm(10);
-  EXPECT_EQ(call(bus.node_call(node, "StartRecording"), [&](sd_bus_message* m) { sd_bus_message_append(m, "s", fifo.c_str()); }),
+  EXPECT_EQ(call(bus.node_call(node, "StartRecording"),
+                 [&](sd_bus_message* m) { sd_bus_message_append(m, "s", fifo.c_str()); }),
             "io.cansim.Error.Refused");
   ::alarm(0);
   EXPECT_EQ(error, fifo + ": not a regular file");
@@ -357,6 +365,7 @@ TEST_F(ControlLimits, RecordingRefusesAFifo) {
 
 TEST_F(ControlLimits, ATableFromAFifoIsRefused) {
   TempDir dir;
+  fleet.allow_folder(dir.path);
   const std::string fifo = dir.path + "/t.csv";
   ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
   ::alarm(10);
@@ -365,13 +374,46 @@ TEST_F(ControlLimits, ATableFromAFifoIsRefused) {
   EXPECT_NE(error.find("not a regular file"), std::string::npos) << error;
 }
 
+// A table a client names comes from the profile folders, as its profiles do:
+// a file elsewhere is refused unopened, by the same words whether it exists
+// or not, and its size is never told (a 0600 file of root's was readable
+// through the process value; an error gave a file's exact size).
+TEST_F(ControlLimits, ATableOutsideTheProfileFoldersIsRefusedUnopened) {
+  TempDir dir;
+  const std::string big = dir.path + "/big.csv";
+  std::ofstream(big) << std::string(limits::kTableFileBytes + 1, '1');
+  const std::string secret = dir.path + "/secret.csv";
+  std::ofstream(secret) << "0,1\n1,2\n";
+  ::chmod(secret.c_str(), 0600);
+  std::string refusal;
+  for (const std::string& file : {big, secret, dir.path + "/missing.csv", std::string("/etc/shadow")}) {
+    EXPECT_EQ(set_model("table: {csv: " + file + "}"), "io.cansim.Error.InvalidArgument") << file;
+    EXPECT_NE(error.find("cannot load table: expected a file in the profile folders"), std::string::npos) << error;
+    EXPECT_EQ(error.find("bytes"), std::string::npos) << error;
+    std::string words = error.substr(error.find("cannot load table"));
+    words = words.substr(0, words.find(", got '"));  // the file as the client wrote it
+    if (refusal.empty()) refusal = words;
+    EXPECT_EQ(words, refusal) << "the answer differs with the file: " << file;
+  }
+  const std::string entry =
+      "{profile: generic-404, interface: vcan0, node_id: 0x30, name: t, physics: {pressure: "
+      "{table: {csv: " +
+      secret + ", value_unit: bar}}}}";
+  EXPECT_EQ(add_nodes(entry), "io.cansim.Error.Config");
+  EXPECT_NE(error.find("cannot load table: expected a file in the profile folders"), std::string::npos) << error;
+  fleet.allow_folder(dir.path);  // the same file in a profile folder is read
+  EXPECT_EQ(set_model("table: {csv: " + secret + ", value_unit: bar}"), "") << error;
+  EXPECT_EQ(set_model("table: {csv: " + big + "}"), "io.cansim.Error.InvalidArgument");
+  EXPECT_NE(error.find("bytes; expected at most"), std::string::npos) << error;
+}
+
 // ---------------------------------------------------------------- memory
 
 // 1,000 AddNodes / RemoveNode cycles give back what they took (each kept
 // about 66 KB before: the fragment and its profile). A small profile keeps
 // the cycles quick.
 TEST(NoLeak, AThousandAddRemoveCyclesKeepTheHeapFlat) {
-#if defined(__SANITIZE_ADDRESS__)
+#ifdef CANSIM_ASAN
   GTEST_SKIP() << "mallinfo2 does not see AddressSanitizer's heap (LeakSanitizer checks this build)";
 #endif
   TempDir dir;
@@ -414,7 +456,10 @@ class Endpoints : public ::testing::Test {
   std::string socket = dir.path + "/control";
   std::vector<sd_bus*> clients;
 
-  Endpoints() { endpoints.listen(socket); }
+  Endpoints() {
+    EXPECT_TRUE(loop.open()) << loop.error();
+    endpoints.listen(socket);
+  }
   ~Endpoints() override {
     for (sd_bus* c : clients) sd_bus_close_unref(c);
   }
@@ -442,12 +487,15 @@ class Endpoints : public ::testing::Test {
     } result;
     sd_bus_message* m = nullptr;
     sd_bus_message_new_method_call(c, &m, nullptr, control::kRootPath, control::kFleetInterface, "ListNodes");
-    sd_bus_call_async(c, nullptr, m, [](sd_bus_message* r, void* p, sd_bus_error*) -> int {
-      auto& res = *static_cast<Result*>(p);
-      res.done = true;
-      if (const sd_bus_error* e = sd_bus_message_get_error(r)) res.name = e->name, res.message = e->message;
-      return 1;
-    }, &result, 0);
+    sd_bus_call_async(
+        c, nullptr, m,
+        [](sd_bus_message* r, void* p, sd_bus_error*) -> int {
+          auto& res = *static_cast<Result*>(p);
+          res.done = true;
+          if (const sd_bus_error* e = sd_bus_message_get_error(r)) res.name = e->name, res.message = e->message;
+          return 1;
+        },
+        &result, 0);
     sd_bus_message_unref(m);
     for (int i = 0; i < 2000 && !result.done; ++i) step();
     if (message) *message = result.message;
@@ -470,10 +518,18 @@ TEST_F(Endpoints, OneClientTooManyIsToldWhy) {
   EXPECT_EQ(list(b), "");
   std::string message;
   EXPECT_EQ(list(connect(), &message), "org.freedesktop.DBus.Error.LimitsExceeded");
-  EXPECT_EQ(message, "cansimd serves at most 2 control clients at once (cansimd --max-clients); try again when one "
-                     "has disconnected");
-  for (int i = 0; i < 20; ++i) connect();  // a burst of more: one warning line
-  step_until([&] { return endpoints.connections() == 2; }, 3'000'000);
+  EXPECT_EQ(message,
+            "cansimd serves at most 2 control clients at once (cansimd --max-clients); try again when one "
+            "has disconnected");
+  std::vector<sd_bus*> burst;
+  for (int i = 0; i < 20; ++i) burst.push_back(connect());  // a burst of more: one warning line
+  // Each of the burst closed by cansimd: none left in the listen backlog to
+  // take the slot the next client is meant to get.
+  const auto burst_gone = [&] {
+    return std::all_of(burst.begin(), burst.end(), [](sd_bus* c) { return sd_bus_is_open(c) <= 0; });
+  };
+  step_until([&] { return burst_gone() && endpoints.connections() == 2; }, 10'000'000);
+  EXPECT_TRUE(burst_gone());
   EXPECT_EQ(endpoints.connections(), 2u);  // the refused ones are gone
   EXPECT_EQ(log.count("refusing another"), 1u) << log.text.str();
   sd_bus_close(a);
@@ -496,6 +552,120 @@ TEST_F(Endpoints, AHandshakeNeverFinishedIsDropped) {
   ::close(fd);
 }
 
+// A connection that finished its handshake but makes no call holds a slot
+// for nothing: closed after the first-call time (64 such locked everyone out).
+TEST(IdleEndpoints, AConnectionThatMakesNoCallIsClosed) {
+  TempDir dir;
+  test::ControlFleet fleet{kFleet};
+  io::EventLoop loop;
+  ASSERT_TRUE(loop.open()) << loop.error();
+  control::ControlEndpoints endpoints{loop, fleet.service(), 4, 300'000};
+  endpoints.listen(dir.path + "/control");
+  CapturedLog log;
+  sd_bus* idle = nullptr;
+  sd_bus_new(&idle);
+  sd_bus_set_address(idle, ("unix:path=" + dir.path + "/control").c_str());
+  ASSERT_GE(sd_bus_start(idle), 0);
+  const TimeUs until = io::monotonic_now() + 5'000'000;
+  bool was_ready = false;
+  while (io::monotonic_now() < until && (endpoints.connections() > 0 || !was_ready)) {
+    bool timer = false;
+    int signal = 0;
+    endpoints.before_sleep(kNever);
+    loop.wait(0, timer, signal);
+    endpoints.process();
+    sd_bus_process(idle, nullptr);
+    was_ready |= sd_bus_is_ready(idle) > 0;
+    ::usleep(1000);
+  }
+  EXPECT_TRUE(was_ready);
+  EXPECT_EQ(endpoints.connections(), 0u);
+  EXPECT_EQ(log.count("dropped: made no call in time"), 1u) << log.text.str();
+  sd_bus_close_unref(idle);
+}
+
+// One uid holds at most 3 of 4 slots (a quarter kept for other users and
+// root): its raw sockets (never a handshake) leave root a slot, and its
+// fourth is told why.
+TEST_F(Endpoints, OneUserLeavesAShareOfTheSlotsToOthers) {
+  if (::geteuid() != 0) GTEST_SKIP() << "needs root to connect as another uid";
+  control::ControlEndpoints four{loop, fleet.service(), 4};
+  const std::string path = dir.path + "/four";
+  four.listen(path);
+  ::chmod(dir.path.c_str(), 0755);
+  ::chmod(path.c_str(), 0666);
+  int ready[2], done[2];
+  ASSERT_EQ(::pipe(ready), 0);
+  ASSERT_EQ(::pipe(done), 0);
+  const pid_t child = ::fork();
+  if (child == 0) {  // uid 65534: five raw connections, held until told
+    ::close(ready[0]);
+    ::close(done[1]);
+    if (::setresgid(65534, 65534, 65534) != 0 || ::setresuid(65534, 65534, 65534) != 0) ::_exit(2);
+    for (int i = 0; i < 5; ++i) {
+      const int fd = ::socket(AF_UNIX, SOCK_STREAM, 0);
+      sockaddr_un addr{};
+      addr.sun_family = AF_UNIX;
+      std::strncpy(addr.sun_path, path.c_str(), sizeof addr.sun_path - 1);
+      if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) ::_exit(3);
+    }
+    char c = 'r';
+    if (::write(ready[1], &c, 1) != 1) ::_exit(4);
+    (void)::read(done[0], &c, 1);
+    ::_exit(0);
+  }
+  ::close(ready[1]);
+  ::close(done[0]);
+  char c = 0;
+  if (::read(ready[0], &c, 1) != 1) {
+    int status = 0;
+    ::waitpid(child, &status, 0);
+    FAIL() << "the uid 65534 child could not connect: exit " << WEXITSTATUS(status);
+  }
+  const auto pass = [&] {
+    bool timer = false;
+    int signal = 0;
+    four.before_sleep(kNever);
+    loop.wait(0, timer, signal);
+    four.process();
+  };
+  CapturedLog log;
+  for (int i = 0; i < 50 && log.count("are kept for other users and root") == 0; ++i) {
+    pass();
+    ::usleep(1000);
+  }
+  EXPECT_EQ(log.count("control socket: uid 65534 holds 3 of the 4 control client slots, all one user may (the other "
+                      "1 are kept for other users and root): refusing another"),
+            1u)
+      << log.text.str();
+  sd_bus* root = nullptr;
+  sd_bus_new(&root);
+  sd_bus_set_address(root, ("unix:path=" + path).c_str());
+  ASSERT_GE(sd_bus_start(root), 0);
+  sd_bus_message* m = nullptr;
+  sd_bus_message_new_method_call(root, &m, nullptr, control::kRootPath, control::kFleetInterface, "ListNodes");
+  bool answered = false;
+  std::string error;
+  sd_bus_call_async(
+      root, nullptr, m,
+      [](sd_bus_message* r, void* p, sd_bus_error*) -> int {
+        *static_cast<bool*>(p) = !sd_bus_message_is_method_error(r, nullptr);
+        return 1;
+      },
+      &answered, 0);
+  sd_bus_message_unref(m);
+  for (int i = 0; i < 2000 && !answered; ++i) {
+    pass();
+    sd_bus_process(root, nullptr);
+  }
+  EXPECT_TRUE(answered) << "root was not served beside uid 65534's connections";
+  sd_bus_close_unref(root);
+  ::close(done[1]);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  EXPECT_EQ(WEXITSTATUS(status), 0);
+}
+
 // A client that sends a stream of costly calls (each AddNodes loads a profile
 // and builds nodes) gets them served a few per pass, the nodes running in
 // between: before, up to 32 went in one pass (2.4 s of loop in the VM).
@@ -506,12 +676,16 @@ TEST_F(Endpoints, CostlyCallsDoNotHoldThePass) {
   for (int i = 0; i < 8; ++i) {
     sd_bus_message* m = nullptr;
     sd_bus_message_new_method_call(c, &m, nullptr, control::kRootPath, control::kFleetInterface, "AddNodes");
-    const std::string yaml = "{profile: generic-404, interface: vb" + std::to_string(i) + ", node_id: 1, count: 16, name: p}";
+    const std::string yaml =
+        "{profile: generic-404, interface: vb" + std::to_string(i) + ", node_id: 1, count: 16, name: p}";
     sd_bus_message_append(m, "s", yaml.c_str());
-    sd_bus_call_async(c, nullptr, m, [](sd_bus_message*, void* n, sd_bus_error*) -> int {
-      ++*static_cast<int*>(n);
-      return 1;
-    }, &answered, 0);
+    sd_bus_call_async(
+        c, nullptr, m,
+        [](sd_bus_message*, void* n, sd_bus_error*) -> int {
+          ++*static_cast<int*>(n);
+          return 1;
+        },
+        &answered, 0);
     sd_bus_message_unref(m);
   }
   sd_bus_flush(c);

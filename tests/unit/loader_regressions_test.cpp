@@ -38,8 +38,9 @@ std::string fleet_error(const std::string& text) {
 // Both passed --check and then took the whole daemon down with SIGSEGV at
 // power-on: the personality dereferenced objects the profile did not have.
 TEST(LoaderRegressions, AnSmcProfileWithoutItsChainObjectsIsRejected) {
-  EXPECT_EQ(profile_error("personality: adz-smc\nobjects:\n  - {index: 0x1000, type: UNSIGNED32, access: ro}\n"),
-            "p.yaml:3:3: objects: a numeric object 0x6121:01 (personality adz-smc needs it for the input scaling (§5))");
+  EXPECT_EQ(
+      profile_error("personality: adz-smc\nobjects:\n  - {index: 0x1000, type: UNSIGNED32, access: ro}\n"),
+      "p.yaml:3:3: objects: a numeric object 0x6121:01 (personality adz-smc needs it for the input scaling (§5))");
 }
 
 TEST(LoaderRegressions, ADpsProfileWithoutAChannelIsRejected) {
@@ -56,8 +57,7 @@ TEST(LoaderRegressions, AnEmptyDocumentIsRejectedAtLineOne) {
 // fleet_fuzz: yaml-cpp reads "  seed: 7\ninterfaces: ..." as {seed: 7}; with
 // neither `interfaces:` nor `nodes:` the interfaces' error had no line.
 TEST(LoaderRegressions, AFleetWithoutNodesNamesTheDocument) {
-  EXPECT_EQ(fleet_error("  seed: 7\ninterfaces:\n  vcan0: {}\n"),
-            "f.yaml:1:3: nodes: missing required key 'nodes'");
+  EXPECT_EQ(fleet_error("  seed: 7\ninterfaces:\n  vcan0: {}\n"), "f.yaml:1:3: nodes: missing required key 'nodes'");
   EXPECT_EQ(fleet_error("nodes: 5\n"), "f.yaml:1:8: nodes: expected a list of node entries, got '5'");
 }
 
@@ -72,9 +72,11 @@ std::string fragment_error(const std::string& text) {
 }
 
 TEST(LoaderRegressions, AFragmentThatIsNoEntryNamesLineColumnAndTopLevel) {
-  EXPECT_EQ(fragment_error(""), "<AddNodes #1>:1:1: (top level): expected a node entry, a list of node entries or a fleet document");
-  EXPECT_EQ(fragment_error("\n  hello\n"),
-            "<AddNodes #1>:2:3: (top level): expected a node entry, a list of node entries or a fleet document, got 'hello'");
+  EXPECT_EQ(fragment_error(""),
+            "<AddNodes #1>:1:1: (top level): expected a node entry, a list of node entries or a fleet document");
+  EXPECT_EQ(
+      fragment_error("\n  hello\n"),
+      "<AddNodes #1>:2:3: (top level): expected a node entry, a list of node entries or a fleet document, got 'hello'");
 }
 
 std::string merge_error(const std::string& text) {
@@ -99,8 +101,9 @@ TEST(LoaderRegressions, CollisionsWithTheRunningFleetNameTheEntrysLineAndKey) {
   EXPECT_EQ(merge_error("{profile: generic-404, interface: vcan0}"),
             "<AddNodes #1>:1:1: nodes[0].node_id: node vcan0/generic-404-16/0: node-ID 16 (0x10) is already used on "
             "vcan0 by vcan0/generic/0; expected a free node-ID");
-  EXPECT_EQ(merge_error("- {profile: dps, interface: vcan1, node_id: 0x55}\n- {profile: dps, interface: vcan0, name: dps}"),
-            "<AddNodes #1>:2:3: nodes[1].name: node vcan0/dps/0 already exists; expected a new name");
+  EXPECT_EQ(
+      merge_error("- {profile: dps, interface: vcan1, node_id: 0x55}\n- {profile: dps, interface: vcan0, name: dps}"),
+      "<AddNodes #1>:2:3: nodes[1].name: node vcan0/dps/0 already exists; expected a new name");
 }
 
 }  // namespace

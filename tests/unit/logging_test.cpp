@@ -15,6 +15,22 @@ namespace {
 
 using Fields = std::vector<std::string>;
 
+// A burst per window, then held back and counted; the next window's first
+// line (or the summary once the window closed) says how many.
+TEST(Logging, LineBudgetHoldsBackAndCounts) {
+  LineBudget budget(2, 10'000'000);
+  EXPECT_TRUE(budget.allow(0));
+  EXPECT_TRUE(budget.allow(1));
+  EXPECT_FALSE(budget.allow(2));
+  EXPECT_FALSE(budget.allow(9'999'999));
+  EXPECT_FALSE(budget.summary_due(9'999'999));
+  EXPECT_TRUE(budget.summary_due(10'000'000));
+  EXPECT_TRUE(budget.allow(10'000'000));
+  EXPECT_EQ(budget.take_held(), " (and 2 more such line(s) held back in the 10 s before)");
+  EXPECT_EQ(budget.take_held(), "");
+  EXPECT_FALSE(budget.summary_due(30'000'000));
+}
+
 TEST(Logging, LineWithoutSubject) {
   EXPECT_EQ(journal_fields(spdlog::level::info, "cansimd 0.1.0 starting"),
             (Fields{"MESSAGE=cansimd 0.1.0 starting", "PRIORITY=6", "SYSLOG_IDENTIFIER=cansimd"}));
@@ -98,9 +114,9 @@ TEST(Logging, StoredParametersAreLoggedAsTheNodes) {
   spdlog::set_default_logger(previous);
   std::filesystem::remove_all(dir);
   ASSERT_EQ(sink->lines.size(), 2u);
-  EXPECT_EQ(sink->lines[0], (Fields{"MESSAGE=vcan0/dps/0: parameters stored in " + dir + "/vcan0@dps@0.params",
-                                    "PRIORITY=6", "SYSLOG_IDENTIFIER=cansimd", "CANSIM_IFACE=vcan0",
-                                    "CANSIM_NODE=vcan0/dps/0"}));
+  EXPECT_EQ(sink->lines[0],
+            (Fields{"MESSAGE=vcan0/dps/0: parameters stored in " + dir + "/vcan0@dps@0.params", "PRIORITY=6",
+                    "SYSLOG_IDENTIFIER=cansimd", "CANSIM_IFACE=vcan0", "CANSIM_NODE=vcan0/dps/0"}));
   EXPECT_EQ(sink->lines[1][1], "PRIORITY=3");
   EXPECT_EQ(sink->lines[1][3], "CANSIM_IFACE=can1");
   EXPECT_EQ(sink->lines[1][4], "CANSIM_NODE=can1/p92c/2");

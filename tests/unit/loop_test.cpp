@@ -61,9 +61,7 @@ class SyncEcho : public ScriptApp {
 
 class LoopTest : public ::testing::Test {
  protected:
-  LoopTest() : profile(test::load_repo_profile("generic-404")), tx(&core.now()) {
-    bus = core.add_bus("vcan0", tx, 3);
-  }
+  LoopTest() : profile(test::load_repo_profile("generic-404")), tx(&core.now()) { bus = core.add_bus("vcan0", tx, 3); }
   NodeRef add(std::uint8_t id, std::unique_ptr<Application> app = nullptr) {
     return core.add_node(bus, config::node_setup(profile, id), std::move(app));
   }
@@ -149,10 +147,9 @@ TEST_F(LoopTest, DeadlinesOfSeveralNodesRunInTimeOrder) {
   core.run_until(ms(100));
   auto got = frames(tx);
   std::vector<std::pair<TimeUs, CanFrame>> want = {
-      {ms(20), F(0x702, {0x7F})}, {ms(30), F(0x701, {0x7F})}, {ms(40), F(0x702, {0x7F})},
-      {ms(50), F(0x703, {0x7F})}, {ms(60), F(0x701, {0x7F})}, {ms(60), F(0x702, {0x7F})},
-      {ms(80), F(0x702, {0x7F})}, {ms(90), F(0x701, {0x7F})}, {ms(100), F(0x702, {0x7F})},
-      {ms(100), F(0x703, {0x7F})},
+      {ms(20), F(0x702, {0x7F})},  {ms(30), F(0x701, {0x7F})},  {ms(40), F(0x702, {0x7F})}, {ms(50), F(0x703, {0x7F})},
+      {ms(60), F(0x701, {0x7F})},  {ms(60), F(0x702, {0x7F})},  {ms(80), F(0x702, {0x7F})}, {ms(90), F(0x701, {0x7F})},
+      {ms(100), F(0x702, {0x7F})}, {ms(100), F(0x703, {0x7F})},
   };
   EXPECT_EQ(got, want) << dump(got);
 }
@@ -176,8 +173,7 @@ TEST_F(LoopTest, LocalFramesReachTheOtherNodesButNotTheSender) {
   // Node 1 plays master: NMT "start all nodes" at 5 ms, then an SDO upload of
   // 0x1000 from node 2 at 6 ms. Node 2 answers within the same step.
   auto app = std::make_unique<ScriptApp>();
-  app->script = {{ms(5), F(0x000, {0x01, 0x00})},
-                 {ms(6), F(0x602, {0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0})}};
+  app->script = {{ms(5), F(0x000, {0x01, 0x00})}, {ms(6), F(0x602, {0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0})}};
   NodeRef a = add(1, std::move(app)), b = add(2);
   core.power_on(a, 0);
   core.power_on(b, 0);

@@ -322,7 +322,8 @@ TEST_F(Lss, ConfigureBitTimingTableAndErrors) {
 }
 
 TEST_F(Lss, BitTimingVendorLayoutsAndRateSet) {
-  SimNode& n = add(5, "{lss_bit_rates: '0,2-7', lss_bit_timing_manual_layout: true, lss_table_selector_1_is_cia: true}");
+  SimNode& n =
+      add(5, "{lss_bit_rates: '0,2-7', lss_bit_timing_manual_layout: true, lss_table_selector_1_is_cia: true}");
   start();
   req({0x04, 0x01});
   EXPECT_EQ(req({0x13, 0x04, 0x00}), "0us 7E4 [8] 13 00 00 00 00 00 00 00\n");  // "13 04": index 4

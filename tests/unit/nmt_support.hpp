@@ -24,7 +24,8 @@ inline std::string profile_text(const std::string& options, const std::string& e
 name: nmt-test
 node_id: 5
 bit_rate: 250
-options: )" + options + R"(
+options: )" +
+         options + R"(
 objects:
   - {index: 0x1000, type: UNSIGNED32, access: ro, default: 0x00020194}
   - {index: 0x1001, type: UNSIGNED8, access: ro, default: 0}
@@ -59,9 +60,7 @@ inline std::string error_behaviour(int value) {
          std::to_string(value) + "}\n";
 }
 
-inline std::string S(std::initializer_list<Sent> frames) {
-  return test::to_string(std::vector<Sent>(frames));
-}
+inline std::string S(std::initializer_list<Sent> frames) { return test::to_string(std::vector<Sent>(frames)); }
 
 class Harness : public ::testing::Test {
  protected:

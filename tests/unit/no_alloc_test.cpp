@@ -14,15 +14,8 @@
 #include "config/profile.hpp"
 #include "core/node.hpp"
 #include "personalities/registry.hpp"
+#include "support/sanitizer.hpp"
 #include "support/sim.hpp"
-
-#if defined(__SANITIZE_ADDRESS__)
-#define CANSIM_ASAN 1
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define CANSIM_ASAN 1
-#endif
-#endif
 
 namespace {
 std::atomic<bool> g_counting{false};
@@ -139,18 +132,18 @@ class Driver {
 
   // One round of SDO traffic of every kind.
   void sdo_round() {
-    sdo({0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0});                 // expedited upload
-    sdo({0x2B, 0x17, 0x10, 0x00, 0xE8, 0x03, 0, 0});           // expedited download (heartbeat 1000 ms)
-    sdo({0x22, 0x12, 0x61, 0x01, 0x01, 0, 0, 0});              // without size
-    sdo({0x40, 0x08, 0x10, 0x00, 0, 0, 0, 0});                 // segmented upload of 0x1008
+    sdo({0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0});        // expedited upload
+    sdo({0x2B, 0x17, 0x10, 0x00, 0xE8, 0x03, 0, 0});  // expedited download (heartbeat 1000 ms)
+    sdo({0x22, 0x12, 0x61, 0x01, 0x01, 0, 0, 0});     // without size
+    sdo({0x40, 0x08, 0x10, 0x00, 0, 0, 0, 0});        // segmented upload of 0x1008
     for (int i = 0; i < 6; ++i) sdo({std::uint8_t(i % 2 ? 0x70 : 0x60), 0, 0, 0, 0, 0, 0, 0});
-    sdo({0x21, 0x00, 0x20, 0x00, 10, 0, 0, 0});                // segmented download
+    sdo({0x21, 0x00, 0x20, 0x00, 10, 0, 0, 0});  // segmented download
     sdo({0x00, 'a', 'b', 'c', 'd', 'e', 'f', 'g'});
     sdo({0x19, 'h', 'i', 'j', 0, 0, 0, 0});
     // Block download of 20 bytes to 0x2001 without CRC, with a lost segment.
     sdo({0xC2, 0x01, 0x20, 0x00, 20, 0, 0, 0});
     sdo({0x01, 1, 2, 3, 4, 5, 6, 7});
-    sdo({0x03, 15, 16, 17, 18, 19, 20, 0});                    // gap: ack 1
+    sdo({0x03, 15, 16, 17, 18, 19, 20, 0});  // gap: ack 1
     sdo({0x01, 8, 9, 10, 11, 12, 13, 14});
     sdo({0x82, 15, 16, 17, 18, 19, 20, 0});
     sdo({0xC5, 0, 0, 0, 0, 0, 0, 0});
@@ -214,8 +207,8 @@ void check_no_allocations(const config::Profile& profile, Application* app) {
   EXPECT_GT(sink.count() - before, 1000) << "the scenario must actually produce traffic";
   EXPECT_GT(sink.sdo(), 50);
   // Once NMT, heartbeat and PDO have landed they are part of the proof too.
-  std::printf("no_alloc: %ld frames, %ld SDO, %ld PDO, %ld heartbeat\n", sink.count() - before, sink.sdo(),
-              sink.pdo(), sink.heartbeat());
+  std::printf("no_alloc: %ld frames, %ld SDO, %ld PDO, %ld heartbeat\n", sink.count() - before, sink.sdo(), sink.pdo(),
+              sink.heartbeat());
 }
 
 TEST(NoAlloc, PlainNodeFramesAndTicks) {

@@ -29,8 +29,7 @@ std::vector<Input> seed_corpus() {
   std::vector<Input> inputs;
   for (const auto& f : fs::directory_iterator(fs::path(CANSIM_SOURCE_DIR) / "fuzz" / "corpus")) {
     std::ifstream in(f.path(), std::ios::binary);
-    inputs.push_back({f.path().filename().string(),
-                      std::vector<std::uint8_t>(std::istreambuf_iterator<char>(in), {})});
+    inputs.push_back({f.path().filename().string(), std::vector<std::uint8_t>(std::istreambuf_iterator<char>(in), {})});
   }
   std::sort(inputs.begin(), inputs.end(), [](const Input& a, const Input& b) { return a.name < b.name; });
   return inputs;
@@ -83,15 +82,15 @@ TEST_P(NodeFuzzHarnessTest, ALeftoverOfOneInputDoesNotReachTheNext) {
     return r;
   };
   std::vector<std::uint8_t> messy;
-  for (const auto& r : {record(100, 0, 0, 2, {0x01, 0x00}),                                // NMT start all
-                        record(100, 2, 0, 8, {0x2B, 0x17, 0x10, 0x00, 0x64, 0x00}),       // heartbeat 100 ms
+  for (const auto& r : {record(100, 0, 0, 2, {0x01, 0x00}),                                  // NMT start all
+                        record(100, 2, 0, 8, {0x2B, 0x17, 0x10, 0x00, 0x64, 0x00}),          // heartbeat 100 ms
                         record(100, 2, 0, 8, {0x23, 0x10, 0x10, 0x01, 's', 'a', 'v', 'e'}),  // store all
-                        record(100, 14, 3, 0, {0, 0, 0, 0}),                              // heartbeat stop
-                        record(100, 2, 0, 8, {0x40, 0x08, 0x10, 0x00})})                  // upload left open
+                        record(100, 14, 3, 0, {0, 0, 0, 0}),                                 // heartbeat stop
+                        record(100, 2, 0, 8, {0x40, 0x08, 0x10, 0x00})})                     // upload left open
     messy.insert(messy.end(), r.begin(), r.end());
   Input power_cycle{"power cycle, then 1.8 s of SYNCs", {}};  // shows stored values, e.g. 0x1017
-  for (const auto& r : {record(100, 15, 0, 0, {}), record(60000, 1, 0, 0, {}), record(60000, 1, 0, 0, {}),
-                        record(60000, 1, 0, 0, {})})
+  for (const auto& r :
+       {record(100, 15, 0, 0, {}), record(60000, 1, 0, 0, {}), record(60000, 1, 0, 0, {}), record(60000, 1, 0, 0, {})})
     power_cycle.bytes.insert(power_cycle.bytes.end(), r.begin(), r.end());
   for (const Input& probe : {corpus.front(), power_cycle}) {
     NodeFuzzHarness h(profile);
@@ -121,7 +120,8 @@ TEST(NodeFuzzTarget, TheFirstByteSelectsTheVariant) {
     h.record_frames(true);
     const std::vector<std::uint8_t> input = {std::uint8_t(v), 100, 0, 2, 0, 8, 0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0};
     target.run(input);
-    const config::Profile p = node_fuzz_profile(std::string(CANSIM_SOURCE_DIR) + "/profiles", kNodeFuzzVariants[variant]);
+    const config::Profile p =
+        node_fuzz_profile(std::string(CANSIM_SOURCE_DIR) + "/profiles", kNodeFuzzVariants[variant]);
     ASSERT_FALSE(h.frames().empty()) << kNodeFuzzVariants[variant].name;
     EXPECT_EQ(h.frames().back().frame.id, 0x580u + p.node_id) << kNodeFuzzVariants[variant].name;
   }

@@ -113,7 +113,7 @@ TEST_F(ObserverTest, NmtFramesAreObservedAtTheirTime) {
   EXPECT_EQ(events(), at(ms(7), nmt_text(NmtState::kPreOperational, NmtState::kOperational)));
   bus.run_until(ms(9));
   nmt(kNmtStop, 0);
-  nmt(kNmtStop, 0);  // no change: nothing
+  nmt(kNmtStop, 0);   // no change: nothing
   nmt(kNmtStart, 6);  // another node
   EXPECT_EQ(events(), at(ms(9), nmt_text(NmtState::kOperational, NmtState::kStopped)));
   EXPECT_EQ(n->state(), NmtState::kStopped);
@@ -140,7 +140,8 @@ TEST_F(ObserverTest, NoBootUpObservedForANodeOffTheBus) {
   EXPECT_EQ(r_on.take(), at(0, power_text(true)) + at(0, "boot") +
                              at(0, nmt_text(NmtState::kInitialising, NmtState::kPreOperational)));
   // It runs (NMT state) but its boot-up never reached the bus.
-  EXPECT_EQ(r_off.take(), at(0, power_text(true)) + at(0, nmt_text(NmtState::kInitialising, NmtState::kPreOperational)));
+  EXPECT_EQ(r_off.take(),
+            at(0, power_text(true)) + at(0, nmt_text(NmtState::kInitialising, NmtState::kPreOperational)));
 }
 
 TEST_F(ObserverTest, PowerCycleIsObservedOffAndOn) {
@@ -149,7 +150,8 @@ TEST_F(ObserverTest, PowerCycleIsObservedOffAndOn) {
   events();
   bus.run_until(ms(10));
   n->power_cycle(now(), ms(20));
-  EXPECT_EQ(events(), at(ms(10), power_text(false)) + at(ms(10), nmt_text(NmtState::kOperational, NmtState::kInitialising)));
+  EXPECT_EQ(events(),
+            at(ms(10), power_text(false)) + at(ms(10), nmt_text(NmtState::kOperational, NmtState::kInitialising)));
   bus.run_until(ms(29));
   EXPECT_EQ(events(), "");
   bus.run_until(ms(30));
@@ -248,7 +250,7 @@ TEST_F(ObserverTest, RefusedSdoDownloadsAreNotObserved) {
   inject(sdo5({0x21, 0x00, 0x10, 0x00, 10, 0, 0, 0}));       // segmented, read-only
   inject(sdo5({0x2B, 0x01, 0x20, 0x00, 0x34, 0x12, 0, 0}));  // 0x2001 ...
   events();
-  inject(sdo5({0x23, 0x01, 0x20, 0x00, 1, 2, 3, 4}));        // ... with 4 bytes: too long
+  inject(sdo5({0x23, 0x01, 0x20, 0x00, 1, 2, 3, 4}));  // ... with 4 bytes: too long
   EXPECT_EQ(events(), "");
   EXPECT_EQ(n->values().u(0x1000, 0), 0x00020194u);
   const auto sent = bus.take();
@@ -409,9 +411,7 @@ class LoopObserverTest : public ::testing::Test {
   LoopObserverTest() : profile(test::load_repo_profile("generic-404")), tx(&core.now()) {
     bus = core.add_bus("vcan0", tx, 3);
   }
-  io::NodeRef add(std::uint8_t id) {
-    return core.add_node(bus, config::node_setup(profile, id));
-  }
+  io::NodeRef add(std::uint8_t id) { return core.add_node(bus, config::node_setup(profile, id)); }
   std::string on(io::NodeRef r, TimeUs t, const std::string& what) { return std::to_string(r) + " " + at(t, what); }
   std::string boot(io::NodeRef r, TimeUs t) {
     return on(r, t, power_text(true)) + on(r, t, "boot") +

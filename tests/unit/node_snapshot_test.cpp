@@ -93,17 +93,17 @@ class Rig : public FrameSink {
 // Leaves a trace in every part of the state.
 void change_everything(Rig& r) {
   r.run_to(ms(10));
-  r.frame(0x000, {0x01, kId});                                // NMT: OPERATIONAL
-  r.sdo({0x23, 0x00, 0x21, 0x01, 0x78, 0x56, 0x34, 0x12});    // 0x2100:01 = 0x12345678
-  r.sdo({0x2B, 0x17, 0x10, 0x00, 0x2C, 0x01});                // heartbeat 300 ms
-  r.sdo({0x2B, 0x00, 0x18, 0x05, 0x32, 0x00});                // TPDO1 event timer 50 ms
-  r.sdo({0x23, 0x01, 0x18, 0x01, 0x90, 0x02, 0x00, 0x80});    // TPDO2 not valid
-  r.sdo({0x23, 0x31, 0x61, 0x01, 0x00, 0x00, 0x4E, 0xFD});    // 0x6131:01 mbar (chain unit)
-  r.sdo({0x2F, 0x32, 0x61, 0x01, 0x03});                      // 0x6132:01 digits 3
-  r.sdo({0x23, 0x16, 0x10, 0x01, 0xC8, 0x00, 0x20, 0x00});    // consume node 0x20, 200 ms
-  r.frame(0x720, {0x05});                                     // its heartbeat: monitoring on
-  r.sdo({0x23, 0x10, 0x10, 0x01, 's', 'a', 'v', 'e'});        // store all
-  r.frame(0x080, {0x00, 0x00, 0x00});                         // SYNC with DLC 3: EMCY 0x8240
+  r.frame(0x000, {0x01, kId});                              // NMT: OPERATIONAL
+  r.sdo({0x23, 0x00, 0x21, 0x01, 0x78, 0x56, 0x34, 0x12});  // 0x2100:01 = 0x12345678
+  r.sdo({0x2B, 0x17, 0x10, 0x00, 0x2C, 0x01});              // heartbeat 300 ms
+  r.sdo({0x2B, 0x00, 0x18, 0x05, 0x32, 0x00});              // TPDO1 event timer 50 ms
+  r.sdo({0x23, 0x01, 0x18, 0x01, 0x90, 0x02, 0x00, 0x80});  // TPDO2 not valid
+  r.sdo({0x23, 0x31, 0x61, 0x01, 0x00, 0x00, 0x4E, 0xFD});  // 0x6131:01 mbar (chain unit)
+  r.sdo({0x2F, 0x32, 0x61, 0x01, 0x03});                    // 0x6132:01 digits 3
+  r.sdo({0x23, 0x16, 0x10, 0x01, 0xC8, 0x00, 0x20, 0x00});  // consume node 0x20, 200 ms
+  r.frame(0x720, {0x05});                                   // its heartbeat: monitoring on
+  r.sdo({0x23, 0x10, 0x10, 0x01, 's', 'a', 'v', 'e'});      // store all
+  r.frame(0x080, {0x00, 0x00, 0x00});                       // SYNC with DLC 3: EMCY 0x8240
   physics::FaultSpec drift;
   drift.kind = physics::FaultKind::Drift;
   drift.drift_per_s = 5000.0;
@@ -112,18 +112,18 @@ void change_everything(Rig& r) {
   slow_sdo.kind = physics::FaultKind::SlowSdo;
   slow_sdo.sdo_delay_us = ms(3);
   r.arm(slow_sdo);
-  r.run_to(r.now + ms(1500));  // consumer timeout, TPDOs, the physics moves on
-  r.lss({0x04, 0x01});         // LSS: configuration state
-  r.lss({0x11, 0x22});         // pending node-ID 0x22
+  r.run_to(r.now + ms(1500));   // consumer timeout, TPDOs, the physics moves on
+  r.lss({0x04, 0x01});          // LSS: configuration state
+  r.lss({0x11, 0x22});          // pending node-ID 0x22
   r.frame(0x000, {0x82, kId});  // reset communication: node-ID 0x22 from now on
   r.run_to(r.now + ms(5));
-  r.sdo_to(0x22, {0x2B, 0x17, 0x10, 0x00, 0x00, 0x00});  // heartbeat off: guarding answers
-  r.rtr(0x722);                                           // the guarding toggle moves on
-  r.sdo_to(0x22, {0x2B, 0x17, 0x10, 0x00, 0x2C, 0x01});  // heartbeat 300 ms again
+  r.sdo_to(0x22, {0x2B, 0x17, 0x10, 0x00, 0x00, 0x00});              // heartbeat off: guarding answers
+  r.rtr(0x722);                                                      // the guarding toggle moves on
+  r.sdo_to(0x22, {0x2B, 0x17, 0x10, 0x00, 0x2C, 0x01});              // heartbeat 300 ms again
   r.sdo_to(0x22, {0x23, 0x05, 0x10, 0x00, 0x81, 0x00, 0x00, 0x00});  // SYNC on 0x081
-  r.lss({0x04, 0x01});                        // configuration state again
-  r.lss({0x11, 0x33});                        // pending node-ID 0x33
-  r.sdo_to(0x22, {0x40, 0x08, 0x10, 0x00});  // segmented upload of 0x1008 left open
+  r.lss({0x04, 0x01});                                               // configuration state again
+  r.lss({0x11, 0x33});                                               // pending node-ID 0x33
+  r.sdo_to(0x22, {0x40, 0x08, 0x10, 0x00});                          // segmented upload of 0x1008 left open
   r.run_to(r.now + ms(5));
   r.frame(0x000, {0x02, 0x00});  // NMT: STOPPED
   ASSERT_FALSE(r.sent.empty());
@@ -147,24 +147,24 @@ void change_everything(Rig& r) {
 // Traffic that shows each of those parts in the frames it draws.
 std::vector<Sent> probe(Rig& r) {
   r.sent.clear();
-  r.sdo({0x60});                                      // segment request: only an open upload answers
-  r.lss({0x5E});                                      // inquire node-ID: only in configuration state
-  r.sdo({0x40, 0x00, 0x21, 0x01});                    // 0x2100:01
-  r.sdo({0x40, 0x17, 0x10, 0x00});                    // heartbeat time
-  r.sdo({0x40, 0x00, 0x18, 0x05});                    // TPDO1 event timer
-  r.sdo({0x40, 0x03, 0x10, 0x00});                    // EMCY history count
-  r.sdo({0x40, 0x32, 0x61, 0x01});                    // digits
-  r.frame(0x000, {0x01, kId});                        // OPERATIONAL
-  r.frame(0x080, {0x00, 0x00, 0x00});                 // EMCY 0x8240 with the error register
-  r.frame(0x720, {0x05});                             // a heartbeat of node 0x20
-  for (int i = 0; i < 12; ++i) {                      // TPDO1 (physics), TPDO2 on SYNC, heartbeats
+  r.sdo({0x60});                       // segment request: only an open upload answers
+  r.lss({0x5E});                       // inquire node-ID: only in configuration state
+  r.sdo({0x40, 0x00, 0x21, 0x01});     // 0x2100:01
+  r.sdo({0x40, 0x17, 0x10, 0x00});     // heartbeat time
+  r.sdo({0x40, 0x00, 0x18, 0x05});     // TPDO1 event timer
+  r.sdo({0x40, 0x03, 0x10, 0x00});     // EMCY history count
+  r.sdo({0x40, 0x32, 0x61, 0x01});     // digits
+  r.frame(0x000, {0x01, kId});         // OPERATIONAL
+  r.frame(0x080, {0x00, 0x00, 0x00});  // EMCY 0x8240 with the error register
+  r.frame(0x720, {0x05});              // a heartbeat of node 0x20
+  for (int i = 0; i < 12; ++i) {       // TPDO1 (physics), TPDO2 on SYNC, heartbeats
     r.run_to(r.now + ms(200));
     r.frame(0x080, {});
   }
-  r.sdo({0x2B, 0x17, 0x10, 0x00, 0x00, 0x00});        // heartbeat off: guarding answers
-  r.rtr(0x700 + kId);                                 // with its toggle
+  r.sdo({0x2B, 0x17, 0x10, 0x00, 0x00, 0x00});  // heartbeat off: guarding answers
+  r.rtr(0x700 + kId);                           // with its toggle
   r.rtr(0x700 + kId);
-  r.frame(0x000, {0x81, kId});                        // reset node: stored values, pending node-ID
+  r.frame(0x000, {0x81, kId});  // reset node: stored values, pending node-ID
   r.run_to(r.now + ms(1200));
   return r.sent;
 }

@@ -26,7 +26,7 @@ TEST(PdoConfig, DiscoversEveryDeclaredPdo) {
 TEST(PdoConfig, CanIdChangesOnlyWhileInvalid) {
   PdoBus b;
   EXPECT_EQ(b.write(0x1800, 1, 0x195), SdoAbort::kInvalidValue);
-  EXPECT_EQ(b.write(0x1800, 1, 0x185), SdoAbort::kNone);  // same value
+  EXPECT_EQ(b.write(0x1800, 1, 0x185), SdoAbort::kNone);       // same value
   EXPECT_EQ(b.write(0x1800, 1, 0x40000185), SdoAbort::kNone);  // bit 30 may change
   // Invalidating may carry a new ID (as CANopenNode and Lely accept).
   EXPECT_EQ(b.write(0x1800, 1, 0x800001A5), SdoAbort::kNone);
@@ -41,8 +41,8 @@ TEST(PdoConfig, CobIdFormatAndRestrictedIds) {
   PdoBus b;
   ASSERT_EQ(b.write(0x1800, 1, 0x80000185), SdoAbort::kNone);
   EXPECT_EQ(b.write(0x1800, 1, 0x00000985), SdoAbort::kInvalidValue);  // 11-bit with bit 11
-  for (std::uint32_t id : {0x000u, 0x07Fu, 0x101u, 0x180u, 0x581u, 0x5FFu, 0x601u, 0x67Fu, 0x6E0u,
-                           0x6FFu, 0x701u, 0x77Fu, 0x780u, 0x7FFu})
+  for (std::uint32_t id :
+       {0x000u, 0x07Fu, 0x101u, 0x180u, 0x581u, 0x5FFu, 0x601u, 0x67Fu, 0x6E0u, 0x6FFu, 0x701u, 0x77Fu, 0x780u, 0x7FFu})
     EXPECT_EQ(b.write(0x1800, 1, id), SdoAbort::kInvalidValue) << std::hex << id;
   EXPECT_EQ(b.write(0x1800, 1, 0x80000601), SdoAbort::kNone);  // invalid: not checked
   EXPECT_EQ(b.write(0x1800, 1, 0x181), SdoAbort::kNone);
@@ -112,7 +112,7 @@ TEST(PdoConfig, InhibitTimeAndSyncStartOnlyWhileInvalid) {
 
 TEST(PdoConfig, MappingLockedWhileValidOrEnabled) {
   PdoBus b;
-  EXPECT_EQ(b.write(0x1A00, 0, 0), SdoAbort::kInvalidValue);         // PDO exists
+  EXPECT_EQ(b.write(0x1A00, 0, 0), SdoAbort::kInvalidValue);           // PDO exists
   EXPECT_EQ(b.write(0x1A00, 3, 0x20030008), SdoAbort::kInvalidValue);  // PDO exists
   ASSERT_EQ(b.write(0x1800, 1, 0x80000185), SdoAbort::kNone);
   EXPECT_EQ(b.write(0x1A00, 3, 0x20030008), SdoAbort::kInvalidValue);  // sub 0 != 0
@@ -130,7 +130,7 @@ TEST(PdoConfig, MappingLockedWhileValidOrEnabled) {
 TEST(PdoConfig, VendorMappingProcedureAndAbortOption) {
   PdoBus b("{pdo_mapping_needs_invalid: false, pdo_mapping_locked_abort: 0x06040043}");
   EXPECT_EQ(b.write(0x1A00, 1, 0x20030008), SdoAbort::kParamIncompatible);  // sub 0 != 0
-  ASSERT_EQ(b.write(0x1A00, 0, 0), SdoAbort::kNone);  // while valid
+  ASSERT_EQ(b.write(0x1A00, 0, 0), SdoAbort::kNone);                        // while valid
   EXPECT_EQ(b.write(0x1A00, 1, 0x20030008), SdoAbort::kNone);
   EXPECT_EQ(b.write(0x1A00, 0, 1), SdoAbort::kNone);
   b.start();
@@ -167,7 +167,7 @@ TEST(PdoConfig, MappingCountChecksLengthAndEntries) {
   ASSERT_EQ(b.write(0x1800, 1, 0x80000185), SdoAbort::kNone);
   ASSERT_EQ(b.write(0x1A00, 0, 0), SdoAbort::kNone);
   ASSERT_EQ(b.write(0x1A00, 3, 0x20050040), SdoAbort::kNone);  // U64
-  EXPECT_EQ(b.write(0x1A00, 0, 3), SdoAbort::kPdoLength);       // 32 + 16 + 64 bits
+  EXPECT_EQ(b.write(0x1A00, 0, 3), SdoAbort::kPdoLength);      // 32 + 16 + 64 bits
   EXPECT_EQ(b.write(0x1A00, 0, 4), SdoAbort::kPdoLength);
   EXPECT_EQ(b.write(0x1A00, 0, 9), SdoAbort::kValueTooHigh);  // only subs 1..8 exist
   EXPECT_EQ(b.value(0x1A00, 0), 0u);
@@ -226,8 +226,7 @@ class HookApp : public Application {
  public:
   SdoAbort check_write(Node&, const OdEntry& e, std::span<const std::uint8_t> d, TimeUs) override {
     // A personality restricting its mapping table: only 0x2003 may be mapped.
-    if (e.index == 0x1A00 && e.sub != 0 && d[2] != 0x03 && get_u32(d.data()) != 0)
-      return SdoAbort::kNotMappable;
+    if (e.index == 0x1A00 && e.sub != 0 && d[2] != 0x03 && get_u32(d.data()) != 0) return SdoAbort::kNotMappable;
     return SdoAbort::kNone;
   }
 };

@@ -22,7 +22,8 @@ inline std::string pdo_profile(const std::string& options) {
   return R"(
 name: pdo-test
 node_id: 5
-options: )" + options + R"(
+options: )" +
+         options + R"(
 objects:
   - {index: 0x1000, type: UNSIGNED32, access: ro, default: 0x00020194}
   - {index: 0x1001, type: UNSIGNED8, access: ro, default: 0, pdo_mappable: yes}
@@ -73,8 +74,7 @@ objects:
 class PdoBus {
  public:
   explicit PdoBus(const std::string& options = "{}", Application* app = nullptr)
-      : profile_(config::parse_profile(pdo_profile(options), "pdo-test.yaml")),
-        sim_(bus_.add(profile_, 5, app)) {
+      : profile_(config::parse_profile(pdo_profile(options), "pdo-test.yaml")), sim_(bus_.add(profile_, 5, app)) {
     bus_.power_on_all();
     bus_.run_for(ms(10));
     bus_.take();

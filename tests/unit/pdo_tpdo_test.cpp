@@ -188,7 +188,7 @@ TEST(Tpdo, Type1SamplesAtEverySync) {
 
 TEST(Tpdo, SyncStartValueDelaysTheFirstTransmission) {
   PdoBus b;
-  ASSERT_EQ(b.write(0x1019, 0, 5), SdoAbort::kNone);  // SYNC with counter 1..5
+  ASSERT_EQ(b.write(0x1019, 0, 5), SdoAbort::kNone);          // SYNC with counter 1..5
   ASSERT_EQ(b.write(0x1801, 6, 3), SdoAbort::kInvalidValue);  // PDO exists
   ASSERT_EQ(b.write(0x1801, 1, 0x80000285), SdoAbort::kNone);
   ASSERT_EQ(b.write(0x1801, 6, 241), SdoAbort::kInvalidValue);

@@ -92,16 +92,23 @@ TEST(PhysicsConfig, ErrorsNameFileLineAndKey) {
   EXPECT_EQ(error_of("physics:\n  pressure:\n    - constant: 5 parsec\n"),
             "t.yaml:6:17: physics.pressure[0].constant: expected a pressure like '5 bar' (Pa, hPa, kPa, MPa, bar, "
             "mbar, psi, atm, at, mmHg), got '5 parsec'");
-  EXPECT_THAT(error_of("physics:\n  pressure:\n    - wobble: 1\n"), HasSubstr("t.yaml:6:15: physics.pressure[0].wobble: unknown process term 'wobble'"));
-  EXPECT_THAT(error_of("sensor:\n  pressure: {range: [10 bar, 1 bar]}\n"), HasSubstr("t.yaml:5:30: sensor.pressure.range[1]: expected max > min"));
-  EXPECT_THAT(error_of("sensor:\n  pressure: {filter: {type: kalman}}\n"), HasSubstr("t.yaml:5:29: sensor.pressure.filter.type: expected none"));
-  EXPECT_THAT(error_of("sensor:\n  temperature: {noise: 1 bar}\n"), HasSubstr("t.yaml:5:24: sensor.temperature.noise: expected a temperature difference"));
-  EXPECT_THAT(error_of("faults:\n  - {kind: gremlins}\n"), HasSubstr("t.yaml:5:12: faults[0].kind: expected open, short"));
+  EXPECT_THAT(error_of("physics:\n  pressure:\n    - wobble: 1\n"),
+              HasSubstr("t.yaml:6:15: physics.pressure[0].wobble: unknown process term 'wobble'"));
+  EXPECT_THAT(error_of("sensor:\n  pressure: {range: [10 bar, 1 bar]}\n"),
+              HasSubstr("t.yaml:5:30: sensor.pressure.range[1]: expected max > min"));
+  EXPECT_THAT(error_of("sensor:\n  pressure: {filter: {type: kalman}}\n"),
+              HasSubstr("t.yaml:5:29: sensor.pressure.filter.type: expected none"));
+  EXPECT_THAT(error_of("sensor:\n  temperature: {noise: 1 bar}\n"),
+              HasSubstr("t.yaml:5:24: sensor.temperature.noise: expected a temperature difference"));
+  EXPECT_THAT(error_of("faults:\n  - {kind: gremlins}\n"),
+              HasSubstr("t.yaml:5:12: faults[0].kind: expected open, short"));
   EXPECT_THAT(error_of("faults:\n  - {kind: bus_off, at: 1 s, duration: 0 s}\n"),
               HasSubstr("faults[0].duration: expected a duration > 0 (omit it: until the end)"));
   EXPECT_EQ(error_of("faults:\n  - {kind: power_cycle, at: 1 s, duration: 0 s}\n"), "no error");
-  EXPECT_THAT(error_of("faults:\n  - {kind: stuck, colour: red}\n"), HasSubstr("t.yaml:5:19: faults[0].colour: unknown key"));
-  EXPECT_THAT(error_of("physics:\n  pressure:\n    - ou: {tau: 0 s}\n"), HasSubstr("physics.pressure[0].ou.tau: expected a correlation time > 0"));
+  EXPECT_THAT(error_of("faults:\n  - {kind: stuck, colour: red}\n"),
+              HasSubstr("t.yaml:5:19: faults[0].colour: unknown key"));
+  EXPECT_THAT(error_of("physics:\n  pressure:\n    - ou: {tau: 0 s}\n"),
+              HasSubstr("physics.pressure[0].ou.tau: expected a correlation time > 0"));
 }
 
 }  // namespace

@@ -93,14 +93,14 @@ TEST(PhysicsFaultSchedule, AtAfterDurationRepeatCount) {
 
 TEST(PhysicsFaultSchedule, EdgesArePolledInTimeOrder) {
   FaultSet fs;
-  fs.add(fault(FaultKind::BusOff, 2 * kS, kS, 5 * kS, 2), 0);     // [2,3) [7,8)
-  fs.add(fault(FaultKind::PowerCycle, 4 * kS, 0), 0);             // instantaneous at 4
+  fs.add(fault(FaultKind::BusOff, 2 * kS, kS, 5 * kS, 2), 0);  // [2,3) [7,8)
+  fs.add(fault(FaultKind::PowerCycle, 4 * kS, 0), 0);          // instantaneous at 4
   FaultSpec slow = fault(FaultKind::SlowSdo, 0, -1);
   slow.timing.at_us.reset();
   slow.timing.after_us = 500 * kMs;
   slow.sdo_delay_us = 300 * kMs;
   slow.id = 77;
-  auto hs = fs.add(slow, 1 * kS);                                 // [1.5, cancelled at 7.5)
+  auto hs = fs.add(slow, 1 * kS);  // [1.5, cancelled at 7.5)
   EXPECT_EQ(fs.next_edge_time(), 1500 * kMs);
   EXPECT_TRUE(drain(fs, 1 * kS).empty());
   auto e1 = drain(fs, 4 * kS);
@@ -165,7 +165,7 @@ TEST(PhysicsFaultSensor, OpenAndShortInvalidateAndRail) {
   EXPECT_EQ(o.status, kStatusInvalid);
   EXPECT_EQ(o.adc_counts, -100);
   EXPECT_TRUE(o.flags & kFlagOpen);
-  EXPECT_EQ(o.value, before);  // hold last valid
+  EXPECT_EQ(o.value, before);                       // hold last valid
   EXPECT_TRUE(s.read(150 * kMs).pressure.valid());  // ends at 150 ms
   const auto& sh = s.read(320 * kMs).pressure;
   EXPECT_FALSE(sh.valid());
@@ -304,4 +304,18 @@ TEST(PhysicsFaultSensor, FilterIsNotPollutedByRailSamples) {
     EXPECT_EQ(r.value, 5e5) << n;  // held while invalid, clean restart afterwards
     EXPECT_EQ(r.valid(), n < 100 || n >= 150) << n;
   }
+}
+
+// The channel words are parsed and printed in one place (physics/channel.hpp).
+TEST(ChannelNames, ParseAndPrintEachOther) {
+  for (Channel c : {Channel::Pressure, Channel::Temperature}) EXPECT_EQ(parse_channel(channel_name(c)), c);
+  EXPECT_EQ(channel_name(Channel::Temperature), "temperature");
+  EXPECT_FALSE(parse_channel("Pressure").has_value());
+  EXPECT_FALSE(parse_channel("both").has_value());
+  EXPECT_EQ(parse_fault_channel("pressure"), FaultChannel::Pressure);
+  EXPECT_EQ(parse_fault_channel("temperature"), FaultChannel::Temperature);
+  EXPECT_EQ(parse_fault_channel("both"), FaultChannel::Both);
+  EXPECT_FALSE(parse_fault_channel("humidity").has_value());
+  for (FaultChannel c : {FaultChannel::Pressure, FaultChannel::Temperature, FaultChannel::Both})
+    EXPECT_EQ(parse_fault_channel(to_string(c)), c);
 }

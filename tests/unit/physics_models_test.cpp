@@ -55,10 +55,10 @@ TEST(PhysicsModels, ConstantAndRamp) {
 
 TEST(PhysicsModels, TableLinearAndHoldOnce) {
   auto lin = pressure_model(TableTermSpec{table({{1, 10}, {3, 30}, {3, 0}, {5, 20}})});
-  EXPECT_DOUBLE_EQ(p_at(lin, 0.0), 10);   // before the first point: first value
+  EXPECT_DOUBLE_EQ(p_at(lin, 0.0), 10);  // before the first point: first value
   EXPECT_DOUBLE_EQ(p_at(lin, 2.0), 20);
   EXPECT_DOUBLE_EQ(p_at(lin, 2.999), 29.99);
-  EXPECT_DOUBLE_EQ(p_at(lin, 3.0), 0);    // jump (two points at t = 3)
+  EXPECT_DOUBLE_EQ(p_at(lin, 3.0), 0);  // jump (two points at t = 3)
   EXPECT_DOUBLE_EQ(p_at(lin, 4.0), 10);
   EXPECT_DOUBLE_EQ(p_at(lin, 99.0), 20);  // hold after the end
 
@@ -92,8 +92,7 @@ TEST(PhysicsModels, TableLooped) {
 TEST(PhysicsModels, TableCsvParsing) {
   std::vector<TablePoint> pts;
   std::string err;
-  ASSERT_TRUE(parse_table_csv("# comment\ntime_s,pressure_bar\n0,1.0\n1.5; 2.5\n3\t4\n", pts, &err, 1.0, 1e5))
-      << err;
+  ASSERT_TRUE(parse_table_csv("# comment\ntime_s,pressure_bar\n0,1.0\n1.5; 2.5\n3\t4\n", pts, &err, 1.0, 1e5)) << err;
   ASSERT_EQ(pts.size(), 3u);
   EXPECT_EQ(pts[1].t_s, 1.5);
   EXPECT_EQ(pts[1].value, 2.5e5);
@@ -114,12 +113,12 @@ TEST(PhysicsModels, SineAndPulse) {
 
   PulseSpec ps{1.0, 5.0, 10.0, 0.3, 2.0, 1.0, 2.0};  // low 1, high 5, period 10, high from rise start for 3 s
   auto p = pressure_model(ps);
-  EXPECT_EQ(p_at(p, 1.0), 1.0);              // before delay
-  EXPECT_DOUBLE_EQ(p_at(p, 2.5), 3.0);       // middle of the 1 s rise
-  EXPECT_EQ(p_at(p, 4.0), 5.0);              // high
-  EXPECT_DOUBLE_EQ(p_at(p, 6.0), 3.0);       // 1 s into the 2 s fall (fall starts at 5): midway
-  EXPECT_EQ(p_at(p, 8.0), 1.0);              // low
-  EXPECT_DOUBLE_EQ(p_at(p, 12.5), 3.0);      // next period
+  EXPECT_EQ(p_at(p, 1.0), 1.0);          // before delay
+  EXPECT_DOUBLE_EQ(p_at(p, 2.5), 3.0);   // middle of the 1 s rise
+  EXPECT_EQ(p_at(p, 4.0), 5.0);          // high
+  EXPECT_DOUBLE_EQ(p_at(p, 6.0), 3.0);   // 1 s into the 2 s fall (fall starts at 5): midway
+  EXPECT_EQ(p_at(p, 8.0), 1.0);          // low
+  EXPECT_DOUBLE_EQ(p_at(p, 12.5), 3.0);  // next period
   auto sq = pressure_model(PulseSpec{-1.0, 1.0, 2.0, 0.5, 0.0, 0.0, 0.0});
   EXPECT_EQ(p_at(sq, 0.0), 1.0);
   EXPECT_EQ(p_at(sq, 0.99), 1.0);
@@ -187,7 +186,8 @@ TEST(PhysicsModels, SecondOrderStepOvershootsAndRings) {
   s.damping = zeta;
   auto m = pressure_model(s);
   auto closed = [&](double a) {
-    return 1e5 * (1 - std::exp(-zeta * w * a) * (std::cos(wd * a) + zeta / std::sqrt(1 - zeta * zeta) * std::sin(wd * a)));
+    return 1e5 *
+           (1 - std::exp(-zeta * w * a) * (std::cos(wd * a) + zeta / std::sqrt(1 - zeta * zeta) * std::sin(wd * a)));
   };
   for (double t : {1.0, 1.05, 1.1, 1.3, 2.0, 4.0}) EXPECT_NEAR(p_at(m, t), closed(t - 1), 1e-6) << t;
   // Peak at pi / wd with overshoot exp(-pi zeta / sqrt(1 - zeta^2)).
@@ -281,8 +281,7 @@ TEST(PhysicsModels, CompositionIsTheSumOfTerms) {
 
 TEST(PhysicsModels, StochasticTermsAreDeterministicPerSeed) {
   ProcessSpec s;
-  s.pressure = {ConstantSpec{1e5}, OrnsteinUhlenbeckSpec{0.0, 30.0, 500.0, kNaN},
-                RandomWalkSpec{0.0, 20.0, 0.0}};
+  s.pressure = {ConstantSpec{1e5}, OrnsteinUhlenbeckSpec{0.0, 30.0, 500.0, kNaN}, RandomWalkSpec{0.0, 20.0, 0.0}};
   ProcessModel a(s, 42), b(s, 42), c(s, 43);
   int differ = 0;
   for (int i = 1; i <= 200; ++i) {

@@ -171,3 +171,24 @@ TEST(PhysicsRecorder, NeverIntoTheRefusedFolder) {
   fs::remove(link);
   std::remove(temp_path("ok.csv").c_str());
 }
+
+// A hard link made outside the state folder is the same file under another
+// name: recording to it would overwrite the stored parameters.
+TEST(PhysicsRecorder, NeverToAFileWithASecondName) {
+  namespace fs = std::filesystem;
+  const std::string state = temp_path("state-hl");
+  const std::string link = temp_path("hard.csv");
+  fs::create_directories(state);
+  std::ofstream(state + "/vcan0@dps@0.params") << "stored";
+  fs::create_hard_link(state + "/vcan0@dps@0.params", link);
+  CsvRecorder rec;
+  std::string error;
+  EXPECT_FALSE(rec.open(link, &error, CsvRecorder::kDefaultBuffer, state));
+  EXPECT_EQ(error, link + ": a file with more than one name (hard links), which recordings never write to");
+  std::ifstream in(state + "/vcan0@dps@0.params");
+  std::string kept;
+  in >> kept;
+  EXPECT_EQ(kept, "stored");
+  fs::remove_all(state);
+  fs::remove(link);
+}

@@ -105,8 +105,8 @@ TEST(PhysicsSensor, RepeatingAverageUpdatesOncePerBlock) {
 
 // Lazy evaluation at arbitrary times must equal a device that evaluates every sample.
 TEST(PhysicsSensor, LazyReadsEqualBruteForceSampling) {
-  for (FilterType ft : {FilterType::None, FilterType::MovingAverage, FilterType::RepeatingAverage,
-                        FilterType::FirstOrder}) {
+  for (FilterType ft :
+       {FilterType::None, FilterType::MovingAverage, FilterType::RepeatingAverage, FilterType::FirstOrder}) {
     auto spec = ideal_sensor();
     spec.pressure.filter = {ft, 37, 0.004};
     spec.pressure.noise_rms = 800.0;
@@ -157,8 +157,8 @@ TEST(PhysicsSensor, LazyMovingAverageIsBitIdentical) {
     Sensor brute = make(), lazy = make();
     std::vector<double> every;
     for (int n = 0; n <= 3000; ++n) every.push_back(brute.read(n * kMs).pressure.value);
-    for (TimeUs t : {TimeUs{7}, 10 * kMs + 500, 11 * kMs, 45 * kMs, 46 * kMs + 999, 500 * kMs, 529 * kMs,
-                     531 * kMs, 1999 * kMs, 2000 * kMs, 2029 * kMs + 1, 3000 * kMs})
+    for (TimeUs t : {TimeUs{7}, 10 * kMs + 500, 11 * kMs, 45 * kMs, 46 * kMs + 999, 500 * kMs, 529 * kMs, 531 * kMs,
+                     1999 * kMs, 2000 * kMs, 2029 * kMs + 1, 3000 * kMs})
       EXPECT_EQ(lazy.read(t).pressure.value, every[static_cast<std::size_t>(t / kMs)]) << t;
   }
 }
@@ -274,9 +274,9 @@ TEST(PhysicsSensor, DamageLatchesUntilReplaced) {
   EXPECT_TRUE(s.damaged(Channel::Pressure));
   EXPECT_FALSE(s.damaged(Channel::Temperature));
   EXPECT_FALSE(s.read(5000 * kMs).pressure.valid());  // pressure back to normal: still damaged
-  s.reboot(6000 * kMs);                                // a power cycle does not repair it
+  s.reboot(6000 * kMs);                               // a power cycle does not repair it
   EXPECT_FALSE(s.read(6100 * kMs).pressure.valid());
-  s.replace(7000 * kMs);                               // node replaced: state cleared
+  s.replace(7000 * kMs);  // node replaced: state cleared
   const auto& r = s.read(7100 * kMs).pressure;
   EXPECT_TRUE(r.valid());
   EXPECT_EQ(r.value, 5e4);
@@ -491,7 +491,7 @@ TEST(PhysicsSensor, SampleGridIsExactOverLongRunsAndOddRates) {
   spec.pressure.sample_rate_hz = 3000;  // 333.33 us period
   spec.temperature.sample_rate_hz = 10;
   Sensor o(spec, process({ConstantSpec{1e5}}), 1, nullptr, 5000);  // booted at 5 ms
-  EXPECT_EQ(o.read(4999).pressure.sample_index, -1);  // before boot: nothing sampled
+  EXPECT_EQ(o.read(4999).pressure.sample_index, -1);               // before boot: nothing sampled
   const auto& q = o.read(5000 + 1000);
   EXPECT_EQ(q.pressure.sample_index, 3);
   EXPECT_EQ(q.pressure.sample_time_us, 6000);
@@ -523,4 +523,100 @@ TEST(PhysicsSensor, FilterWindowFromTime) {
   }
   ProcessModel m;
   EXPECT_EQ(m.at_us(1500000).pressure_pa, m.at(1.5).pressure_pa);
+}
+
+// ---- steadiness: what the next read gives, without reading
+
+namespace {
+// A realistic pressure channel: 0..10 bar, 16-bit ADC with headroom, 1 mbar
+// noise, static and thermal errors, a 2 % hysteresis loop, a moving average.
+SensorSpec transmitter() {
+  SensorSpec s = ideal_sensor();
+  ChannelSpec& p = s.pressure;
+  p.range_min = 0;
+  p.range_max = 10e5;
+  p.adc = AdcSpec::unsigned_bits(16, 0.1);
+  p.noise_rms = 100;
+  p.errors.zero_offset = 300;
+  p.errors.span_error = 0.002;
+  p.errors.thermal_zero_per_k = 5;
+  p.errors.hysteresis = 2000;
+  p.filter = {FilterType::MovingAverage, 8, 0};
+  return s;
+}
+}  // namespace
+
+// Whatever a single later read gives lies in the bounds, with the status said
+// (drifting OU process, sine temperature, 300 seeds, reads up to 200 s on).
+TEST(PhysicsSensor, ASteadyChannelReadsWithinItsBounds) {
+  int sure = 0;
+  for (std::uint64_t seed = 1; seed <= 300; ++seed) {
+    Sensor s(
+        transmitter(),
+        process({ConstantSpec{5e5}, OrnsteinUhlenbeckSpec{0, 30, 1e4}}, {ConstantSpec{295}, SineSpec{3, 1.0 / 600, 0}}),
+        seed);
+    Xoshiro256ss rng(seed);
+    const TimeUs t = TimeUs(rng.uniform(0.05, 2.0) * 1e6);
+    s.read(t);
+    const Steadiness st = s.steadiness(Channel::Pressure, t);
+    if (st.until <= t) continue;
+    ++sure;
+    const TimeUs later = t + 1 + TimeUs(rng.uniform() * std::min<double>(200e6, double(st.until - t - 1)));
+    const ChannelReading& r = s.read(later).pressure;
+    EXPECT_GE(r.value, st.lo) << "seed " << seed;
+    EXPECT_LE(r.value, st.hi) << "seed " << seed;
+    EXPECT_EQ(r.status, st.status) << "seed " << seed;
+  }
+  EXPECT_EQ(sure, 300);  // 5 bar +- OU is far from 0 and 10 bar
+}
+
+// Near a limit, under a measurement fault in force, before any sample and
+// for a second-order process nothing is sure; a fault to come bounds it.
+TEST(PhysicsSensor, NothingIsSureNearALimitOrUnderAFault) {
+  Sensor near(transmitter(), process({ConstantSpec{9.99e5}, OrnsteinUhlenbeckSpec{0, 30, 2e3}}), 1);
+  EXPECT_EQ(near.steadiness(Channel::Pressure, 0).until, 0);  // no sample yet
+  near.read(1000 * kMs);
+  EXPECT_EQ(near.steadiness(Channel::Pressure, 1000 * kMs).until, 1000 * kMs);
+
+  FaultSet faults;
+  FaultSpec open;
+  open.kind = FaultKind::SensorOpen;
+  open.timing.at_us = 3000 * kMs;
+  open.timing.duration_us = 1000 * kMs;
+  faults.add(open, 0);
+  Sensor s(transmitter(), process({ConstantSpec{5e5}}), 1, &faults);
+  s.read(1000 * kMs);
+  EXPECT_EQ(s.steadiness(Channel::Pressure, 1000 * kMs).until, 3000 * kMs);
+  EXPECT_EQ(s.steadiness(Channel::Temperature, 1000 * kMs).until, kNever);  // the fault is the pressure channel's
+  s.read(3500 * kMs);
+  EXPECT_EQ(s.steadiness(Channel::Pressure, 3500 * kMs).until, 3500 * kMs);
+  EXPECT_EQ(s.read(3500 * kMs).pressure.status, kStatusInvalid);
+  s.read(4100 * kMs);  // after it: sure again, and valid
+  const Steadiness after = s.steadiness(Channel::Pressure, 4100 * kMs);
+  EXPECT_EQ(after.until, kNever);
+  EXPECT_EQ(after.status, 0);
+
+  SecondOrderSpec ringing;
+  ringing.setpoint.points = {{0, 5e5}};
+  Sensor second(transmitter(), process({ringing}), 1);
+  second.read(1000 * kMs);
+  EXPECT_EQ(second.steadiness(Channel::Pressure, 1000 * kMs).until, 1000 * kMs);
+}
+
+// A damaged sensor stays not valid with its last valid value held.
+TEST(PhysicsSensor, ADamagedChannelIsSureToStayInvalid) {
+  SensorSpec spec = transmitter();
+  spec.pressure.overload.safe_max = 20e5;
+  Sensor s(spec, process({RampSpec{5e5, 25e5, 1.0, 1.0}}), 1);
+  s.read(500 * kMs);
+  EXPECT_EQ(s.steadiness(Channel::Pressure, 500 * kMs).until, 1000 * kMs);  // the 0.5 s horizon: then it may be damaged
+  s.read(1000 * kMs);
+  EXPECT_EQ(s.steadiness(Channel::Pressure, 1000 * kMs).until, 1000 * kMs);
+  s.read(3000 * kMs);
+  ASSERT_TRUE(s.damaged());
+  const Steadiness st = s.steadiness(Channel::Pressure, 3000 * kMs);
+  EXPECT_EQ(st.until, kNever);
+  EXPECT_EQ(st.status, kStatusInvalid);
+  EXPECT_DOUBLE_EQ(st.lo, s.read(3000 * kMs).pressure.value);
+  EXPECT_DOUBLE_EQ(st.lo, st.hi);
 }

@@ -53,10 +53,14 @@ TEST(PhysicsUnits, ParsingUnitsAndQuantities) {
   EXPECT_FALSE(parse_pressure_unit("mPa"));
   EXPECT_FALSE(parse_pressure_unit("furlong"));
   EXPECT_EQ(parse_temperature_unit("degC"), TemperatureUnit::degC);
-  EXPECT_EQ(parse_temperature_unit("\xC2\xB0" "C"), TemperatureUnit::degC);
+  EXPECT_EQ(parse_temperature_unit("\xC2\xB0"
+                                   "C"),
+            TemperatureUnit::degC);
   EXPECT_EQ(parse_temperature_unit("C"), TemperatureUnit::degC);
   EXPECT_EQ(parse_temperature_unit("degF"), TemperatureUnit::degF);
-  EXPECT_EQ(parse_temperature_unit("\xC2\xB0" "F"), TemperatureUnit::degF);
+  EXPECT_EQ(parse_temperature_unit("\xC2\xB0"
+                                   "F"),
+            TemperatureUnit::degF);
   EXPECT_EQ(parse_temperature_unit("K"), TemperatureUnit::K);
   EXPECT_FALSE(parse_temperature_unit("k"));
 
@@ -68,7 +72,9 @@ TEST(PhysicsUnits, ParsingUnitsAndQuantities) {
   EXPECT_FALSE(parse_pressure("bar"));
   EXPECT_FALSE(parse_pressure("1 parsec"));
   EXPECT_EQ(parse_temperature("25 degC"), 298.15);
-  EXPECT_DOUBLE_EQ(*parse_temperature("-40 \xC2\xB0" "C"), 233.15);
+  EXPECT_DOUBLE_EQ(*parse_temperature("-40 \xC2\xB0"
+                                      "C"),
+                   233.15);
   EXPECT_DOUBLE_EQ(*parse_temperature("212 degF"), 373.15);
   EXPECT_EQ(parse_temperature("300"), 300.0);
 }
@@ -129,9 +135,25 @@ TEST(PhysicsRandom, SequentialAndCounterGeneratorsAreDeterministic) {
 }
 
 TEST(PhysicsQuantize, RoundHalfAwayMatchesStdRound) {
-  const double edge[] = {0.0, 0.5, -0.5, 1.5, -1.5, 2.5, -2.5, 0.49999999999999994, -0.49999999999999994,
-                         0x1p52 - 0.5, -(0x1p52 - 0.5), 0x1p52, 0x1p52 + 1, 0x1p53 + 2, -0x1p63, 1e300, -1e300,
-                         std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(),
+  const double edge[] = {0.0,
+                         0.5,
+                         -0.5,
+                         1.5,
+                         -1.5,
+                         2.5,
+                         -2.5,
+                         0.49999999999999994,
+                         -0.49999999999999994,
+                         0x1p52 - 0.5,
+                         -(0x1p52 - 0.5),
+                         0x1p52,
+                         0x1p52 + 1,
+                         0x1p53 + 2,
+                         -0x1p63,
+                         1e300,
+                         -1e300,
+                         std::numeric_limits<double>::infinity(),
+                         -std::numeric_limits<double>::infinity(),
                          std::numeric_limits<double>::denorm_min()};
   for (double x : edge) EXPECT_EQ(round_half_away(x), std::round(x)) << x;
   EXPECT_TRUE(std::isnan(round_half_away(std::nan(""))));

@@ -62,7 +62,8 @@ void run_session(const config::Profile& profile) {
   bus.inject(CanFrame::make(0x000, {0x01, 0x00}));  // NMT start all
   bus.run_for(30'000);
   for (const OdEntry& e : profile.layout->entries()) {
-    bus.inject(CanFrame::make(0x600u + id, {0x40, std::uint8_t(e.index), std::uint8_t(e.index >> 8), e.sub, 0, 0, 0, 0}));
+    bus.inject(
+        CanFrame::make(0x600u + id, {0x40, std::uint8_t(e.index), std::uint8_t(e.index >> 8), e.sub, 0, 0, 0, 0}));
     bus.inject(CanFrame::make(0x080, {}));  // SYNC
     bus.run_for(1'000);
     bus.take();
@@ -106,8 +107,7 @@ class ProfileEdits : public ::testing::TestWithParam<const char*> {
 };
 
 TEST_P(ProfileEdits, EachObjectDeletedOrRetypedIsRejectedOrRuns) {
-  const std::vector<std::string> lines =
-      lines_of(std::string(CANSIM_SOURCE_DIR) + "/profiles/" + GetParam() + ".yaml");
+  const std::vector<std::string> lines = lines_of(std::string(CANSIM_SOURCE_DIR) + "/profiles/" + GetParam() + ".yaml");
   static const std::regex object_line(R"(^\s*- \{index: .*)");
   static const std::regex type_field(R"(type: ([A-Z_0-9]+))");
   // Under ASan/UBSan (the asan tier, one core beside the VM tiers) every
@@ -133,8 +133,8 @@ TEST_P(ProfileEdits, EachObjectDeletedOrRetypedIsRejectedOrRuns) {
     check("retyped line " + std::to_string(i + 1) + ": " + edited[i], edited);
   }
   EXPECT_GT(objects, 20);
-  std::printf("%s: %d object lines; %d edits rejected by the loader, %d ran a session\n", GetParam(), objects,
-              rejected, ran);
+  std::printf("%s: %d object lines; %d edits rejected by the loader, %d ran a session\n", GetParam(), objects, rejected,
+              ran);
 }
 
 INSTANTIATE_TEST_SUITE_P(Shipped, ProfileEdits,

@@ -64,7 +64,7 @@ TEST(ProfileModel, ChainBindsToTheLayoutsChannels) {
   const model::Profile p = plain_dps(true);
   ASSERT_EQ(p.cia404->channels.size(), 1u);
   const model::ChannelConfig& c = p.cia404->channels[0];
-  EXPECT_EQ(c.kind, model::QuantityKind::kPressure);
+  EXPECT_EQ(c.source, physics::Channel::Pressure);
   EXPECT_EQ(c.fixed_unit.code, 0x004E0000u);
   EXPECT_EQ(c.param(model::Role::kPv).views[0], p.layout->find(0x6130, 1));
   EXPECT_FALSE(c.param(model::Role::kOffset).present());

@@ -1,4 +1,4 @@
-// Typed options (issue #25): every option's kind is declared once in
+// Typed options: every option's kind is declared once in
 // core/node_options.hpp and parsed by the loader, so a misspelt or
 // out-of-range value fails --check with file:line:column, the option and
 // what its kind expects; the services read typed values.
@@ -37,7 +37,8 @@ TEST(TypedOptions, EveryKindRefusesWhatItDoesNotHold) {
        "options.sdo_refusal_abort: expected an integer in 0..0xFFFFFFFF, got '0x100000000'"},
       {"tpdo_allowed_types: '0-300'",
        "options.tpdo_allowed_types: expected ranges of values 0..255 like '0-240,252-255', got '0-300'"},
-      {"lss_bit_rates: '4,x'", "options.lss_bit_rates: expected ranges of values 0..255 like '0-240,252-255', got '4,x'"},
+      {"lss_bit_rates: '4,x'",
+       "options.lss_bit_rates: expected ranges of values 0..255 like '0-240,252-255', got '4,x'"},
       {"sdo_segmented_download_indices: '0x4022-0x4020'",
        "options.sdo_segmented_download_indices: expected ranges of values 0..0xFFFF like '0x4020-0x4022' (empty: "
        "every value), got '0x4022-0x4020'"},

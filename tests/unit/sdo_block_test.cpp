@@ -52,7 +52,7 @@ TEST_F(SdoBlockDownload, ThreeSegmentsWithCrc) {
   EXPECT_TRUE(req(seg(2, 7)).empty());
   EXPECT_EQ(req(seg(3, 14, true)), one({0xA2, 3, 127, 0, 0, 0, 0, 0}));
   EXPECT_EQ(value(0x2001, 0).size(), 16u);  // written only after the end frame
-  EXPECT_EQ(end(1, crc()), kDone);  // 20 = 2 * 7 + 6: one unused byte
+  EXPECT_EQ(end(1, crc()), kDone);          // 20 = 2 * 7 + 6: one unused byte
   EXPECT_EQ(value(0x2001, 0), data);
   EXPECT_FALSE(node().sdo().busy());
 }
@@ -301,7 +301,8 @@ TEST_F(SdoBlockUpload, LongStringObject) {
   EXPECT_EQ(req({0xA3, 0, 0, 0, 0, 0, 0, 0}), segs(1, 0, segments, true));
   std::uint8_t unused = std::uint8_t((7 - n % 7) % 7);
   std::uint16_t crc = crc16_ccitt(data);
-  EXPECT_EQ(ack(std::uint8_t(segments), 127), one({std::uint8_t(0xC1 | (unused << 2)), lo(crc), hi(crc), 0, 0, 0, 0, 0}));
+  EXPECT_EQ(ack(std::uint8_t(segments), 127),
+            one({std::uint8_t(0xC1 | (unused << 2)), lo(crc), hi(crc), 0, 0, 0, 0, 0}));
 }
 
 // CiA 301: pst != 0 and size <= pst -> the server may use a normal upload.

@@ -76,9 +76,7 @@ class SdoFixture : public ::testing::Test {
       if (s.frame.id == kSdoTx) out.push_back(s);
     return out;
   }
-  static std::vector<CanFrame> one(std::initializer_list<std::uint8_t> bytes) {
-    return {F(kSdoTx, bytes)};
-  }
+  static std::vector<CanFrame> one(std::initializer_list<std::uint8_t> bytes) { return {F(kSdoTx, bytes)}; }
   static CanFrame abort_frame(std::uint16_t index, std::uint8_t sub, std::uint32_t code) {
     return F(kSdoTx, {0x80, std::uint8_t(index), std::uint8_t(index >> 8), sub, std::uint8_t(code),
                       std::uint8_t(code >> 8), std::uint8_t(code >> 16), std::uint8_t(code >> 24)});

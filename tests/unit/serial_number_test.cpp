@@ -1,4 +1,4 @@
-// One serial path (issue #25): a fleet entry's `serial:` and a profile's
+// One serial path: a fleet entry's `serial:` and a profile's
 // `serial_number_base` are the node's 0x1018:04 default, applied before the
 // personality's reset hook, so every vendor copy of the serial number follows
 // it after power-on, reset node and reset communication.
@@ -42,10 +42,15 @@ class SerialNumbers : public ::testing::TestWithParam<Personality> {
   // `serial_number_base: 7000` (7000, 7001).
   void SetUp() override {
     const std::string p = GetParam().profile;
-    const std::string text = "interfaces:\n  vcan0: {}\nnodes:\n"
-                             "  - {profile: " + p + ", interface: vcan0, node_id: 0x20, serial: 654321}\n"
-                             "  - {profile: " + p + ", interface: vcan0, node_id: 0x30, count: 2,"
-                             " vendor: {serial_number_base: 7000}}\n";
+    const std::string text =
+        "interfaces:\n  vcan0: {}\nnodes:\n"
+        "  - {profile: " +
+        p +
+        ", interface: vcan0, node_id: 0x20, serial: 654321}\n"
+        "  - {profile: " +
+        p +
+        ", interface: vcan0, node_id: 0x30, count: 2,"
+        " vendor: {serial_number_base: 7000}}\n";
     const std::string file = std::string(CANSIM_SOURCE_DIR) + "/serial-test.yaml";
     fleet = config::parse_fleet(text, file, config::default_search(file, ""));
     ASSERT_EQ(fleet.nodes.size(), 3u);
@@ -103,13 +108,12 @@ TEST_P(SerialNumbers, EverySerialObjectFollowsTheFleetSerialAndTheBase) {
   expect_all("a power cycle");
 }
 
-INSTANTIATE_TEST_SUITE_P(Personalities, SerialNumbers, ::testing::ValuesIn(kPersonalities),
-                         [](const auto& info) {
-                           std::string n = info.param.profile;
-                           for (char& c : n)
-                             if (c == '-') c = '_';
-                           return n;
-                         });
+INSTANTIATE_TEST_SUITE_P(Personalities, SerialNumbers, ::testing::ValuesIn(kPersonalities), [](const auto& info) {
+  std::string n = info.param.profile;
+  for (char& c : n)
+    if (c == '-') c = '_';
+  return n;
+});
 
 }  // namespace
 }  // namespace cansim::test

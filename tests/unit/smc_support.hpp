@@ -24,7 +24,8 @@ class SmcSource : public personalities::MeasurementSource {
   double range_max[2] = {};
   Sample sample(physics::Channel ch, TimeUs) override {
     const int i = ch == physics::Channel::Pressure ? 0 : 1;
-    return {range_min[i] + fv[i] / 20000.0 * (range_max[i] - range_min[i]), std::int32_t(std::lround(fv[i])), status[i]};
+    return {range_min[i] + fv[i] / 20000.0 * (range_max[i] - range_min[i]), std::int32_t(std::lround(fv[i])),
+            status[i]};
   }
   TimeUs sample_period_us(physics::Channel) const override { return 1000; }
 };

@@ -2,6 +2,8 @@
 // persistence blob shared with LSS store configuration.
 #include "nmt_support.hpp"
 
+#include "core/crc32.hpp"
+
 namespace cansim::nmt_test {
 namespace {
 
@@ -24,9 +26,7 @@ class Store : public Harness {
   SdoAbort set_string(SimNode& n, const std::string& s) {
     return n->write(0x2002, 0, {reinterpret_cast<const std::uint8_t*>(s.data()), s.size()}, now());
   }
-  std::string get_string(SimNode& n) {
-    return std::string(n->values().get_string(*n->od().find(0x2002, 0)));
-  }
+  std::string get_string(SimNode& n) { return std::string(n->values().get_string(*n->od().find(0x2002, 0))); }
 };
 
 TEST_F(Store, SaveAllSurvivesPowerLoss) {
@@ -226,11 +226,9 @@ TEST_F(Store, RobustToAChangedProfile) {
   ASSERT_EQ(set_string(n, "kept"), SdoAbort::kNone);
   ASSERT_EQ(wr32(n, 0x1010, 1, kSave), SdoAbort::kNone);
   std::string text = profile_text("{}", "");
-  auto swap = [&](const std::string& from, const std::string& to) {
-    text.replace(text.find(from), from.size(), to);
-  };
+  auto swap = [&](const std::string& from, const std::string& to) { text.replace(text.find(from), from.size(), to); };
   swap("{index: 0x2000, type: UNSIGNED32", "{index: 0x2000, type: UNSIGNED16");  // other size
-  swap("default: 3, persistent: 4}", "default: 3}");                           // no longer stored
+  swap("default: 3, persistent: 4}", "default: 3}");                             // no longer stored
   swap("  - {index: 0x1017, type: UNSIGNED16, access: rw, default: 0, persistent: yes}\n", "");
   config::Profile changed = config::parse_profile(text);
   SimNode& m = add_profile(std::move(changed), 5);

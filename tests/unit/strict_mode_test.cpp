@@ -1,4 +1,4 @@
-// Strict mode (README "Strict mode and quirks"): `strict` flips exactly the
+// Strict mode (docs/profiles.md "Strict mode and quirks"): `strict` flips exactly the
 // quirk inventory of every profile, the loader keeps `quirks:` and the
 // deviations in step, and every personality in strict mode passes the same
 // frame-by-frame CiA 301 / 305 service checks as the generic node.
@@ -105,8 +105,8 @@ TEST(StrictMode, GenericProfileHasNoQuirks) {
 
 TEST(StrictMode, QuirkCountsPerProfile) {
   // The inventory printed by `cansimd --quirks` (kept in step with docs/devices).
-  const std::pair<const char*, std::size_t> counts[] = {{"dps", 16}, {"p92c", 23}, {"gems9000", 28},
-                                                        {"smc", 18}, {"cmp", 6}};
+  const std::pair<const char*, std::size_t> counts[] = {
+      {"dps", 16}, {"p92c", 23}, {"gems9000", 28}, {"smc", 18}, {"cmp", 6}};
   for (const auto& [name, n] : counts)
     EXPECT_EQ(config::quirk_inventory(prepared_repo_profile(name)).size(), n) << name;
 }
@@ -179,7 +179,7 @@ TEST(StrictMode, FleetEntryOptionsWinOverStrict) {
   EXPECT_TRUE(a.options->sdo_expedited_only);         // the entry's override
   EXPECT_FALSE(a.options->sdo_upload_response_0x60);  // strict
   EXPECT_FALSE(b.strict);
-  EXPECT_TRUE(b.options->sdo_upload_response_0x60);   // faithful
+  EXPECT_TRUE(b.options->sdo_upload_response_0x60);  // faithful
 }
 
 TEST(StrictMode, WholeFleetKeepsEntryOverrides) {
@@ -210,8 +210,7 @@ const std::map<std::string, std::vector<std::string>> kExplainedBy = {
     {"NoSdoInStopped", {"sdo_in_stopped"}},
     {"TpdoStopsWhileItsCobIdIsInvalid", {"pdo_ignore_valid_bit", "tpdo_event_timer_types"}},
     {"MappingChangesOnlyWhileThePdoIsInvalid", {"pdo_mapping_needs_invalid", "pdo_mapping_locked_abort"}},
-    {"ErrorHistoryFollowsCiA",
-     {"emcy_history_bad_write_abort", "emcy_history_read_empty_abort", "object 0x1003:00"}},
+    {"ErrorHistoryFollowsCiA", {"emcy_history_bad_write_abort", "emcy_history_read_empty_abort", "object 0x1003:00"}},
     {"RestoreDefaultsTakesEffectAtResetNode", {"restore_mode", "store_bad_signature_abort"}},
     {"LssConfiguresNodeIdAndBitTiming",
      {"lss_only_in_stopped", "lss_node_id_ff_allowed", "lss_bit_timing_manual_layout", "lss_table_selector_1_is_cia",
@@ -297,7 +296,8 @@ class Conformance : public ::testing::TestWithParam<const char*> {
   std::uint32_t default_u(std::uint16_t index, std::uint8_t sub) const {
     const OdEntry* e = profile_.layout->find(index, sub);
     std::uint32_t v = 0;
-    for (std::size_t i = 0; i < e->default_bytes.size() && i < 4; ++i) v |= std::uint32_t(e->default_bytes[i]) << (8 * i);
+    for (std::size_t i = 0; i < e->default_bytes.size() && i < 4; ++i)
+      v |= std::uint32_t(e->default_bytes[i]) << (8 * i);
     return v;
   }
   // Makes TPDO1 event-driven with a 20 ms event timer (type 255, else 254).

@@ -91,6 +91,20 @@ class TimedBusTest : public ::testing::TestWithParam<std::pair<std::uint8_t, Tim
     ASSERT_EQ(frames(tx).size(), 6u);
   }
   TimeUs at(int bits) const { return kT0 + bits * bit; }
+  // Node 1 starts every node at kT0; node 2 hears it when its EOF ends, 65
+  // bits later (68 on the wire less the intermission), not before.
+  void expect_heard_when_it_ends() {
+    const CanFrame start_all = F(0x000, {0x01, 0x00});
+    ASSERT_EQ(wire_bits(start_all), 68);
+    Sender& master = add(1);
+    master.script = {{kT0, start_all}};
+    add(2);
+    for (NodeRef r : refs) core.power_on(r, 0);
+    core.run_until(kT0 + 65 * bit - 1);
+    EXPECT_EQ(core.node(refs[1]).state(), NmtState::kPreOperational);
+    core.run_until(kT0 + 65 * bit);
+    EXPECT_EQ(core.node(refs[1]).state(), NmtState::kOperational);
+  }
 
   config::Profile profile;
   LoopCore core;
@@ -112,7 +126,8 @@ TEST_P(TimedBusTest, SyncBurstLowestIdFirstBackToBack) {
   core.receive(bus, kSync, kT0);
   core.run_until(kT0 + ms(10));
   const Log want = {
-      {at(51 + 66), kB}, {at(120 + 45), kD}, {at(168 + 55), kC}, {at(226 + 110), kA1}, {at(339 + 122), kA2}, {at(464 + 99), kE},
+      {at(51 + 66), kB},    {at(120 + 45), kD},   {at(168 + 55), kC},
+      {at(226 + 110), kA1}, {at(339 + 122), kA2}, {at(464 + 99), kE},
   };
   const Log got = frames(tx);
   EXPECT_EQ(got, want) << dump(got);
@@ -135,8 +150,13 @@ TEST_P(TimedBusTest, AnOutsideFrameTakesTheBusAfterTheFrameOnTheWire) {
   core.receive(bus, kSdoRequest, at(125));
   core.run_until(kT0 + ms(20));
   Log want = {
-      {at(51 + 66), kB},   {at(120 + 45), kD},  {at(292 + 55), kC},           {at(350 + 110), kA1},
-      {at(463 + 122), kA2}, {at(588 + 99), kE}, {at(690 + 116), kSdoResponse},
+      {at(51 + 66), kB},
+      {at(120 + 45), kD},
+      {at(292 + 55), kC},
+      {at(350 + 110), kA1},
+      {at(463 + 122), kA2},
+      {at(588 + 99), kE},
+      {at(690 + 116), kSdoResponse},
   };
   Log got = frames(tx);
   EXPECT_EQ(got, want) << dump(got);
@@ -160,31 +180,170 @@ TEST_P(TimedBusTest, AnOutsideFrameTakesTheBusAfterTheFrameOnTheWire) {
   EXPECT_EQ(got, want) << dump(got);
 }
 
-TEST_P(TimedBusTest, ALateWakeUpSendsWhatEndedInOrderAndKeepsTheSchedule) {
-  add_burst_fleet();
-  core.receive(bus, kSync, kT0);
-  // The loop wakes late, after 0x1A3's first frame ended (bit 336).
-  core.run_due(at(400));
-  Log got = frames(tx);
-  EXPECT_EQ(got, (Log{{at(400), kB}, {at(400), kD}, {at(400), kC}, {at(400), kA1}})) << dump(got);
-  EXPECT_EQ(core.next_deadline(), at(461));
-  core.run_until(kT0 + ms(10));
-  got = frames(tx);
-  EXPECT_EQ(got, (Log{{at(461), kA2}, {at(563), kE}})) << dump(got);
+// Records who sent each frame: a local node (0) or an outside participant.
+class ParticipantLog : public Transport {
+ public:
+  explicit ParticipantLog(const TimeUs* clock) : clock_(clock) {}
+  void transmit(const CanFrame& f) override { log.push_back({*clock_, f, 0}); }
+  void transmit_from(const CanFrame& f, Participant from) override { log.push_back({*clock_, f, from}); }
+  struct Entry {
+    TimeUs time;
+    CanFrame frame;
+    Participant from;
+    bool operator==(const Entry&) const = default;
+  };
+  std::vector<Entry> log;
+
+ private:
+  const TimeUs* clock_;
+};
+
+TEST_P(TimedBusTest, AParticipantsFramesArbitrateWithTheNodesAndReachThemWhenTheyEnd) {
+  LoopCore wire;
+  ParticipantLog out(&wire.now());
+  const BusId b = wire.add_bus("bench", out, rate);
+  wire.set_bus_model(b, BusModel::kTimed);
+  auto add_node = [&](std::uint8_t id, std::vector<CanFrame> on_sync) {
+    auto app = std::make_unique<Sender>();
+    app->on_sync_frames = std::move(on_sync);
+    NodeSetup s = config::node_setup(profile, id);
+    s.bit_rate_index = rate;
+    wire.power_on(wire.add_node(b, s, std::move(app)), 0);
+  };
+  add_node(1, {kA1});
+  add_node(2, {kB});
+  add_node(5, {});  // answers SDO
+  wire.run_until(kT0 - 1);
+  out.log.clear();
+  // A SYNC seen on the wire (bits 0..51); participant 9 submits at the same
+  // instant a frame that wins (0x100) and an SDO request that loses to every
+  // node's frame (0x605). Node 5 hears the request when it ends and answers.
+  const CanFrame low = F(0x100, {0x01});
+  wire.receive(b, kSync, kT0);
+  EXPECT_TRUE(wire.submit(b, low, 9, kT0));
+  EXPECT_TRUE(wire.submit(b, kSdoRequest, 9, kT0));
+  wire.run_until(kT0 + ms(20));
+  std::vector<ParticipantLog::Entry> want;
+  int start = wire_bits(kSync);
+  for (auto [f, from] : {std::pair{low, 9u}, {kB, 0u}, {kA1, 0u}, {kSdoRequest, 9u}, {kSdoResponse, 0u}}) {
+    want.push_back({at(start + wire_bits(f) - 3), f, Participant(from)});
+    start += wire_bits(f);
+  }
+  EXPECT_EQ(out.log, want);
+  const BusLoad load = wire.bus_load(b);
+  EXPECT_EQ(load.dropped, 0u);
+  EXPECT_EQ(wire.stats().frames_in, 3u);  // the SYNC and two submitted
 }
 
-TEST_P(TimedBusTest, OtherLocalNodesHearAFrameWhenItEnds) {
-  const CanFrame start_all = F(0x000, {0x01, 0x00});
-  ASSERT_EQ(wire_bits(start_all), 68);
-  Sender& master = add(1);
-  master.script = {{kT0, start_all}};
-  add(2);
-  for (NodeRef r : refs) core.power_on(r, 0);
-  core.run_until(kT0 + 65 * bit - 1);
-  EXPECT_EQ(core.node(refs[1]).state(), NmtState::kPreOperational);
-  core.run_until(kT0 + 65 * bit);
-  EXPECT_EQ(core.node(refs[1]).state(), NmtState::kOperational);
+TEST_P(TimedBusTest, AParticipantsFrameIsOnAnIdealBusAtOnce) {
+  LoopCore wire;
+  ParticipantLog out(&wire.now());
+  const BusId b = wire.add_bus("bench", out, rate);
+  NodeSetup s = config::node_setup(profile, 5);
+  s.bit_rate_index = rate;
+  wire.power_on(wire.add_node(b, s), 0);
+  wire.run_until(kT0 - 1);
+  out.log.clear();
+  EXPECT_TRUE(wire.submit(b, kSdoRequest, 3, kT0));
+  EXPECT_EQ(out.log, (std::vector<ParticipantLog::Entry>{{kT0, kSdoRequest, 3}, {kT0, kSdoResponse, 0}}));
 }
+
+TEST_P(TimedBusTest, ALateWakeUpSlipsTheBusNeverFasterThanTheFrames) {
+  add_burst_fleet();
+  core.receive(bus, kSync, kT0);
+  // The loop wakes late, at bit 400: 0x181 ended at bit 117 and leaves now;
+  // the bus slips by 283 bits, and each frame after it follows for its own
+  // length (0x185 48 bits, 0x192 58, 0x1A3 113 and 125, 0x2A1 102), not at
+  // once as the schedule would catch up.
+  core.run_due(at(400));
+  Log got = frames(tx);
+  EXPECT_EQ(got, (Log{{at(400), kB}})) << dump(got);
+  EXPECT_EQ(core.next_deadline(), at(403 + 45));
+  core.run_until(kT0 + ms(10));
+  got = frames(tx);
+  EXPECT_EQ(got,
+            (Log{{at(448), kD}, {at(451 + 55), kC}, {at(509 + 110), kA1}, {at(622 + 122), kA2}, {at(747 + 99), kE}}))
+      << dump(got);
+  const BusLoad load = core.bus_load(bus);
+  EXPECT_EQ(load.slip_max, 283 * bit);
+  EXPECT_EQ(load.slip_p99, 283 * bit);   // 1 frame in 6 slipped: the top 1 %
+  EXPECT_EQ(load.delay_max, 747 * bit);  // 0x2A1 queued at 0, started at 747
+}
+
+TEST_P(TimedBusTest, AnOutsideFloodHoldsTheBusOnlyAsRealTimeAllows) {
+  // 0x7FF with 8 bytes every 30 bit times for 1 s: about 4.4 times what the
+  // bus carries. Node 1 sends 0x181 in the middle of it.
+  const CanFrame flood = F(0x7FF, {0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF});
+  const int flood_bits = wire_bits(flood);
+  ASSERT_EQ(flood_bits, 126);
+  Sender& node = add(1);
+  for (NodeRef r : refs) core.power_on(r, 0);
+  const TimeUs t1 = ms(100), t2 = ms(1100);
+  node.script = {{ms(600), kB}};
+  core.run_until(t1 - 1);
+  frames(tx);
+  TimeUs last = t1;
+  for (TimeUs t = t1; t < t2; t += 30 * bit) {
+    core.run_until(t);
+    core.receive(bus, flood, t);
+    last = t;
+    // The bus's time never runs more than one frame ahead of the clock:
+    // 0x181 would end at most that frame and its own after now.
+    if (t >= ms(600)) {
+      EXPECT_LE(core.next_deadline(), t + (flood_bits + 66) * bit) << t;
+    }
+  }
+  core.run_until(t2 + ms(10));
+  // 0x181 starts when the last outside frame is over and ends 66 bits
+  // later; the heartbeat node 1 queued at 1 s during the flood follows it.
+  const CanFrame beat = F(0x701, {0x7F});
+  EXPECT_EQ(frames(tx),
+            (Log{{last + (flood_bits + 66) * bit, kB}, {last + (flood_bits + 69 + wire_bits(beat) - 3) * bit, beat}}));
+  const BusLoad load = core.bus_load(bus);  // the last complete second: the flood
+  EXPECT_NEAR(load.offered_1s, double(flood_bits) / 30, 0.05);
+  EXPECT_LE(load.carried_1s, 1.0);
+  EXPECT_GE(load.carried_1s, 0.99);
+}
+
+TEST_P(TimedBusTest, NmtPreOperationalWithdrawsTheQueuedPdos) {
+  // Nodes 1..6 answer a SYNC with a frame on their TPDO1 COB-ID (0x180 +
+  // node-ID). The master's "enter pre-operational" arrives while the first
+  // is on the wire: that one leaves, the five others never do (their
+  // controllers dropped what the new state does not send).
+  std::vector<CanFrame> tpdos;
+  for (std::uint8_t id = 1; id <= 6; ++id) {
+    tpdos.push_back(F(0x180 + id, {id, 0, 0, 0, 0, 0, 0, 0}));
+    add(id, {tpdos.back()});
+  }
+  for (NodeRef r : refs) core.power_on(r, 0);
+  core.receive(bus, F(0x000, {0x01, 0x00}), kT0 - ms(5));  // start all
+  core.run_until(kT0 - 1);
+  frames(tx);
+  core.receive(bus, kSync, kT0);
+  const int first = wire_bits(tpdos[0]);
+  core.run_until(at(51 + 20));
+  core.receive(bus, F(0x000, {0x80, 0x00}), at(51 + 20));
+  core.run_until(kT0 + ms(50));
+  EXPECT_EQ(frames(tx), (Log{{at(51 + first - 3), tpdos[0]}}));
+  for (NodeRef r : refs) EXPECT_EQ(core.node(r).state(), NmtState::kPreOperational);
+  EXPECT_EQ(core.bus_load(bus).queued, 0u);
+}
+
+TEST_P(TimedBusTest, PowerOffAndRemovalWithdrawTheNodesFrames) {
+  add_burst_fleet();
+  core.receive(bus, kSync, kT0);
+  core.run_until(at(100));  // 0x181 ended, 0x185 on the wire
+  // Node 3 (0x192) loses power, node 6 (0x2A1) is removed: their frames
+  // never leave; node 4's 0x185 was on the wire and does.
+  core.node(refs[2]).power_cycle(at(100), ms(500));
+  core.refresh(refs[2]);
+  core.remove_node(refs[5]);
+  core.run_until(kT0 + ms(10));
+  const Log got = frames(tx);
+  EXPECT_EQ(got, (Log{{at(51 + 66), kB}, {at(120 + 45), kD}, {at(168 + 110), kA1}, {at(281 + 122), kA2}})) << dump(got);
+}
+
+TEST_P(TimedBusTest, OtherLocalNodesHearAFrameWhenItEnds) { expect_heard_when_it_ends(); }
 
 TEST_P(TimedBusTest, AFullQueueDropsAndCountsWhatItCannotHold) {
   add_burst_fleet();
@@ -237,8 +396,81 @@ TEST_P(TimedBusTest, SwitchingToIdealSendsWhatWaitsAtOnce) {
   EXPECT_EQ(core.next_deadline(), ms(1000));  // the heartbeats: nothing waits for the bus
 }
 
+// The same buses handed to a transport that paces them itself (SO_TXTIME
+// and the ETF qdisc): a burst is handed over at once, each frame with the
+// time its EOF ends; the other local nodes still hear it then.
+class PacedTimedBusTest : public TimedBusTest {
+ protected:
+  PacedTimedBusTest() {
+    tx.paced = true;
+    core.update_pacer(bus);
+  }
+  using Launches = std::vector<std::tuple<TimeUs, std::int64_t, CanFrame>>;  // handed over, launch, frame
+  Launches launches() {
+    Launches out;
+    for (auto& s : tx.take()) out.emplace_back(s.time, s.launch_ns, s.frame);
+    return out;
+  }
+  std::int64_t end_ns(int bits) const { return at(bits) * 1000; }
+};
+
+TEST_P(PacedTimedBusTest, ABurstIsHandedOverAtOnceWithItsSchedule) {
+  EXPECT_EQ(core.bus_pacer(bus), Pacer::kAhead);
+  add_burst_fleet();
+  core.receive(bus, kSync, kT0);
+  const Launches want = {
+      {kT0, end_ns(51 + 66), kB},    {kT0, end_ns(120 + 45), kD},   {kT0, end_ns(168 + 55), kC},
+      {kT0, end_ns(226 + 110), kA1}, {kT0, end_ns(339 + 122), kA2}, {kT0, end_ns(464 + 99), kE},
+  };
+  EXPECT_EQ(launches(), want);
+  // The loop comes back only where a local node hears a frame (node 1
+  // answers remote requests on 0x181, node 5 on 0x185) and when the last
+  // one ended (the queue's figures).
+  std::vector<TimeUs> wake_ups;
+  for (TimeUs t = core.next_deadline(); t <= kT0 + ms(10); t = core.next_deadline()) {
+    wake_ups.push_back(t);
+    core.run_due(t);
+  }
+  EXPECT_EQ(wake_ups, (std::vector<TimeUs>{at(51 + 66), at(120 + 45), at(464 + 99)}));
+  EXPECT_TRUE(launches().empty());
+  EXPECT_EQ(core.bus_load(bus).queued, 0u);
+  EXPECT_EQ(core.bus_load(bus).delay_max, 464 * bit);
+}
+
+TEST_P(PacedTimedBusTest, OtherLocalNodesHearAFrameWhenItEnds) { expect_heard_when_it_ends(); }
+
+TEST_P(PacedTimedBusTest, ALongQueueIsHandedOverInBatchesAhead) {
+  // 64 frames at once, 1.7 to 13.8 ms of bus at 125 / 1000 kbit/s: each
+  // pass hands over what starts within 4 ms, and comes back when less
+  // than 1 ms of it is left.
+  Sender& node = add(1);
+  for (int i = 0; i < 64; ++i) node.script.push_back({kT0, F(0x300, {std::uint8_t(i)})});
+  for (NodeRef r : refs) core.power_on(r, 0);
+  core.run_until(kT0 - 1);
+  launches();
+  core.run_until(kT0 + ms(100));
+  const Launches got = launches();
+  ASSERT_EQ(got.size(), 64u);
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    const auto& [handed, launch, f] = got[i];
+    EXPECT_EQ(f.data[0], i);
+    const std::int64_t start = launch - (wire_bits(f) - 3) * bit * 1000;
+    EXPECT_LE(start - handed * 1000, TimedBus::kDefaultHorizonNs) << i;  // never more than 4 ms ahead
+    EXPECT_GE(start, handed * 1000) << i;
+    if (i > 0) {
+      EXPECT_EQ(launch - std::get<1>(got[i - 1]), wire_bits(f) * bit * 1000) << i;  // back to back
+    }
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(BitRates, PacedTimedBusTest,
+                         ::testing::Values(std::pair<std::uint8_t, TimeUs>{4, 8},
+                                           std::pair<std::uint8_t, TimeUs>{0, 1}),
+                         [](const auto& info) { return info.param.first == 4 ? "kbit125" : "kbit1000"; });
+
 INSTANTIATE_TEST_SUITE_P(BitRates, TimedBusTest,
-                         ::testing::Values(std::pair<std::uint8_t, TimeUs>{4, 8}, std::pair<std::uint8_t, TimeUs>{0, 1}),
+                         ::testing::Values(std::pair<std::uint8_t, TimeUs>{4, 8},
+                                           std::pair<std::uint8_t, TimeUs>{0, 1}),
                          [](const auto& info) { return info.param.first == 4 ? "kbit125" : "kbit1000"; });
 
 }  // namespace

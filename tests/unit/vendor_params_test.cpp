@@ -50,14 +50,14 @@ Settings prepared_settings(const config::Profile& p) {
 }
 
 TEST(VendorParams, P92c) {
-  auto s = prepared_settings<personalities::p92c::Settings>(edited(
-      "p92c", {{"serial_part1: 11", "serial_part1: 7"},
-               {"serial_part3: 5566", "serial_part3: 12"},
-               {"overload_counters: true", "overload_counters: no"},
-               {"sensor_fault_emcy: true", "sensor_fault_emcy: false"},
-               {"overload_emcy: false", "overload_emcy: yes"},
-               {"boot_emcys: true", "boot_emcys: off"},
-               {"monitor_period: 10 ms", "monitor_period: 20 ms"}}));
+  auto s = prepared_settings<personalities::p92c::Settings>(
+      edited("p92c", {{"serial_part1: 11", "serial_part1: 7"},
+                      {"serial_part3: 5566", "serial_part3: 12"},
+                      {"overload_counters: true", "overload_counters: no"},
+                      {"sensor_fault_emcy: true", "sensor_fault_emcy: false"},
+                      {"overload_emcy: false", "overload_emcy: yes"},
+                      {"boot_emcys: true", "boot_emcys: off"},
+                      {"monitor_period: 10 ms", "monitor_period: 20 ms"}}));
   EXPECT_EQ(s.serial_part1, 7);
   EXPECT_EQ(s.serial_part3, 12);
   EXPECT_FALSE(s.overload_counters);
@@ -109,8 +109,7 @@ TEST(VendorParams, Dps) {
 }
 
 TEST(VendorParams, CmpAcceptsAZeroStartIndicationDelay) {
-  EXPECT_EQ(edited_error("cmp", "mapping_modes:", "start_indication_delay: 0 s\n  mapping_modes:"),
-            "no error");
+  EXPECT_EQ(edited_error("cmp", "mapping_modes:", "start_indication_delay: 0 s\n  mapping_modes:"), "no error");
 }
 
 // A bad value per key kind and device: the whole message, file:line:column included.

@@ -178,6 +178,30 @@ def collect(bus: can.BusABC, duration: float, pred: Optional[Predicate] = None) 
             out.append(msg)
 
 
+def wire_bits(can_id: int, data: bytes) -> int:
+    """Bits of a classic 11-bit data frame on the wire: SOF to CRC stuffed,
+    CRC delimiter, ACK, EOF, 3 bits of intermission (src/io/wire_bits.hpp),
+    computed bit by bit."""
+    bits = [0] + [(can_id >> (10 - i)) & 1 for i in range(11)] + [0, 0, 0]
+    bits += [(len(data) >> (3 - i)) & 1 for i in range(4)]
+    for byte in data:
+        bits += [(byte >> (7 - i)) & 1 for i in range(8)]
+    crc = 0
+    for b in bits:
+        nxt = b ^ ((crc >> 14) & 1)
+        crc = (crc << 1) & 0x7FFF
+        if nxt:
+            crc ^= 0x4599
+    bits += [(crc >> (14 - i)) & 1 for i in range(15)]
+    stuffed, last, run = 0, None, 0
+    for b in bits:
+        run = run + 1 if b == last else 1
+        last = b
+        if run == 5:
+            stuffed, last, run = stuffed + 1, 1 - b, 1
+    return len(bits) + stuffed + 1 + 2 + 7 + 3
+
+
 def fmt(msg: can.Message) -> str:
     if msg.is_remote_frame:
         return f"{msg.arbitration_id:03X}#R{msg.dlc}"
@@ -693,6 +717,31 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> argparse.Namespace:
         "CANSIM_SOURCE_DIR", os.path.abspath(os.path.join(os.path.dirname(__file__), "..", "..", ".."))))
     p.add_argument("--binary-dir", default=os.environ.get("CANSIM_BINARY_DIR", ""))
     return p.parse_args(argv)
+
+
+PYTEST_EXIT = {0: "all tests passed", 1: "tests failed", 2: "interrupted", 3: "internal error",
+               4: "usage error", 5: "no tests collected"}
+
+
+def run_pytest(ctx: "Context", what: str, *args: str, timeout: float = 30.0) -> None:
+    """`python3 -m pytest ARGS` as a user of the checkout runs it (from the
+    source folder: profile names resolve to profiles/), with the cansim
+    client from python/ and the built cansimd. Every test must run and
+    pass: a skip fails, as do pytest's other exit statuses ("no tests
+    collected" included). `timeout`: seconds, scaled for the VM."""
+    env = dict(os.environ, CANSIMD=ctx.require_cansimd(), PYTHONPATH=ctx.source("python"),
+               PYTHONDONTWRITEBYTECODE="1")
+    cmd = [sys.executable, "-m", "pytest", "-q", "-rs", "-p", "no:cacheprovider", *args]
+    log(f"running {' '.join(cmd)}")
+    r = subprocess.run(cmd, cwd=ctx.source_dir, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                       timeout=scaled(timeout))
+    print(r.stdout.rstrip(), flush=True)
+    status = PYTEST_EXIT.get(r.returncode, "unknown")
+    if r.returncode != 0:
+        raise AssertionError(f"pytest {what}: exit status {r.returncode} ({status})")
+    if " skipped" in r.stdout or " passed" not in r.stdout:
+        raise AssertionError(f"pytest {what}: every test must run and pass")
+    log(f"{what}: pytest exit status 0 ({status})")
 
 
 def main(test: Callable[[Context], None], argv: Optional[Sequence[str]] = None) -> None:
