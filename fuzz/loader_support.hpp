@@ -52,7 +52,9 @@ inline bool has_error_format(const std::string& m) {
 
 inline void check_error_format(const std::string& message) {
   if (!has_error_format(message)) {
-    std::fprintf(stderr, "rejection without file:line:key: %s\n", message.c_str());
+    std::fprintf(stderr, "rejection without file:line:key: ");
+    for (const char c : message) std::fprintf(stderr, c >= ' ' && c < 0x7f ? "%c" : "\\x%02x", c);
+    std::fprintf(stderr, "\n");
     std::abort();
   }
 }

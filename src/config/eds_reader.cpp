@@ -1,6 +1,7 @@
 #include "config/eds_reader.hpp"
 
 #include "config/limits.hpp"
+#include "config/printable.hpp"
 #include "config/strict_mode.hpp"
 #include "core/protocol.hpp"
 
@@ -40,22 +41,6 @@ std::string_view trimmed(std::string_view s) {
 bool is_hex(std::string_view s) {
   return !s.empty() &&
          std::all_of(s.begin(), s.end(), [](char c) { return std::isxdigit(static_cast<unsigned char>(c)); });
-}
-
-// Control characters of the file as \xNN: a message is one line of text.
-std::string printable(std::string_view s) {
-  std::string out;
-  for (char c : s) {
-    const auto b = static_cast<unsigned char>(c);
-    if (b >= 0x20 && b != 0x7F) {
-      out += c;
-      continue;
-    }
-    char buf[8];
-    std::snprintf(buf, sizeof buf, "\\x%02X", b);
-    out += buf;
-  }
-  return out;
 }
 
 std::string message_at(const std::string& file, int line, const std::string& where, const std::string& expected,

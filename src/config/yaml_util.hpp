@@ -5,6 +5,8 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "config/printable.hpp"
+
 #include <cstdint>
 #include <stdexcept>
 #include <span>
@@ -14,8 +16,10 @@
 
 namespace cansim::config {
 
+// One line of text whatever the file held: its control characters are \xNN
+// (printable.hpp), so a NUL in a key does not end what() early.
 struct ConfigError : std::runtime_error {
-  using std::runtime_error::runtime_error;
+  explicit ConfigError(const std::string& message) : std::runtime_error(printable(message)) {}
 };
 // Input over a bound of config/limits.hpp (the control API answers
 // io.cansim.Error.TooLarge).

@@ -54,6 +54,19 @@ TEST(LoaderRegressions, AnEmptyDocumentIsRejectedAtLineOne) {
   EXPECT_EQ(fleet_error(""), "f.yaml:1:1: (top level): expected a mapping with 'nodes:' (and 'interfaces:')");
 }
 
+// profile_fuzz: a NUL byte in a key ({index:\0000x1A00, ...} is one key in
+// a flow mapping) ended what() at the NUL, before the message said what was
+// wrong. A message is one line: control characters are written as \xNN.
+TEST(LoaderRegressions, AKeyWithANulByteIsNamedWholeInTheMessage) {
+  const std::string text(
+      "objects:\n  - {index:\0"
+      "0x1A00, type: UNSIGNED8}\n",
+      46);
+  const std::string e = profile_error(text);
+  EXPECT_EQ(e.rfind("p.yaml:2:6: objects[0].index:\\x00", 0), 0u) << e;  // yaml-cpp's key: index, NUL, ...
+  EXPECT_NE(e.find(": unknown key (expected one of: index, sub, "), std::string::npos) << e;
+}
+
 // fleet_fuzz: yaml-cpp reads "  seed: 7\ninterfaces: ..." as {seed: 7}; with
 // neither `interfaces:` nor `nodes:` the interfaces' error had no line.
 TEST(LoaderRegressions, AFleetWithoutNodesNamesTheDocument) {

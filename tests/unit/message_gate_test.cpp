@@ -6,6 +6,8 @@
 #include <sys/un.h>
 #include <unistd.h>
 
+#include <atomic>
+#include <chrono>
 #include <cstring>
 #include <filesystem>
 #include <string>
@@ -159,43 +161,62 @@ TEST(GatedEndpoints, AHundredMebibyteCallIsAnsweredTooLargeUnread) {
       "interfaces: {vcan0: {}}\nnodes:\n  - {profile: generic-404, interface: vcan0, node_id: 1, name: g}\n"};
   io::EventLoop loop;
   ASSERT_TRUE(loop.open()) << loop.error();
-  // A first-call limit of 0.5 s, far shorter than the 100 MiB takes to
-  // drain: the oversized call counts as the client's call (on a loaded host
-  // the draining outlasted the 10 s default and the connection was dropped).
-  ControlEndpoints endpoints{loop, fleet.service(), 4, 500'000};
+  // A first-call limit of 250 ms, and a 300 ms pause of the server once the
+  // oversized header is read, with most of the 100 MiB still to drain: the
+  // oversized call counts as the client's call (on a loaded host the draining
+  // outlasted the 10 s default and the connection was dropped). The client
+  // builds its message before the server accepts it, so the limit cannot run
+  // out while a loaded host fills 100 MiB.
+  ControlEndpoints endpoints{loop, fleet.service(), 4, 250'000};
   const std::string path = dir + "/control";
   endpoints.listen(path);
   test::CapturedLog log;
   struct Result {
-    bool done = false;
+    std::atomic<bool> done{false};
     std::string error;
   };
   Result big, small;
+  std::atomic<bool> built{false};
   std::thread client([&] {
     sd_bus* c = nullptr;
     sd_bus_new(&c);
     sd_bus_set_address(c, ("unix:path=" + path).c_str());
     sd_bus_start(c);
-    const std::string yaml(100u << 20, 'x');
-    const auto call = [&](const std::string& text, Result& out) {
+    const auto call = [&](sd_bus_message* m, Result& out) {
       sd_bus_error e = SD_BUS_ERROR_NULL;
       sd_bus_message* reply = nullptr;
-      sd_bus_call_method(c, nullptr, kRootPath, kFleetInterface, "AddNodes", &e, &reply, "s", text.c_str());
+      sd_bus_call(c, m, 0, &e, &reply);
       out.error = e.name ? std::string(e.name) + ": " + e.message : "";
       sd_bus_error_free(&e);
       sd_bus_message_unref(reply);
+      sd_bus_message_unref(m);
       out.done = true;
     };
-    call(yaml, big);
-    call("[", small);  // the connection still serves
+    const auto add_nodes = [&](const std::string& text) {
+      sd_bus_message* m = nullptr;
+      sd_bus_message_new_method_call(c, &m, nullptr, kRootPath, kFleetInterface, "AddNodes");
+      sd_bus_message_append(m, "s", text.c_str());
+      return m;
+    };
+    sd_bus_message* huge = add_nodes(std::string(100u << 20, 'x'));
+    built = true;
+    call(huge, big);
+    call(add_nodes("["), small);  // the connection still serves
     sd_bus_close_unref(c);
   });
+  while (!built) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  const char* const answered = "bytes (at most 1048576): answered TooLarge, unread";
+  bool waited = false;
   for (int i = 0; i < 200'000 && !small.done; ++i) {
     bool timer = false;
     int signal = 0;
     endpoints.before_sleep(kNever);
     loop.wait(10, timer, signal);
     endpoints.process();
+    if (!waited && log.count(answered) == 1) {  // the rest of the 100 MiB still to drain
+      std::this_thread::sleep_for(std::chrono::milliseconds(300));
+      waited = true;
+    }
   }
   client.join();
   std::filesystem::remove_all(dir);
@@ -204,7 +225,8 @@ TEST(GatedEndpoints, AHundredMebibyteCallIsAnsweredTooLargeUnread) {
       << big.error;
   EXPECT_EQ(small.error.rfind("io.cansim.Error.", 0), 0u) << small.error;
   EXPECT_EQ(small.error.find("TooLarge"), std::string::npos) << small.error;
-  EXPECT_EQ(log.count("bytes (at most 1048576): answered TooLarge, unread"), 1u) << log.text.str();
+  EXPECT_TRUE(waited);
+  EXPECT_EQ(log.count(answered), 1u) << log.text.str();
 }
 
 }  // namespace
