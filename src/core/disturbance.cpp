@@ -35,7 +35,7 @@ void Disturbance::error_frames(std::uint32_t id, BusError error, TimeUs period, 
   s.next_ns = now * 1000;
 }
 
-TimeUs Disturbance::next_deadline() const {
+TimeUs Disturbance::earliest() const {
   std::int64_t next = kNeverNs;
   for (std::size_t i = 0; i < n_; ++i) next = std::min(next, sources_[i].next_ns);
   return next == kNeverNs ? kNever : (next + 999) / 1000;

@@ -36,7 +36,7 @@ class Disturbance {
   // What is due by `now`: send(frame) and error(BusError).
   template <typename Send, typename Error>
   void process(TimeUs now, Send&& send, Error&& error);
-  TimeUs next_deadline() const;
+  TimeUs next_deadline() const { return n_ ? earliest() : kNever; }
 
  private:
   struct Source {
@@ -48,9 +48,10 @@ class Disturbance {
     std::int64_t next_ns = 0;
   };
   static BusError way_back(BusError e);
+  TimeUs earliest() const;
 
+  std::size_t n_ = 0;  // first: a node reads it at every wake-up
   std::array<Source, kMax> sources_{};
-  std::size_t n_ = 0;
 };
 
 template <typename Error>

@@ -149,11 +149,12 @@ class FrameFaults {
   }
   void hold(const CanFrame& f, TimeUs at, bool from_outside);
 
-  std::array<Slot, kMaxRules> slots_{};
+  // The counts first: a node reads them at every wake-up, the slots rarely.
   std::size_t n_ = 0;
-  std::vector<Held> held_;  // ring sorted by time, sized by the first delay rule
   std::size_t held_head_ = 0, held_n_ = 0;
+  std::vector<Held> held_;  // ring sorted by time, sized by the first delay rule
   std::uint64_t affected_ = 0, overflowed_ = 0;
+  std::array<Slot, kMaxRules> slots_{};
 };
 
 template <typename Pred>

@@ -338,11 +338,12 @@ class Node {
   std::uint32_t rx_epoch_ = 0;
   TimeUs app_next_ = kNever;
   TimeUs now_ = 0;  // the last time an entry point was called with
+  // Not state: a snapshot has none (restore() ends it). Beside now_, as
+  // frame_faults_' counts: advance() reads them at every wake-up.
+  std::unique_ptr<Node> twin_;
   double drift_ppm_ = 0;
   FrameFaults frame_faults_;
   Disturbance disturbance_;
-  // Not state: a snapshot has none (restore() ends it).
-  std::unique_ptr<Node> twin_;
   TwinSink twin_sink_{*this};
 
   NmtSlave nmt_{*this};
