@@ -102,7 +102,7 @@ inline void run_profile_node(const std::shared_ptr<config::Profile>& profile) {
   auto app = daemon::make_node_application(n, 1);
   CheckingSink sink;
   MemoryStorage storage;
-  const NodeSetup setup = daemon::node_setup(n);
+  const NodeSetup setup = daemon::node_setup(n, 1);
   Node node(setup, sink, app.get(), &storage);
   node.set_bus_bit_rate(setup.bit_rate_index);
   run_node(node, ms(200));

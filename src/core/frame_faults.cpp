@@ -22,7 +22,7 @@ bool FrameFaults::set(const FrameFaultRule& rule) {
     }
   if (n_ == kMaxRules) return false;
   slots_[n_++] = Slot{rule, FaultRandom(rule.seed), false, CanFrame{}};
-  if (rule.kind == FrameFaultKind::kDelay && held_.empty()) held_.resize(kHeld);
+  if (rule.kind == FrameFaultKind::kDelay) reserve_held();
   return true;
 }
 
@@ -96,7 +96,7 @@ bool FrameFaults::apply_rule(Slot& s, Pass& p) {
 
 // Sorted by time (stable: equal times keep their order).
 void FrameFaults::hold(const CanFrame& f, TimeUs at, bool from_outside) {
-  if (held_.empty()) held_.resize(kHeld);
+  reserve_held();
   if (held_n_ == held_.size()) {
     ++overflowed_;
     return;

@@ -108,6 +108,10 @@ class FrameFaults {
     }
   }
   TimeUs next_deadline() const { return held_n_ ? held_[held_head_].at : kNever; }
+  // Allocates the ring of held frames (before a delay is on the frame path).
+  void reserve_held() {
+    if (held_.empty()) held_.resize(kHeld);
+  }
   // Every held frame goes (power off).
   void drop_held() { held_n_ = 0; }
   // Drops the held frames of the node's own that `drop(frame)` selects (the

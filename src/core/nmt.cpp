@@ -34,7 +34,8 @@ void NmtSlave::restart(ResetKind kind, TimeUs now, bool reload) {
 void NmtSlave::reset(TimeUs) {
   const NodeOptions& o = node_.options();
   plan_ = BootPlan{};
-  plan_.boot_up_delay = ms(o.boot_up_delay_ms);
+  boot_time_.set(ms(o.boot_up_delay_ms), ms(o.boot_up_jitter_ms));
+  plan_.boot_up_delay = boot_time_.next(node_.seed());
   plan_.self_start = o.nmt_auto_start;
   plan_.self_start_delay = ms(o.nmt_auto_start_delay_ms);
   plan_.start_all_delay = o.nmt_start_all_delay_ms < 0 ? -1 : ms(o.nmt_start_all_delay_ms);

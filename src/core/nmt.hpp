@@ -5,9 +5,14 @@
 // applies a pending node-ID), OD reload (defaults, then stored values), every
 // service re-reads its configuration, Application::on_reset (may edit
 // boot_plan()), then after boot_up_delay_ms the boot-up frame 0x700+id [00]
-// and PRE-OPERATIONAL (or OPERATIONAL per boot plan). A node whose node-ID is
-// 0xFF (LSS-unconfigured, CiA 305) stays INITIALISING without boot-up until
-// the LSS slave configured an ID and calls command(0x82, now).
+// and PRE-OPERATIONAL (or OPERATIONAL per boot plan). boot_up_jitter_ms adds
+// 0..jitter (µs resolution) to that delay, drawn at each reset from the
+// node's seed. Until the boot-up the node is deaf: in INITIALISING it hears
+// no NMT command, SDO request, RPDO, SYNC or guarding RTR and sends nothing
+// (CiA 301 Table 82); only LSS (CiA 305) answers, as an unconfigured node
+// must. A node whose node-ID is 0xFF (LSS-unconfigured, CiA 305) stays
+// INITIALISING without boot-up until the LSS slave configured an ID and
+// calls command(0x82, now).
 #pragma once
 
 #include <span>
@@ -18,6 +23,7 @@
 #include "core/node_service.hpp"
 #include "core/od.hpp"
 #include "core/protocol.hpp"
+#include "core/response_time.hpp"
 
 namespace cansim {
 
@@ -94,6 +100,7 @@ class NmtSlave : private NodeService {
   bool booted_ = false;
   std::uint32_t resets_ = 0;
   BootPlan plan_;
+  ResponseTime boot_time_{ResponseTime::Stream::kBootUp};
 };
 
 }  // namespace cansim

@@ -193,6 +193,8 @@ class Node {
   OdValues& values() { return values_; }
   const OdValues& values() const { return values_; }
   const NodeOptions& options() const { return *setup_.options; }
+  // The node's own randomness (ResponseTime draws), NodeSetup::seed.
+  std::uint64_t seed() const { return setup_.seed; }
   Application* app() { return app_; }
   // Makes Application::process run at `at` at the latest (NMT change, write).
   void wake_app(TimeUs at) {

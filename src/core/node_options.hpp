@@ -173,6 +173,7 @@ typename K::Value initial(K kind, const char (&text)[N]) {
   X(INT(-1, 3600000), nmt_start_all_delay_ms, -1, CIA(-1),                                                          \
     "send NMT 'start remote node' to all nodes this long after boot-up (-1: never)")                                \
   X(INT(0, 3600000), boot_up_delay_ms, 0, SETTING, "time from power-on / reset to the boot-up frame")               \
+  X(INT(0, 3600000), boot_up_jitter_ms, 0, SETTING, "uniform extra 0..jitter on boot_up_delay_ms, drawn per reset") \
   X(INT(0, 0xFFFFFFFF), nmt_startup_self_start_mask, 0x08, CIA(0x08),                                               \
     "0x1F80 bits that make the node enter OPERATIONAL by itself after boot-up")                                     \
   X(BOOL, nmt_startup_self_start_if_clear, false, CIA(false),                                                       \
@@ -213,6 +214,9 @@ typename K::Value initial(K kind, const char (&text)[N]) {
   X(ABORTS, sdo_abort_map, "", CIA(""), "vendor abort codes: 'from=to,...' applied to every abort")                 \
   X(BOOL, sdo_upload_response_0x60, false, CIA(false), "expedited upload responses use command byte 0x60")          \
   X(BOOL, sdo_in_stopped, false, CIA(false), "the SDO server also answers in NMT STOPPED")                          \
+  X(INT(0, 10000000), sdo_turnaround_us, 0, SETTING, "time from an SDO request's arrival to its answer leaving")    \
+  X(INT(0, 10000000), sdo_turnaround_jitter_us, 0, SETTING,                                                         \
+    "uniform extra 0..jitter on sdo_turnaround_us, drawn per request")                                              \
   /* EMCY (CiA 301 §7.2.7) */                                                                                      \
   X(INT(0, 0xFFFFFFFF), emcy_history_bad_write_abort, 0x06090030, CIA(0x06090030),                                  \
     "abort code for writing a non-zero value to 0x1003:00")                                                         \
@@ -294,6 +298,9 @@ typename K::Value initial(K kind, const char (&text)[N]) {
   X(BOOL, sync_accept_any_dlc, false, CIA(false), "accept SYNC frames of any DLC instead of EMCY 0x8240")           \
   X(INT(0, 0xFFFFFFFF), sync_cob_id_without_1005, 0, SETTING,                                                       \
     "SYNC COB-ID consumed when the profile has no 0x1005 (0: no SYNC consumer)")                                    \
+  X(INT(0, 10000000), sync_tpdo_delay_us, 0, SETTING,                                                               \
+    "time from a SYNC's reception to the synchronous TPDOs (types 1..240) leaving")                                 \
+  X(INT(0, 10000000), sync_tpdo_jitter_us, 0, SETTING, "uniform extra 0..jitter on sync_tpdo_delay_us, per SYNC")   \
   /* Store / restore (CiA 301 §7.5.2.13-14) */                                                                     \
   X(INT(0, 0xFFFFFFFF), store_bad_signature_abort, 0x08000020, CIA(0x08000020),                                     \
     "abort code for a wrong save/load signature")                                                                   \

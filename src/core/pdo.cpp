@@ -30,6 +30,8 @@ bool frame_matches(std::uint32_t cobid, const CanFrame& f) {
 }
 
 bool reserved_tpdo_type(std::uint32_t t) { return t > kTypeLastCyclic && t < kTypeRtrSync; }
+// Types 1..240: every n-th SYNC (CiA 301 Table 72).
+bool cyclic_sync_type(std::uint8_t t) { return t != kTypeAcyclicSync && t <= kTypeLastCyclic; }
 bool reserved_rpdo_type(std::uint32_t t) { return t > kTypeLastCyclic && t < 254; }
 
 std::uint8_t map_bits(std::uint32_t raw) { return PdoMapEntry::decode(raw).bits; }
@@ -128,6 +130,9 @@ PdoEngine::PdoEngine(Node& node) : NodeService(node) {
 }
 
 void PdoEngine::reset(TimeUs now) {
+  const NodeOptions& o = node_.options();
+  sync_delay_.set(o.sync_tpdo_delay_us, o.sync_tpdo_jitter_us);
+  if (sync_delay_.any()) node_.frame_faults().reserve_held();  // not on the SYNC path
   const bool run = running();
   for (Tpdo& t : tpdos_) {
     load(t.cfg, true);
@@ -516,16 +521,20 @@ void PdoEngine::on_sync(std::uint8_t counter, TimeUs now) {
     // Synchronous RPDOs received before this SYNC are actuated now (CiA 301 §7.2.2.2).
     for (Rpdo& r : rpdos_)
       if (r.buffered) apply(r, now);
-    // Synchronous TPDOs are sampled and sent at the SYNC itself, so they fall
-    // inside the window unless it is closed already.
+    // Synchronous TPDOs are sampled at the SYNC itself; the cyclic ones leave
+    // the device's response time later, the others at once. Each goes when
+    // the window is open at its departure.
+    const TimeUs delay = sync_delay_.next(node_.seed());
     const bool window = sync_window_open(node_.sync(), now);
-    for (Tpdo& t : tpdos_)
-      if (valid(t.cfg) && window) on_sync_tpdo(t, counter, now);
+    const bool window_later = delay == 0 ? window : sync_window_open(node_.sync(), now + delay);
+    for (Tpdo& t : tpdos_) {
+      if (valid(t.cfg) && (cyclic_sync_type(t.cfg.type) ? window_later : window)) on_sync_tpdo(t, counter, now, delay);
+    }
   }
   update_deadline();
 }
 
-void PdoEngine::on_sync_tpdo(Tpdo& t, std::uint8_t counter, TimeUs now) {
+void PdoEngine::on_sync_tpdo(Tpdo& t, std::uint8_t counter, TimeUs now, TimeUs delay) {
   const std::uint8_t type = t.cfg.type;
   if (type == kTypeAcyclicSync) {
     if (node_.options().tpdo_type0_paced_by_event_timer) {
@@ -537,7 +546,7 @@ void PdoEngine::on_sync_tpdo(Tpdo& t, std::uint8_t counter, TimeUs now) {
       transmit(t, now);
     }
   } else if (type <= kTypeLastCyclic) {
-    on_sync_cyclic(t, counter, now);
+    on_sync_cyclic(t, counter, now, delay);
   } else if (type == kTypeRtrSync) {
     t.sampled = build(t, now, t.sample);
   }
@@ -546,18 +555,18 @@ void PdoEngine::on_sync_tpdo(Tpdo& t, std::uint8_t counter, TimeUs now) {
 // Every n-th SYNC. The first transmission waits for SYNC counter == start
 // value when the SYNC carries a counter and the start value is not 0 (CiA 301
 // §7.5.2.35 sub 6); otherwise the first SYNC after start counts as number 1.
-void PdoEngine::on_sync_cyclic(Tpdo& t, std::uint8_t counter, TimeUs now) {
+void PdoEngine::on_sync_cyclic(Tpdo& t, std::uint8_t counter, TimeUs now, TimeUs delay) {
   if (t.sync_phase == kPhaseUnarmed)
     t.sync_phase = (counter != 0 && t.cfg.sync_start != 0) ? std::uint8_t(kPhaseWaitStart) : t.cfg.type;
   if (t.sync_phase == kPhaseWaitStart) {
     if (counter != t.cfg.sync_start) return;
     t.sync_phase = t.cfg.type;
-    transmit(t, now);
+    transmit(t, now, delay);
     return;
   }
   if (--t.sync_phase == 0) {
     t.sync_phase = t.cfg.type;
-    transmit(t, now);
+    transmit(t, now, delay);
   }
 }
 
@@ -661,10 +670,10 @@ bool PdoEngine::build(Tpdo& t, TimeUs now, CanFrame& out) {
   return true;
 }
 
-void PdoEngine::transmit(Tpdo& t, TimeUs now) {
+void PdoEngine::transmit(Tpdo& t, TimeUs now, TimeUs delay) {
   CanFrame f;
   if (!build(t, now, f)) return;
-  node_.send(f);
+  node_.send_after(f, delay);
   t.last_sent = now;
 }
 

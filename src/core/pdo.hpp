@@ -9,6 +9,14 @@
 // expiry, RPDO timeout). NMT decides whether PDOs run (Node::allowed); the
 // engine keeps no copy of the state: the node tells it of every change
 // (on_nmt_state), which starts or stops the PDOs.
+//
+// Response time after SYNC (options sync_tpdo_delay_us + 0..sync_tpdo_jitter_us,
+// one draw per SYNC for all its TPDOs): the cyclic synchronous TPDOs (types
+// 1..240) are sampled at the SYNC's reception (CiA 301 §7.2.2.2: synchronous
+// TPDOs sample at SYNC) and leave the delay later, held as the node's
+// delayed frames are (Node::send_after: an NMT change or a reset withdraws
+// them). They go only when the synchronous window 0x1007 is still open at
+// their departure (CiA 301 §7.2.5). Types 0 and 252 are not delayed.
 #pragma once
 
 #include <array>
@@ -21,6 +29,7 @@
 #include "core/node_options.hpp"
 #include "core/node_service.hpp"
 #include "core/od.hpp"
+#include "core/response_time.hpp"
 
 namespace cansim {
 
@@ -175,13 +184,14 @@ class PdoEngine : private NodeService {
   // ---- TPDO
   static bool event_driven(std::uint8_t type) { return type >= 254; }
   bool timer_sends(const PdoConfig& cfg) const;
-  void on_sync_tpdo(Tpdo& t, std::uint8_t counter, TimeUs now);
-  void on_sync_cyclic(Tpdo& t, std::uint8_t counter, TimeUs now);
+  void on_sync_tpdo(Tpdo& t, std::uint8_t counter, TimeUs now, TimeUs delay);
+  void on_sync_cyclic(Tpdo& t, std::uint8_t counter, TimeUs now, TimeUs delay);
   void on_rtr(Tpdo& t, TimeUs now);
   void process_tpdo(Tpdo& t, TimeUs now);
   void send_event_driven(Tpdo& t, TimeUs now, TimeUs timer_base);
   bool build(Tpdo& t, TimeUs now, CanFrame& out);
-  void transmit(Tpdo& t, TimeUs now);
+  // Sampled now, on the wire `delay` later.
+  void transmit(Tpdo& t, TimeUs now, TimeUs delay = 0);
 
   // ---- RPDO
   void on_rpdo(Rpdo& r, const CanFrame& frame, TimeUs now);
@@ -199,6 +209,7 @@ class PdoEngine : private NodeService {
   std::vector<std::uint16_t> watched_rpdos_;
   void index_active();
   TimeUs next_ = kNever;
+  ResponseTime sync_delay_{ResponseTime::Stream::kSyncTpdo};
 };
 
 }  // namespace cansim

@@ -22,8 +22,11 @@ constexpr std::uint8_t ccs(const std::uint8_t* d) { return d[0] & kCsMask; }
 void SdoServer::reset(TimeUs) {
   idle();
   delayed_n_ = 0;  // answers still in the pipe die with the reset
+  turnaround_end_ = 0;
   const NodeOptions& o = node_.options();
   timeout_ = ms(o.sdo_timeout_ms);  // 0: no timeout
+  turnaround_.set(o.sdo_turnaround_us, o.sdo_turnaround_jitter_us);
+  if (turnaround_.any()) reserve_pipe();
 
   // One buffer for the largest value plus a segment of slack (block download
   // stores whole 7-byte segments before the end frame says how many count).
@@ -98,6 +101,7 @@ bool SdoServer::on_frame(const CanFrame& frame, TimeUs now) {
   if (silenced(d)) return true;
   in_frame_ = true;
   now_ = now;
+  answer_at_ = kNever;
   dispatch(d, now);
   in_frame_ = false;
   if (reload_pending_) apply_reload();
@@ -126,11 +130,12 @@ void SdoServer::dispatch(Bytes d, TimeUs now) {
 
 void SdoServer::process(TimeUs now) {
   while (delayed_n_ && delayed_[delayed_head_].at <= now) {
-    send_now(delayed_[delayed_head_].data);
+    if (node_.allowed(Service::kSdo)) send_now(delayed_[delayed_head_].data);
     delayed_head_ = (delayed_head_ + 1) % delayed_.size();
     --delayed_n_;
   }
   now_ = now;
+  answer_at_ = kNever;
   if (block_ack_at_ <= now) {
     block_ack_at_ = kNever;
     if (state_ == State::kBlockDownloadSub) send_block_download_ack();
@@ -496,7 +501,9 @@ void SdoServer::start(State s, TimeUs now) {
   touch(now);
 }
 
-void SdoServer::touch(TimeUs now) { deadline_ = timeout_ > 0 ? now + response_delay_ + timeout_ : kNever; }
+void SdoServer::touch(TimeUs now) {
+  deadline_ = timeout_ > 0 ? std::max(now, turnaround_end_) + response_delay_ + timeout_ : kNever;
+}
 
 void SdoServer::idle() {
   state_ = State::kIdle;
@@ -536,19 +543,36 @@ void SdoServer::send_command(std::uint8_t cs) {
 }
 
 void SdoServer::send_raw(const std::uint8_t* d) {
-  if (response_delay_ <= 0 && delayed_n_ == 0) return send_now(d);
+  const TimeUs at = answer_time();
+  if (at <= now_ && delayed_n_ == 0) return send_now(d);
   if (delayed_n_ == delayed_.size()) return;  // more than a whole block in the pipe: lost
   Delayed& slot = delayed_[(delayed_head_ + delayed_n_++) % delayed_.size()];
-  slot.at = now_ + response_delay_;
+  slot.at = at;
   std::memcpy(slot.data, d, 8);
+}
+
+// One request at a time, in arrival order (see the header): the turnaround
+// starts when the request arrived or the previous one's ended, whichever is
+// later. Frames of the server's own (process()) have none.
+TimeUs SdoServer::answer_time() {
+  if (answer_at_ != kNever) return answer_at_;
+  const TimeUs turnaround = in_frame_ ? turnaround_.next(node_.seed()) : 0;
+  turnaround_end_ = std::max(now_, turnaround_end_) + turnaround;
+  answer_at_ = turnaround_end_ + response_delay_;
+  if (in_frame_ && deadline_ != kNever) deadline_ = std::max(deadline_, answer_at_ + timeout_);  // from the departure
+  return answer_at_;
+}
+
+// A sub-block of 127 segments plus the frames around it (not on the frame path).
+void SdoServer::reserve_pipe() {
+  if (delayed_.empty()) delayed_.resize(2 * kMaxBlockSize + 2);
 }
 
 // ------------------------------------------------------------ fault injection
 
 void SdoServer::set_response_delay(TimeUs delay) {
   response_delay_ = std::max<TimeUs>(delay, 0);
-  // A sub-block of 127 segments plus the frames around it.
-  if (response_delay_ > 0 && delayed_.empty()) delayed_.resize(2 * kMaxBlockSize + 2);
+  if (response_delay_ > 0) reserve_pipe();
 }
 
 void SdoServer::set_block_drop(std::uint32_t every_n, double probability, std::uint64_t seed) {

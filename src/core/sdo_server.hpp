@@ -33,6 +33,19 @@
 //   timeout, the last good segment is acknowledged (a lost first or last
 //   segment of a sub-block is recovered, like CANopenNode's block timeout).
 // - sdo_timeout_ms <= 0 disables the protocol timeout.
+// - Response time (options sdo_turnaround_us + 0..sdo_turnaround_jitter_us,
+//   one draw per request): a request is handled when it arrives (values read
+//   and written at that instant), its answers leave at the turnaround after
+//   it. The server has one request buffer and handles requests in order, as
+//   a device's single-threaded SDO task does: a request that arrives while an
+//   answer is still pending starts its turnaround when the previous one
+//   ended, so answers keep their order and never overtake each other.
+//   Frames the server sends by itself (timeout abort, the acknowledge of a
+//   stalled block) have no turnaround. The protocol timeout counts from the
+//   last answer's departure. slow_sdo's delay (set_response_delay) comes on top
+//   of the turnaround: answer = max(request, previous answer's turnaround
+//   end) + turnaround + jitter + slow_sdo's delay. A pending answer dies
+//   with a reset and is not sent in an NMT state without SDO.
 #pragma once
 
 #include <algorithm>
@@ -45,6 +58,7 @@
 #include "core/fault_random.hpp"
 #include "core/node_service.hpp"
 #include "core/od.hpp"
+#include "core/response_time.hpp"
 
 namespace cansim {
 
@@ -169,6 +183,9 @@ class SdoServer : private NodeService {
   void send_segment(std::uint8_t cs, const std::uint8_t* payload, int n);
   void send_command(std::uint8_t cs);
   void send_raw(const std::uint8_t* d);
+  // When the frames of the request being handled leave (drawn once per request).
+  TimeUs answer_time();
+  void reserve_pipe();
   void send_now(const std::uint8_t* d);
   bool drop_segment();
   void abort(SdoAbort code);
@@ -208,8 +225,11 @@ class SdoServer : private NodeService {
     TimeUs at;
     std::uint8_t data[8];
   };
-  TimeUs now_ = 0;  // time of the request being handled
-  TimeUs response_delay_ = 0;
+  TimeUs now_ = 0;             // time of the request being handled
+  TimeUs answer_at_ = kNever;  // its answers' departure, once drawn
+  TimeUs turnaround_end_ = 0;  // the last answer's turnaround ended (slow_sdo excluded)
+  ResponseTime turnaround_{ResponseTime::Stream::kSdoTurnaround};
+  TimeUs response_delay_ = 0;     // slow_sdo
   std::vector<Delayed> delayed_;  // ring, sized by the first set_response_delay
   std::size_t delayed_head_ = 0;
   std::size_t delayed_n_ = 0;

@@ -17,6 +17,7 @@
 #include "daemon/logging.hpp"
 #include "io/frame_schedule.hpp"
 #include "personalities/registry.hpp"
+#include "physics/random.hpp"
 
 #ifndef CANSIM_PROFILE_DIR
 #define CANSIM_PROFILE_DIR ""
@@ -94,20 +95,30 @@ config::ProfileSearch profile_search(const std::string& config_file) {
   return config::default_search(config_file, CANSIM_PROFILE_DIR);
 }
 
-NodeSetup node_setup(const config::NodeConfig& node) {
+namespace {
+// The node's place in the fleet, as its physics and its response times see it.
+personalities::NodeContext node_context(const config::NodeConfig& node, std::uint64_t fleet_seed) {
+  personalities::NodeContext ctx;
+  ctx.fleet_seed = fleet_seed;
+  ctx.index = node.index;
+  ctx.key = node.key;
+  return ctx;
+}
+}  // namespace
+
+NodeSetup node_setup(const config::NodeConfig& node, std::uint64_t fleet_seed) {
   NodeSetup setup = config::node_setup(*node.profile, node.node_id, node.index);
   setup.bit_rate_index = config::bit_rate_selector(node.bit_rate_kbit);
   if (node.serial) setup.serial_number = node.serial;
+  setup.seed = physics::derive_seed(personalities::node_seed(node_context(node, fleet_seed)),
+                                    physics::hash_string("response times"));
   return setup;
 }
 
 std::unique_ptr<Application> make_node_application(const config::NodeConfig& node, std::uint64_t seed,
                                                    const std::string& state_dir, const physics::PlantResolver* plants) {
-  personalities::NodeContext ctx;
+  personalities::NodeContext ctx = node_context(node, seed);
   ctx.plants = plants;
-  ctx.fleet_seed = seed;
-  ctx.index = node.index;
-  ctx.key = node.key;
   ctx.record_file = node.record_file;
   ctx.state_dir = state_dir;
   if (!ctx.record_file.empty()) {
@@ -774,7 +785,7 @@ std::map<std::string, Daemon::NodeEntry>::iterator Daemon::drop_node(std::map<st
 io::NodeRef Daemon::add_node(Pending& p, std::uint64_t seed, std::vector<BitRateMismatch>& mismatched) {
   const config::NodeConfig& n = *p.cfg;
   Interface* iface = interface_named(n.interface);
-  const NodeSetup setup = node_setup(n);
+  const NodeSetup setup = node_setup(n, seed);
   auto storage = std::make_unique<FileStorage>(settings_.state_dir, n.key);
   NodeEntry e;
   e.cfg = n;

@@ -74,8 +74,9 @@ std::vector<std::string> load_warnings(const config::FleetConfig& fleet);
 std::string check_fleet(config::FleetConfig& fleet, std::vector<std::string>* warnings = nullptr);
 
 // How the core builds the node of a fleet entry: its profile's layout and
-// options, node-ID, bit rate and `serial:`.
-NodeSetup node_setup(const config::NodeConfig& node);
+// options, node-ID, bit rate and `serial:`, and its own seed (its response
+// times' jitter) from the fleet seed and the node's key.
+NodeSetup node_setup(const config::NodeConfig& node, std::uint64_t fleet_seed);
 
 struct DaemonSettings {
   std::string state_dir = "state";

@@ -64,7 +64,7 @@ std::string export_dbc(const config::FleetConfig& fleet, const std::string& inte
     if (n.interface != bus.name) continue;
     n.record_file.clear();  // an export must not truncate recordings
     std::unique_ptr<Application> app = make_node_application(n, fleet.seed);
-    Node node(node_setup(n), no_bus, app.get());
+    Node node(node_setup(n, fleet.seed), no_bus, app.get());
     node.power_on(0);
     config::DbcNode d;
     d.label = name_count[n.name] > 1 ? n.name + "/" + std::to_string(n.index) : n.name;

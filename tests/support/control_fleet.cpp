@@ -61,7 +61,7 @@ ControlFleet::Bus& ControlFleet::bus(const std::string& name) {
 void ControlFleet::add(const config::FleetConfig& cfg) {
   std::vector<io::NodeRef> fresh;
   for (const config::NodeConfig& n : cfg.nodes) {
-    const NodeSetup setup = daemon::node_setup(n);
+    const NodeSetup setup = daemon::node_setup(n, cfg.seed);
     auto e = std::make_unique<Entry>();
     e->cfg = n;
     e->handle.key = n.key;

@@ -6,22 +6,23 @@
 namespace cansim::test {
 
 SimNode::SimNode(SimBus& bus, const config::Profile& profile, std::uint8_t node_id, Application* app,
-                 std::optional<std::uint32_t> serial_number)
-    : bus_(bus), profile_(profile), app_(app), serial_number_(serial_number) {
+                 std::optional<std::uint32_t> serial_number, std::uint64_t seed)
+    : bus_(bus), profile_(profile), app_(app), serial_number_(serial_number), seed_(seed) {
   replace(node_id);
 }
 
 void SimNode::replace(std::uint8_t node_id) {
   NodeSetup setup = config::node_setup(profile_, node_id);
   if (serial_number_) setup.serial_number = serial_number_;
+  setup.seed = seed_;
   node_ = std::make_unique<Node>(setup, *this, app_, &storage);
 }
 
 void SimNode::send(const CanFrame& frame) { bus_.deliver(this, frame); }
 
 SimNode& SimBus::add(const config::Profile& profile, std::uint8_t node_id, Application* app,
-                     std::optional<std::uint32_t> serial_number) {
-  nodes_.push_back(std::make_unique<SimNode>(*this, profile, node_id, app, serial_number));
+                     std::optional<std::uint32_t> serial_number, std::uint64_t seed) {
+  nodes_.push_back(std::make_unique<SimNode>(*this, profile, node_id, app, serial_number, seed));
   return *nodes_.back();
 }
 

@@ -27,7 +27,7 @@ class SimBus;
 class SimNode : public FrameSink {
  public:
   SimNode(SimBus& bus, const config::Profile& profile, std::uint8_t node_id, Application* app = nullptr,
-          std::optional<std::uint32_t> serial_number = std::nullopt);
+          std::optional<std::uint32_t> serial_number = std::nullopt, std::uint64_t seed = 1);
   void send(const CanFrame& frame) override;
   Node& node() { return *node_; }
   Node* operator->() { return node_.get(); }
@@ -40,6 +40,7 @@ class SimNode : public FrameSink {
   const config::Profile& profile_;
   Application* app_;
   std::optional<std::uint32_t> serial_number_;
+  std::uint64_t seed_;
   std::unique_ptr<Node> node_;
 };
 
@@ -47,9 +48,10 @@ class SimBus {
  public:
   SimBus() = default;
   // Adds a node built from a profile; the bus keeps the profile alive.
-  // serial_number: NodeSetup::serial_number (a fleet entry's `serial:`).
+  // serial_number: NodeSetup::serial_number (a fleet entry's `serial:`);
+  // seed: NodeSetup::seed (the node's response-time jitter).
   SimNode& add(const config::Profile& profile, std::uint8_t node_id, Application* app = nullptr,
-               std::optional<std::uint32_t> serial_number = std::nullopt);
+               std::optional<std::uint32_t> serial_number = std::nullopt, std::uint64_t seed = 1);
 
   TimeUs now() const { return now_; }
   // Frames a test tool (the "master") puts on the bus: delivered to every node.

@@ -15,6 +15,7 @@
 #include "core/node.hpp"
 #include "personalities/registry.hpp"
 #include "support/sanitizer.hpp"
+#include "sdo_support.hpp"
 #include "support/sim.hpp"
 
 namespace {
@@ -220,6 +221,14 @@ TEST(NoAlloc, NodeWithItsPersonality) {
   auto profile = test::load_repo_profile("generic-404");
   auto app = personalities::make_application(profile, personalities::NodeContext{});
   check_no_allocations(profile, app.get());
+}
+
+// Response times hold SDO answers and synchronous TPDOs (TPDO2, type 1) in
+// buffers sized at reset.
+TEST(NoAlloc, NodeWithResponseTimes) {
+  const config::Profile profile = test::parse_generic_with_options(
+      "sdo_turnaround_us: 1500, sdo_turnaround_jitter_us: 500, sync_tpdo_delay_us: 300, sync_tpdo_jitter_us: 200");
+  check_no_allocations(profile, nullptr);
 }
 
 // The counter itself works (else a zero above would prove nothing).

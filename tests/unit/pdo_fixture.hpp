@@ -73,8 +73,9 @@ objects:
 
 class PdoBus {
  public:
-  explicit PdoBus(const std::string& options = "{}", Application* app = nullptr)
-      : profile_(config::parse_profile(pdo_profile(options), "pdo-test.yaml")), sim_(bus_.add(profile_, 5, app)) {
+  explicit PdoBus(const std::string& options = "{}", Application* app = nullptr, std::uint64_t seed = 1)
+      : profile_(config::parse_profile(pdo_profile(options), "pdo-test.yaml")),
+        sim_(bus_.add(profile_, 5, app, std::nullopt, seed)) {
     bus_.power_on_all();
     bus_.run_for(ms(10));
     bus_.take();

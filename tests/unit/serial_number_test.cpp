@@ -56,7 +56,7 @@ class SerialNumbers : public ::testing::TestWithParam<Personality> {
     ASSERT_EQ(fleet.nodes.size(), 3u);
     for (const config::NodeConfig& n : fleet.nodes) {
       apps.push_back(daemon::make_node_application(n, 1));
-      NodeSetup setup = daemon::node_setup(n);
+      NodeSetup setup = daemon::node_setup(n, 1);
       sims.push_back(&bus.add(*n.profile, n.node_id, apps.back().get(), setup.serial_number));
     }
     bus.power_on_all();
