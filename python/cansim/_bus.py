@@ -280,20 +280,29 @@ def _remaining(deadline: Optional[float]) -> Optional[float]:
     return None if deadline is None else max(0.0, deadline - time.monotonic())
 
 
-def round_trip_offset(conn: Connection, samples: int = 3) -> Optional[float]:
-    """cansimd's simulated time minus this host's CLOCK_MONOTONIC, in µs,
-    from the tightest of a few SimulatedTime reads (None when it cannot be
-    read). Simulated time is CLOCK_MONOTONIC counted from cansimd's start,
-    so the offset is constant for a local daemon."""
-    best = None
+class ClockOffset(NamedTuple):
+    """cansimd's simulated time minus this host's CLOCK_MONOTONIC (µs), and
+    how far it may be off (s): half the round trip it was read in."""
+    offset_us: float
+    error_s: float
+
+
+def round_trip_offset(conn: Connection, samples: int = 8, tight: float = 0.0005) -> Optional[ClockOffset]:
+    """The clock offset from the tightest of up to `samples` SimulatedTime
+    reads, the first within `tight` seconds ending the search (None when it
+    cannot be read). Simulated time is CLOCK_MONOTONIC counted from
+    cansimd's start, so the offset is constant for a local daemon; the read
+    happened within the round trip, so the midpoint is off by at most half."""
+    best: Optional[ClockOffset] = None
     for _ in range(samples):
         t0 = time.monotonic()
         sim = conn.get(ROOT_PATH, FLEET_IFACE, "SimulatedTime")
         t1 = time.monotonic()
         if not isinstance(sim, int):
             return None
-        rtt = t1 - t0
-        offset = sim - (t0 + t1) / 2 * 1e6
-        if best is None or rtt < best[0]:
-            best = (rtt, offset)
-    return best[1] if best else None
+        sample = ClockOffset(sim - (t0 + t1) / 2 * 1e6, (t1 - t0) / 2)
+        if best is None or sample.error_s < best.error_s:
+            best = sample
+        if best.error_s * 2 <= tight:
+            break
+    return best

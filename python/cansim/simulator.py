@@ -65,7 +65,9 @@ class Simulator:
         self._wire: Optional[Wire] = None
         self._epoch: Optional[float] = None
         self._conn = Connection(address, on_signal=self._on_signal, on_close=self._on_close)
-        self._offset_us = round_trip_offset(self._conn)
+        clock = round_trip_offset(self._conn)
+        self._offset_us = clock.offset_us if clock else None
+        self._epoch_error = clock.error_s if clock else None
         if self._offset_us is not None:
             mono, wall = time.monotonic(), time.time()
             self._epoch = wall - (mono + self._offset_us / 1e6)
@@ -175,6 +177,13 @@ class Simulator:
         simulated ``t`` happened at ``sim.epoch + t`` (``Event.wall_time``).
         None when cansimd's clock could not be read."""
         return self._epoch
+
+    @property
+    def epoch_error(self) -> Optional[float]:
+        """How far :attr:`epoch` may be off, in seconds: half the round trip
+        of the tightest clock read it was estimated from (a fraction of a
+        millisecond on a quiet host, more on a loaded one). None with no epoch."""
+        return self._epoch_error
 
     @property
     def version(self) -> str:
