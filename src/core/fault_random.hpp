@@ -1,6 +1,9 @@
 // The randomness of the network faults (which frames a fault hits, by how
 // much): one small generator per fault, seeded from the fleet seed and the
 // fault's handle (physics::FaultSet::seed), so a run reproduces bit for bit.
+// Each power-on of a node starts its streams afresh from (seed, the number
+// of that power-on): what follows a power cycle does not depend on how many
+// frames went before it, only on how many power cycles did.
 #pragma once
 
 #include <cstdint>
@@ -8,6 +11,14 @@
 namespace cansim {
 
 // xorshift64* (Vigna): 64 bits of state, one multiply per draw.
+// SplitMix64's finaliser over seed + key: neighbouring keys decorrelate.
+constexpr std::uint64_t mix_seed(std::uint64_t seed, std::uint64_t key) {
+  std::uint64_t z = seed + key + 0x9E3779B97F4A7C15ull;
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
+}
+
 class FaultRandom {
  public:
   explicit FaultRandom(std::uint64_t seed = 1) : s_(seed ? seed : 0x9E3779B97F4A7C15ull) {}

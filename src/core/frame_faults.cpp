@@ -21,9 +21,14 @@ bool FrameFaults::set(const FrameFaultRule& rule) {
       return true;
     }
   if (n_ == kMaxRules) return false;
-  slots_[n_++] = Slot{rule, FaultRandom(rule.seed), false, CanFrame{}};
+  slots_[n_++] = Slot{rule, FaultRandom(mix_seed(rule.seed, power_on_)), false, CanFrame{}};
   if (rule.kind == FrameFaultKind::kDelay) reserve_held();
   return true;
+}
+
+void FrameFaults::restart(std::uint32_t power_on) {
+  power_on_ = power_on;
+  for (std::size_t i = 0; i < n_; ++i) slots_[i].random = FaultRandom(mix_seed(slots_[i].rule.seed, power_on));
 }
 
 bool FrameFaults::has(std::uint32_t id) const {

@@ -74,6 +74,9 @@ class FrameFaults {
   bool set(const FrameFaultRule& rule);
   void clear(std::uint32_t id);
   bool has(std::uint32_t id) const;
+  // The node's power-on number `power_on`: every rule's generator starts
+  // again from its seed and that number (so does every rule set later).
+  void restart(std::uint32_t power_on);
   bool any() const { return n_ > 0 || held_n_ > 0; }
   bool any_rule() const { return n_ > 0; }
 
@@ -156,6 +159,7 @@ class FrameFaults {
   // The counts first: a node reads them at every wake-up, the slots rarely.
   std::size_t n_ = 0;
   std::size_t held_head_ = 0, held_n_ = 0;
+  std::uint32_t power_on_ = 0;
   std::vector<Held> held_;  // ring sorted by time, sized by the first delay rule
   std::uint64_t affected_ = 0, overflowed_ = 0;
   std::array<Slot, kMaxRules> slots_{};

@@ -50,6 +50,7 @@ void Node::power_on(TimeUs now) {
   silent_ = false;
   bus_off_ = false;
   power_on_at_ = kNever;
+  if (!was_powered) frame_faults_.restart(++power_ons_);
   if (observer_ && !was_powered) observer_->on_power(*this, true, now);
   if (app_) {
     env_next_ = app_->environment(*this, now);
@@ -470,6 +471,7 @@ NodeSnapshot::NodeSnapshot(const Node& node)
       muted_(node.muted_),
       bus_off_(node.bus_off_),
       can_state_(node.can_state_),
+      power_ons_(node.power_ons_),
       env_next_(node.env_next_),
       power_on_at_(node.power_on_at_),
       app_next_(node.app_next_),
@@ -498,6 +500,7 @@ bool Node::restore(const NodeSnapshot& s) {
   muted_ = s.muted_;
   bus_off_ = s.bus_off_;
   can_state_ = s.can_state_;
+  power_ons_ = s.power_ons_;
   env_next_ = s.env_next_;
   power_on_at_ = s.power_on_at_;
   app_next_ = s.app_next_;

@@ -70,6 +70,7 @@ class NodeSnapshot {
   std::uint8_t node_id_, bit_rate_, bus_bit_rate_;
   bool powered_, silent_, muted_, bus_off_;
   CanState can_state_;
+  std::uint32_t power_ons_;
   TimeUs env_next_, power_on_at_, app_next_, now_;
   double drift_ppm_;
   FrameFaults frame_faults_;
@@ -193,8 +194,11 @@ class Node {
   OdValues& values() { return values_; }
   const OdValues& values() const { return values_; }
   const NodeOptions& options() const { return *setup_.options; }
-  // The node's own randomness (ResponseTime draws), NodeSetup::seed.
-  std::uint64_t seed() const { return setup_.seed; }
+  // The node's own randomness (ResponseTime draws) since its last power-on:
+  // NodeSetup::seed and the power-on's number.
+  std::uint64_t seed() const { return mix_seed(setup_.seed, power_ons_); }
+  // How often the node was powered on (the first power-on is 1).
+  std::uint32_t power_ons() const { return power_ons_; }
   Application* app() { return app_; }
   // Makes Application::process run at `at` at the latest (NMT change, write).
   void wake_app(TimeUs at) {
@@ -338,6 +342,7 @@ class Node {
   TimeUs env_next_ = kNever;
   TimeUs power_on_at_ = kNever;  // while unpowered: when power comes back
   std::uint32_t rx_epoch_ = 0;
+  std::uint32_t power_ons_ = 0;
   TimeUs app_next_ = kNever;
   TimeUs now_ = 0;  // the last time an entry point was called with
   // Not state: a snapshot has none (restore() ends it). Beside now_, as

@@ -2,10 +2,11 @@
 // device takes to answer (SDO turnaround, synchronous TPDOs after SYNC, the
 // boot-up after a reset), a fixed part plus a uniform jitter 0..jitter.
 //
-// The jitter of the n-th draw is a pure function of the node's seed (fleet
-// seed and node key, NodeSetup::seed), the service's stream and n, so a run
-// with the same seed and the same traffic draws the same times; the state is
-// one counter (a value: copies with the node's snapshot). No jitter: no draw.
+// The jitter of the n-th draw since a power-on is a pure function of the
+// node's seed (fleet seed, node key and the power-on's number: Node::seed),
+// the service's stream and n, so a run with the same seed and the same
+// traffic draws the same times; the state is the seed and one counter (a
+// value: copies with the node's snapshot). No jitter: no draw.
 #pragma once
 
 #include <cstdint>
@@ -26,25 +27,22 @@ class ResponseTime {
     jitter_ = jitter > 0 ? jitter : 0;
   }
   bool any() const { return fixed_ > 0 || jitter_ > 0; }
-  // The next response's time: fixed + 0..jitter (inclusive).
+  // The next response's time: fixed + 0..jitter (inclusive). A new
+  // node_seed (the node's next power-on) starts the count again.
   TimeUs next(std::uint64_t node_seed) {
     if (jitter_ == 0) return fixed_;
-    FaultRandom draw(mix(mix(node_seed ^ stream_) + draws_++));
+    if (node_seed != seed_) {
+      seed_ = node_seed;
+      draws_ = 0;
+    }
+    FaultRandom draw(mix_seed(mix_seed(node_seed ^ stream_, 0), draws_++));
     return fixed_ + draw.upto(jitter_);
   }
 
  private:
-  // SplitMix64's finaliser: neighbouring seeds and counters decorrelate.
-  static std::uint64_t mix(std::uint64_t z) {
-    z += 0x9E3779B97F4A7C15ull;
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-  }
-
   std::uint64_t stream_;
   TimeUs fixed_ = 0, jitter_ = 0;
-  std::uint64_t draws_ = 0;
+  std::uint64_t seed_ = 0, draws_ = 0;
 };
 
 }  // namespace cansim

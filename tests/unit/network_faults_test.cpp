@@ -157,6 +157,53 @@ TEST(FrameFaults, CorruptChosenBytesOrOneRandomByte) {
   EXPECT_EQ(f.sent(ms(5000), ms(5001), kHb).at(0).frame, F(kHb, {0x05}));
 }
 
+// The streams start again at each power-on (core/fault_random.hpp): a bench
+// that power-cycles a node sees the same faulted frames after the cycle
+// whether the cycle came after three heartbeats or four. The n-th power-on
+// has its own stream: the second cycle does not replay the first.
+TEST(FrameFaults, APowerCycleStartsTheSeededStreamsAgainWhateverWentBefore) {
+  const std::string faults = R"([{kind: frame_corrupt, service: heartbeat, bytes: [0], probability: 0.5},
+                                 {kind: frame_drop, service: heartbeat, probability: 0.3}])";
+  // The heartbeats of each power-on, as (time after its boot-up, frame).
+  using Beats = std::vector<std::pair<TimeUs, CanFrame>>;
+  auto after_cycles = [&](const std::vector<TimeUs>& cycles_at, std::uint64_t seed = 7) {
+    Fleet f(faults, BusModel::kIdeal, k250, seed);
+    for (TimeUs at : cycles_at) {
+      f.core.run_until(at);
+      f.node().power_cycle(at, ms(300));
+      f.core.refresh(f.refs[0]);
+    }
+    const TimeUs end = cycles_at.back() + ms(40000);
+    f.core.run_until(end);
+    std::vector<TimeUs> from{0};
+    from.insert(from.end(), cycles_at.begin(), cycles_at.end());
+    std::vector<Beats> runs;
+    for (std::size_t i = 0; i < from.size(); ++i) {
+      const Log log = f.sent(from[i], i + 1 < from.size() ? from[i + 1] : end, kHb);
+      EXPECT_EQ(log.at(0).frame, F(kHb, {0x00})) << "boot-up of power-on " << i + 1 << dump(log);
+      Beats beats;
+      for (std::size_t k = 1; k < log.size(); ++k) beats.push_back({log[k].time - log[0].time, log[k].frame});
+      runs.push_back(beats);
+    }
+    return runs;
+  };
+  const auto early = after_cycles({ms(3200), ms(50000)}), late = after_cycles({ms(4200), ms(51000)});
+  // Three heartbeats were due before the first cycle in one run, four in the
+  // other; after it, the same frames.
+  auto first = [](const Beats& b) { return Beats(b.begin(), b.begin() + std::min<std::ptrdiff_t>(20, b.size())); };
+  ASSERT_GE(early[1].size(), 20u);
+  ASSERT_GE(early[2].size(), 20u);
+  EXPECT_EQ(early[1], late[1]);
+  EXPECT_EQ(early[2], late[2]);
+  EXPECT_NE(first(early[1]), first(early[2]));  // each power-on has its own stream
+  EXPECT_NE(first(early[1]), first(after_cycles({ms(3200), ms(50000)}, 8)[1]));
+  // The faults did act: some heartbeats corrupted, some lost.
+  const auto corrupted =
+      std::count_if(early[1].begin(), early[1].end(), [](const auto& b) { return b.second.data[0] != 0x7F; });
+  EXPECT_GT(corrupted, 3);
+  EXPECT_LT(early[1].size(), 44u);  // of 46
+}
+
 TEST(FrameFaults, DlcChangesTheLengthPaddingWithZeros) {
   Fleet f(R"([{kind: frame_dlc, service: tpdo1, dlc: 2, at: 1 s, duration: 0.5 s},
               {kind: frame_dlc, service: heartbeat, dlc: 8, at: 2 s, duration: 0.5 s}])");
