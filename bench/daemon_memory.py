@@ -2,7 +2,8 @@
 """The running daemon's memory per node (no CAN interface needed).
 
 usage: bench/daemon_memory.py [--cansimd PATH] [--nodes 2000,4096] [--profile generic-404]
-                              [--padding KIB] [--idle SECONDS] [--no-shrink]
+                              [--padding KIB] [--idle SECONDS] [--bus-model auto|timed|ideal]
+                              [--no-shrink]
 
 Starts cansimd off the bus (the fleet's interfaces do not exist, so its
 nodes run without sending) and reads RssAnon from /proc/PID/status once
@@ -18,7 +19,10 @@ every node has booted:
   --padding a profile padded with KIB of comments (a copy of --profile):
             per node the same as without, when nothing keeps its text.
   --idle    the 2,000-node fleet (pre-operational) idle for SECONDS: its
-            CPU from /proc/PID/stat (utime + stime), in % of one core.
+            CPU from the scheduler's clock, in % of one core, and its
+            wake-ups a second (the loop thread's voluntary context switches).
+            --bus-model sets its buses' model (default auto: timed, as for
+            any interface that is not a real CAN controller).
 """
 
 import argparse
@@ -62,8 +66,24 @@ def entries(n: int, profile: str, prefix: str = "vb", first_bus: int = 0) -> lis
     return out
 
 
-def fleet(n: int, profile: str) -> str:
-    return "nodes:\n" + "".join(f"  - {e}\n" for e in entries(n, profile))
+def fleet(n: int, profile: str, bus_model: str = "auto") -> str:
+    text = "nodes:\n" + "".join(f"  - {e}\n" for e in entries(n, profile))
+    if bus_model == "auto":
+        return text
+    buses = (n + PER_BUS - 1) // PER_BUS
+    return "interfaces:\n" + "".join(f"  vb{b}: {{bus_model: {bus_model}}}\n" for b in range(buses)) + text
+
+
+def wake_ups(pid: int) -> int:
+    """Voluntary context switches of the process's threads: each is a sleep
+    the loop woke from."""
+    total = 0
+    for tid in os.listdir(f"/proc/{pid}/task"):
+        with open(f"/proc/{pid}/task/{tid}/status", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("voluntary_ctxt_switches:"):
+                    total += int(line.split()[1])
+    return total
 
 
 def settle(pid: int) -> int:
@@ -78,8 +98,8 @@ def settle(pid: int) -> int:
     return last
 
 
-def started(binary: str, n: int, profile: str):
-    return cansim.start(fleet(n, profile), binary=binary, timeout=120)
+def started(binary: str, n: int, profile: str, bus_model: str = "auto"):
+    return cansim.start(fleet(n, profile, bus_model), binary=binary, timeout=120)
 
 
 def measure_fleet(binary: str, n: int, profile: str) -> int:
@@ -115,14 +135,14 @@ def grow_and_shrink(binary: str, top: int, profile: str) -> None:
               f"a 10-node fleet: {small} KiB; after the shrink {100.0 * (after - small) / small:+.1f} %", flush=True)
 
 
-def idle_cpu(binary: str, n: int, profile: str, seconds: float) -> None:
-    with started(binary, n, profile) as sim:
+def idle_cpu(binary: str, n: int, profile: str, seconds: float, bus_model: str) -> None:
+    with started(binary, n, profile, bus_model) as sim:
         time.sleep(2.0)  # start-up work done
-        t0, c0 = time.monotonic(), cpu_seconds(sim.pid)
+        t0, c0, w0 = time.monotonic(), cpu_seconds(sim.pid), wake_ups(sim.pid)
         time.sleep(seconds)
-        t1, c1 = time.monotonic(), cpu_seconds(sim.pid)
-        print(f"idle {n} nodes, pre-operational, {seconds:.0f} s: {100.0 * (c1 - c0) / (t1 - t0):.2f} % of a core",
-              flush=True)
+        t1, c1, w1 = time.monotonic(), cpu_seconds(sim.pid), wake_ups(sim.pid)
+        print(f"idle {n} nodes, pre-operational, {bus_model} buses, {seconds:.0f} s: "
+              f"{100.0 * (c1 - c0) / (t1 - t0):.2f} % of a core, {(w1 - w0) / (t1 - t0):.0f} wake-ups/s", flush=True)
 
 
 def padded_profile(profile: str, kib: int, folder: str) -> str:
@@ -144,6 +164,8 @@ def main() -> int:
     p.add_argument("--profile", default="generic-404")
     p.add_argument("--padding", type=int, default=0, help="KiB of comments in a padded copy of the profile")
     p.add_argument("--idle", type=float, default=0, help="seconds of idle CPU of a 2,000-node fleet")
+    p.add_argument("--bus-model", choices=["auto", "timed", "ideal"], default="auto",
+                   help="the idle fleet's bus model")
     p.add_argument("--no-shrink", action="store_true")
     a = p.parse_args()
     repo = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -166,7 +188,7 @@ def main() -> int:
     if not a.no_shrink and sizes:
         grow_and_shrink(binary, max(sizes), a.profile)
     if a.idle:
-        idle_cpu(binary, 2000, a.profile, a.idle)
+        idle_cpu(binary, 2000, a.profile, a.idle, a.bus_model)
     return 0
 
 
