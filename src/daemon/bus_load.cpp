@@ -45,8 +45,11 @@ Traffic estimate_traffic(const Node& node) {
   // SYNC rate as far as this node knows it (0x1006 communication cycle period, µs).
   double sync_per_s = 0;
   if (od.find(0x1006, 0) && v.u(0x1006, 0) > 0) sync_per_s = 1e6 / double(v.u(0x1006, 0));
-  for (std::uint16_t comm = 0x1800; comm < 0x1A00; ++comm) {
-    if (!od.find(comm, 1)) continue;
+  // The TPDOs the layout has (objects in index order): not a lookup for
+  // each of the 512 possible ones.
+  for (const OdObject& object : od.objects()) {
+    const std::uint16_t comm = object.index;
+    if (comm < 0x1800 || comm >= 0x1A00 || !od.find(object, 1)) continue;
     std::uint32_t cob = std::uint32_t(v.u(comm, 1));
     if (cob & cob::kInvalid) continue;
     unsigned type = od.find(comm, 2) ? unsigned(v.u(comm, 2)) : 255;
