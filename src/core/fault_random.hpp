@@ -10,8 +10,8 @@
 
 namespace cansim {
 
-// xorshift64* (Vigna): 64 bits of state, one multiply per draw.
-// SplitMix64's finaliser over seed + key: neighbouring keys decorrelate.
+// SplitMix64's finaliser over seed + key: neighbouring keys decorrelate
+// (physics::mix64 is the same function; core may not include physics).
 constexpr std::uint64_t mix_seed(std::uint64_t seed, std::uint64_t key) {
   std::uint64_t z = seed + key + 0x9E3779B97F4A7C15ull;
   z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
@@ -19,6 +19,7 @@ constexpr std::uint64_t mix_seed(std::uint64_t seed, std::uint64_t key) {
   return z ^ (z >> 31);
 }
 
+// xorshift64* (Vigna): 64 bits of state, one multiply per draw.
 class FaultRandom {
  public:
   explicit FaultRandom(std::uint64_t seed = 1) : s_(seed ? seed : 0x9E3779B97F4A7C15ull) {}
