@@ -50,7 +50,10 @@ void Node::power_on(TimeUs now) {
   silent_ = false;
   bus_off_ = false;
   power_on_at_ = kNever;
-  if (!was_powered) frame_faults_.restart(++power_ons_);
+  if (!was_powered) {
+    frame_faults_.restart(++power_ons_);
+    sdo_.restart_faults(power_ons_);
+  }
   if (observer_ && !was_powered) observer_->on_power(*this, true, now);
   if (app_) {
     env_next_ = app_->environment(*this, now);

@@ -579,14 +579,21 @@ void SdoServer::set_block_drop(std::uint32_t every_n, double probability, std::u
   drop_every_n_ = every_n;
   probability = std::clamp(probability, 0.0, 1.0);
   drop_threshold_ = probability >= 1.0 ? 0xFFFFFFFFu : std::uint32_t(probability * 4294967296.0);
-  drop_rng_ = seed | 1;
+  drop_seed_ = seed;
+  drop_rng_ = mix_seed(seed, node_.power_ons()) | 1;
   drop_count_ = 0;
 }
 
 void SdoServer::set_faults(const Faults& faults) {
   if (faults.toggle_seed != faults_.toggle_seed || faults_.toggle_probability == 0)
-    toggle_random_ = FaultRandom(faults.toggle_seed);
+    toggle_random_ = FaultRandom(mix_seed(faults.toggle_seed, node_.power_ons()));
   faults_ = faults;
+}
+
+void SdoServer::restart_faults(std::uint32_t power_on) {
+  drop_rng_ = mix_seed(drop_seed_, power_on) | 1;
+  drop_count_ = 0;
+  toggle_random_ = FaultRandom(mix_seed(faults_.toggle_seed, power_on));
 }
 
 // A request the silent server never sees: every frame when the whole server

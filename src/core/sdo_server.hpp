@@ -117,6 +117,10 @@ class SdoServer : private NodeService {
     std::uint64_t toggle_seed = 1;
   };
   void set_faults(const Faults& faults);
+  // The node's power-on number `power_on`: the block drop's and the toggle
+  // error's generators start again from their seeds and that number
+  // (core/fault_random.hpp), and so does every-n-th counting.
+  void restart_faults(std::uint32_t power_on);
 
   // ---- inspection (tests, daemon statistics)
   bool enabled() const { return valid_; }
@@ -235,7 +239,7 @@ class SdoServer : private NodeService {
   std::size_t delayed_n_ = 0;
   std::uint32_t drop_every_n_ = 0;
   std::uint32_t drop_threshold_ = 0;  // probability x 2^32
-  std::uint64_t drop_rng_ = 0;
+  std::uint64_t drop_seed_ = 0, drop_rng_ = 0;
   std::uint32_t drop_count_ = 0;
   std::uint32_t dropped_ = 0;
   Faults faults_;

@@ -44,13 +44,11 @@ void CommFaultDriver::apply_levels(Node& node, physics::FaultSet& faults, TimeUs
   node.sdo().set_response_delay(slow ? slow->sdo_delay_us : 0);
   const physics::FaultSpec* drop = faults.active_spec(FaultKind::SdoBlockDrop, now);
   const physics::FaultSpec* before = drop_ == physics::kInvalidFaultHandle ? nullptr : faults.spec(drop_);
-  // Its generator starts again at each power-on (core/fault_random.hpp).
-  if (drop == before && node.power_ons() == drop_power_on_) return;
+  if (drop == before) return;
   drop_ = handle_of(faults, drop);
-  drop_power_on_ = node.power_ons();
   if (drop)
     node.sdo().set_block_drop(drop->drop_every_n, drop->drop_probability,
-                              mix_seed(physics::derive_seed(seed_, 0x5D0B10C0ull ^ drop->id), drop_power_on_));
+                              physics::derive_seed(seed_, 0x5D0B10C0ull ^ drop->id));
   else node.sdo().set_block_drop(0, 0.0, 0);
 }
 

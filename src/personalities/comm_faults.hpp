@@ -58,7 +58,6 @@ class CommFaultDriver {
 
   std::uint64_t seed_;
   physics::FaultHandle drop_ = physics::kInvalidFaultHandle;  // the SDO block drop in force
-  std::uint32_t drop_power_on_ = 0;                           // the power-on it was set in
   FaultListenerSlot listener_;
 };
 

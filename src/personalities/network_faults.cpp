@@ -84,9 +84,7 @@ void babble(Node& node, physics::FaultHandle h, const physics::NetFaultParams& p
   node.disturbance().babble(h, f, rate, now);
 }
 
-// The toggle generator starts again at each power-on (core/fault_random.hpp).
-void sdo_fault(SdoServer::Faults& out, const physics::FaultSet& faults, physics::FaultHandle h, const FaultSpec& spec,
-               std::uint32_t power_on) {
+void sdo_fault(SdoServer::Faults& out, const physics::FaultSet& faults, physics::FaultHandle h, const FaultSpec& spec) {
   const SdoServer::ObjectMatch object{spec.net.index, spec.net.sub};
   switch (spec.kind) {
     case FaultKind::SdoAbort:
@@ -98,7 +96,7 @@ void sdo_fault(SdoServer::Faults& out, const physics::FaultSet& faults, physics:
     default:  // SdoToggleError: the first one in force sets the generator
       if (out.toggle_probability == 0) {
         out.toggle_probability = spec.net.probability;
-        out.toggle_seed = mix_seed(seed_of(faults, h), power_on);
+        out.toggle_seed = seed_of(faults, h);
       }
   }
 }
@@ -123,7 +121,7 @@ void apply_network_faults(Node& node, const physics::FaultSet& faults, TimeUs no
       case FaultKind::SdoAbort:
       case FaultKind::SdoSilent:
       case FaultKind::SdoToggleError:
-        if (on) sdo_fault(sdo, faults, h, spec, node.power_ons());
+        if (on) sdo_fault(sdo, faults, h, spec);
         break;
       case FaultKind::Babbling:
       case FaultKind::ErrorFrames:

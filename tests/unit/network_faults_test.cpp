@@ -391,6 +391,39 @@ TEST(NetworkFaults, SdoToggleErrorFlipsTheSegmentsToggleBit) {
   EXPECT_EQ(a[1].frame.data[0] & 0x10, 0x10);  // toggle 1 where 0 is due
 }
 
+// The toggle error's draws start again at each power-on, as the frame
+// faults' do: after the cycle the same segments are wrong, however many
+// went before it.
+TEST(NetworkFaults, SdoToggleErrorStartsAgainAtPowerOn) {
+  auto toggles_after_cycle = [](int uploads_before) {
+    Fleet f("[{kind: sdo_toggle_error, probability: 0.5}]");
+    TimeUs t = ms(100);
+    auto upload = [&] {  // 0x1008 (a long string), initiate and first segment: its toggle bit
+      f.master(F(kSdoRx, {0x40, 0x08, 0x10, 0x00, 0, 0, 0, 0}), t);
+      f.master(F(kSdoRx, {0x60, 0, 0, 0, 0, 0, 0, 0}), t + ms(10));
+      f.master(F(kSdoRx, {0x80, 0x08, 0x10, 0x00, 0, 0, 0, 0}), t + ms(20));  // abort: the next starts afresh
+      f.core.run_until(t + ms(30));
+      const Log answers = f.sent(t + ms(10), t + ms(20), kSdoTx);
+      t += ms(50);
+      return answers.empty() ? -1 : answers[0].frame.data[0] & 0x10;
+    };
+    for (int i = 0; i < uploads_before; ++i) upload();
+    f.core.run_until(t);
+    f.node().power_cycle(t, ms(300));
+    f.core.refresh(f.refs[0]);
+    t += ms(400);
+    std::vector<int> bits;
+    for (int i = 0; i < 16; ++i) bits.push_back(upload());
+    return bits;
+  };
+  const std::vector<int> after3 = toggles_after_cycle(3), after6 = toggles_after_cycle(6);
+  EXPECT_EQ(after3, after6);
+  EXPECT_EQ(std::count(after3.begin(), after3.end(), -1), 0);
+  const auto wrong = std::count(after3.begin(), after3.end(), 0x10);  // toggle 1 where 0 is due
+  EXPECT_GT(wrong, 2);
+  EXPECT_LT(wrong, 14);
+}
+
 TEST(NetworkFaults, ClockDriftRunsTheHeartbeatFast) {
   Fleet f("[{kind: clock_drift, ppm: 10000, at: 0.5 s, duration: 10 s}]");  // 1 % fast
   f.core.run_until(ms(5000));
