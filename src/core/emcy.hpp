@@ -31,6 +31,8 @@ class Emcy : private NodeService {
   static constexpr std::size_t kQueueSize = 8;
 
   explicit Emcy(Node& node) : NodeService(node) {}
+  // Its slots of the node's deadline board (core/node_service.hpp).
+  static constexpr DeadlineSlots kDeadlines{DeadlineSlot::kEmcy};
 
   // An error became active. reg_bits are ORed into 0x1001 while it is active
   // (on top of the bits derived from the code class); mfr = 5 manufacturer
@@ -110,7 +112,7 @@ class Emcy : private NodeService {
   void update_deadline(TimeUs now);
   SdoAbort write_cob_id(const OdEntry& e, std::uint32_t v);
 
-  TimeUs next_ = kNever;
+  Deadline next_{node_, kDeadlines.first};
   TimeUs last_sent_ = kNever;
   TimeUs inhibit_us_ = 0;
   std::uint32_t can_id_ = 0;

@@ -25,6 +25,8 @@ class Node;
 class NodeGuarding : private NodeService {
  public:
   explicit NodeGuarding(Node& node) : NodeService(node) {}
+  // Its slots of the node's deadline board (core/node_service.hpp).
+  static constexpr DeadlineSlots kDeadlines{DeadlineSlot::kGuarding};
   bool life_guard_failed() const { return failed_; }
   TimeUs life_time() const { return life_time_; }
 
@@ -41,7 +43,7 @@ class NodeGuarding : private NodeService {
   void read_life_time();
   bool answers() const;
 
-  TimeUs next_ = kNever;
+  Deadline next_{node_, kDeadlines.first};
   TimeUs life_time_ = 0;
   bool supported_ = false;
   bool toggle_ = false;

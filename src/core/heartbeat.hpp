@@ -24,6 +24,8 @@ class Node;
 class Heartbeat : private NodeService {
  public:
   explicit Heartbeat(Node& node) : NodeService(node) {}
+  // Its slots of the node's deadline board (core/node_service.hpp).
+  static constexpr DeadlineSlots kDeadlines{DeadlineSlot::kHeartbeat};
   // Starts the producer (called by NMT at the boot-up).
   void start(TimeUs now);
   std::uint16_t producer_time_ms() const { return period_ms_; }
@@ -57,7 +59,7 @@ class Heartbeat : private NodeService {
   void time_out(Consumer& c, TimeUs now);
   void update_deadline();
 
-  TimeUs next_ = kNever;
+  Deadline next_{node_, kDeadlines.first};
   TimeUs next_beat_ = kNever;
   std::uint16_t period_ms_ = 0;
   std::uint16_t failed_count_ = 0;

@@ -35,6 +35,8 @@ class LssSlave : private NodeService {
   enum class State : std::uint8_t { kWaiting = 0, kConfiguration = 1 };
 
   explicit LssSlave(Node& node) : NodeService(node) {}
+  // Its slots of the node's deadline board (core/node_service.hpp).
+  static constexpr DeadlineSlots kDeadlines{DeadlineSlot::kLss};
   // Called at the start of every reset, before the OD is reloaded: reset node
   // / communication activate the pending node-ID (power-on: Node::power_on
   // applies what store configuration saved).
@@ -82,7 +84,7 @@ class LssSlave : private NodeService {
   void fastscan(const std::uint8_t* d);
   void enter_waiting(TimeUs now);
 
-  TimeUs next_ = kNever;
+  Deadline next_{node_, kDeadlines.first};
   State state_ = State::kWaiting;
   std::uint8_t pending_node_id_ = kUnconfigured;
   std::uint8_t pending_bit_rate_ = 0;

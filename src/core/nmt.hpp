@@ -43,6 +43,8 @@ struct BootPlan {
 class NmtSlave : private NodeService {
  public:
   explicit NmtSlave(Node& node) : NodeService(node) {}
+  // Its slots of the node's deadline board (core/node_service.hpp).
+  static constexpr DeadlineSlots kDeadlines{DeadlineSlot::kNmt};
   // Power-on: initialisation, boot-up, then pre-operational (or operational).
   void power_on(TimeUs now);
   // Power lost: INITIALISING again, silently (nobody hears a dead node).
@@ -92,7 +94,7 @@ class NmtSlave : private NodeService {
   void set_state(NmtState s, TimeUs now);
   void update_deadline();
 
-  TimeUs next_ = kNever;
+  Deadline next_{node_, kDeadlines.first};
   TimeUs boot_at_ = kNever;
   TimeUs start_at_ = kNever;
   TimeUs start_all_at_ = kNever;

@@ -1,6 +1,7 @@
 #include "core/node.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 
 #include "core/protocol.hpp"
@@ -39,6 +40,20 @@ void Node::for_each_service(Fn&& fn) {
 template <typename Fn>
 void Node::for_each_service(Fn&& fn) const {
   const_cast<Node*>(this)->for_each_service([&](const auto& s) { fn(s); });
+}
+
+TimeUs* deadline_slot(Node& node, DeadlineSlot slot) { return &node.due_[std::size_t(slot)]; }
+
+template <typename S>
+TimeUs Node::due(const S&) const {
+  const auto first = due_.begin() + std::size_t(S::kDeadlines.first);
+  return *std::min_element(first, first + S::kDeadlines.count);
+}
+
+bool Node::board_holds() const {
+  bool holds = true;
+  for_each_service([&](const auto& s) { holds = holds && due(s) == s.next_deadline(); });
+  return holds;
 }
 
 // Power-on: what LSS "store configuration" saved overrides the configured
@@ -284,7 +299,7 @@ void Node::advance(TimeUs now) {
   }
   if (std::min(frame_faults_.next_deadline(), disturbance_.next_deadline()) <= now) run_faults(now);
   for_each_service([&](auto& s) {
-    if (s.next_deadline() <= now) s.process(now);
+    if (due(s) <= now) s.process(now);
   });
   if (app_ && app_next_ <= now) app_next_ = app_->process(*this, now);
 }
@@ -292,9 +307,9 @@ void Node::advance(TimeUs now) {
 TimeUs Node::next_deadline() const {
   const TimeUs twin = twin_ ? twin_->next_deadline() : kNever;
   if (!powered_) return std::min(power_on_at_, twin);
-  TimeUs t = std::min({app_next_, env_next_, twin, frame_faults_.next_deadline(), disturbance_.next_deadline()});
-  for_each_service([&](const auto& s) { t = std::min(t, s.next_deadline()); });
-  return t;
+  assert(board_holds());
+  const TimeUs services = *std::min_element(due_.begin(), due_.end());
+  return std::min({services, app_next_, env_next_, twin, frame_faults_.next_deadline(), disturbance_.next_deadline()});
 }
 
 void Node::collect_rx_ids(std::vector<std::uint32_t>& out) const {

@@ -4,6 +4,7 @@
 // (advance) and sleeps until next_deadline().
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -346,11 +347,24 @@ class Node {
   TimeUs app_next_ = kNever;
   TimeUs now_ = 0;  // the last time an entry point was called with
   // Not state: a snapshot has none (restore() ends it). Beside now_, as
-  // frame_faults_' counts: advance() reads them at every wake-up.
+  // the deadline board and the faults' counts: advance() reads them at
+  // every wake-up.
   std::unique_ptr<Node> twin_;
+  // The services' deadlines, written through by their Deadline members
+  // (core/node_service.hpp): not state of its own (a restore writes it).
+  std::array<TimeUs, kDeadlineSlots> due_ = [] {
+    std::array<TimeUs, kDeadlineSlots> none;
+    none.fill(kNever);
+    return none;
+  }();
+  friend TimeUs* deadline_slot(Node& node, DeadlineSlot slot);
+  template <typename S>
+  TimeUs due(const S&) const;
+  // The board says what each service's next_deadline() says (asserted).
+  bool board_holds() const;
   double drift_ppm_ = 0;
+  Disturbance disturbance_;  // its count first, beside the board
   FrameFaults frame_faults_;
-  Disturbance disturbance_;
   TwinSink twin_sink_{*this};
 
   NmtSlave nmt_{*this};

@@ -11,6 +11,7 @@
 #pragma once
 
 #include <concepts>
+#include <cstddef>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -21,6 +22,54 @@
 namespace cansim {
 
 class Node;
+
+// Where each service's deadlines live in its node: the node's deadline board
+// (Node::due_), a few adjacent cache lines beside its clock, so that a
+// wake-up finds what is due without touching the services that are not
+// (at 1,000 nodes a node's lines are cold at each wake-up: docs/benchmarks.md).
+enum class DeadlineSlot : std::uint8_t {
+  kLss,
+  kNmt,
+  kSdoTransfer,  // SDO: the transfer's timeout,
+  kSdoBlockAck,  // a stalled sub-block's acknowledgement,
+  kSdoDelayed,   // the first answer held by the response time
+  kHeartbeat,
+  kGuarding,
+  kSync,
+  kPdo,
+  kEmcy,
+  kStore,
+};
+inline constexpr std::size_t kDeadlineSlots = std::size_t(DeadlineSlot::kStore) + 1;
+// The board's slots a service owns (Node::due(s): the earliest of them).
+struct DeadlineSlots {
+  DeadlineSlot first;
+  std::uint8_t count = 1;
+};
+// The node's board slot (core/node.cpp).
+TimeUs* deadline_slot(Node& node, DeadlineSlot slot);
+
+// A service's deadline: its value, written through to its node's board slot
+// on every change. A copy (a NodeSnapshot's service) writes to no board; an
+// assignment (a snapshot restored) keeps its own slot and updates it.
+class Deadline {
+ public:
+  Deadline(Node& node, DeadlineSlot slot) : board_(deadline_slot(node, slot)) { *board_ = value_; }
+  Deadline(const Deadline& o) : value_(o.value_) {}
+  Deadline& operator=(const Deadline& o) { return *this = o.value_; }
+  Deadline& operator=(TimeUs t) {
+    value_ = t;
+    if (board_) *board_ = t;
+    return *this;
+  }
+  Deadline& operator+=(TimeUs d) { return *this = value_ + d; }
+  operator TimeUs() const { return value_; }
+  TimeUs value() const { return value_; }
+
+ private:
+  TimeUs value_ = kNever;
+  TimeUs* board_ = nullptr;
+};
 
 class NodeService {
  protected:

@@ -114,6 +114,8 @@ struct Rpdo {
 class PdoEngine : private NodeService {
  public:
   explicit PdoEngine(Node& node);
+  // Its slots of the node's deadline board (core/node_service.hpp).
+  static constexpr DeadlineSlots kDeadlines{DeadlineSlot::kPdo};
   // The NodeService contract (core/node_service.hpp):
   void reset(TimeUs now);
   bool on_frame(const CanFrame& frame, TimeUs now);
@@ -208,7 +210,7 @@ class PdoEngine : private NodeService {
   std::vector<std::uint16_t> event_tpdos_;
   std::vector<std::uint16_t> watched_rpdos_;
   void index_active();
-  TimeUs next_ = kNever;
+  Deadline next_{node_, kDeadlines.first};
   ResponseTime sync_delay_{ResponseTime::Stream::kSyncTpdo};
 };
 

@@ -22,6 +22,7 @@ constexpr std::uint8_t ccs(const std::uint8_t* d) { return d[0] & kCsMask; }
 void SdoServer::reset(TimeUs) {
   idle();
   delayed_n_ = 0;  // answers still in the pipe die with the reset
+  delayed_changed();
   turnaround_end_ = 0;
   const NodeOptions& o = node_.options();
   timeout_ = ms(o.sdo_timeout_ms);  // 0: no timeout
@@ -134,6 +135,7 @@ void SdoServer::process(TimeUs now) {
     delayed_head_ = (delayed_head_ + 1) % delayed_.size();
     --delayed_n_;
   }
+  delayed_changed();
   now_ = now;
   answer_at_ = kNever;
   if (block_ack_at_ <= now) {
@@ -549,6 +551,7 @@ void SdoServer::send_raw(const std::uint8_t* d) {
   Delayed& slot = delayed_[(delayed_head_ + delayed_n_++) % delayed_.size()];
   slot.at = at;
   std::memcpy(slot.data, d, 8);
+  delayed_changed();
 }
 
 // One request at a time, in arrival order (see the header): the turnaround
@@ -559,7 +562,8 @@ TimeUs SdoServer::answer_time() {
   const TimeUs turnaround = in_frame_ ? turnaround_.next(node_.seed()) : 0;
   turnaround_end_ = std::max(now_, turnaround_end_) + turnaround;
   answer_at_ = turnaround_end_ + response_delay_;
-  if (in_frame_ && deadline_ != kNever) deadline_ = std::max(deadline_, answer_at_ + timeout_);  // from the departure
+  if (in_frame_ && deadline_ != kNever)
+    deadline_ = std::max(deadline_.value(), answer_at_ + timeout_);  // from the departure
   return answer_at_;
 }
 

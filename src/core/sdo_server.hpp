@@ -67,14 +67,14 @@ class Node;
 class SdoServer : private NodeService {
  public:
   explicit SdoServer(Node& node) : NodeService(node) {}
+  // Its slots of the node's deadline board (core/node_service.hpp).
+  static constexpr DeadlineSlots kDeadlines{DeadlineSlot::kSdoTransfer, 3};
   // The NodeService contract (core/node_service.hpp):
   void reset(TimeUs now);
   bool on_frame(const CanFrame& frame, TimeUs now);
   // process: the delayed answers and the protocol timeout.
   void process(TimeUs now);
-  TimeUs next_deadline() const {
-    return std::min({deadline_, block_ack_at_, delayed_n_ ? delayed_[delayed_head_].at : kNever});
-  }
+  TimeUs next_deadline() const { return std::min({deadline_.value(), block_ack_at_.value(), delayed_at_.value()}); }
   void collect_rx_ids(std::vector<std::uint32_t>& out) const;
   // owns: 0x1200.
   bool owns(std::uint16_t index) const;
@@ -209,8 +209,8 @@ class SdoServer : private NodeService {
   TimeUs timeout_ = 0;
   // transfer
   State state_ = State::kIdle;
-  TimeUs deadline_ = kNever;
-  TimeUs block_ack_at_ = kNever;  // block download: acknowledge a stalled sub-block
+  Deadline deadline_{node_, DeadlineSlot::kSdoTransfer};
+  Deadline block_ack_at_{node_, DeadlineSlot::kSdoBlockAck};  // block download: acknowledge a stalled sub-block
   const OdEntry* entry_ = nullptr;
   std::uint16_t index_ = 0;
   std::uint8_t sub_ = 0;
@@ -237,6 +237,8 @@ class SdoServer : private NodeService {
   std::vector<Delayed> delayed_;  // ring, sized by the first set_response_delay
   std::size_t delayed_head_ = 0;
   std::size_t delayed_n_ = 0;
+  Deadline delayed_at_{node_, DeadlineSlot::kSdoDelayed};  // the first held answer's departure
+  void delayed_changed() { delayed_at_ = delayed_n_ ? delayed_[delayed_head_].at : kNever; }
   std::uint32_t drop_every_n_ = 0;
   std::uint32_t drop_threshold_ = 0;  // probability x 2^32
   std::uint64_t drop_seed_ = 0, drop_rng_ = 0;

@@ -40,6 +40,8 @@ class StoreRestore : private NodeService {
   static constexpr std::uint32_t kLoad = 0x64616F6C;  // "load"
 
   explicit StoreRestore(Node& node) : NodeService(node) {}
+  // Its slots of the node's deadline board (core/node_service.hpp).
+  static constexpr DeadlineSlots kDeadlines{DeadlineSlot::kStore};
   // Reads the blob from NodeStorage into the cache (power-on).
   void load();
   // Applies stored values of entries with index in [first, last] to the OD.
@@ -83,7 +85,7 @@ class StoreRestore : private NodeService {
   void defaults_to_ram(std::uint8_t sub);
   bool holds_node_id_default(const OdEntry& e) const;
 
-  TimeUs next_ = kNever;
+  Deadline next_{node_, kDeadlines.first};
   std::vector<std::uint8_t> blob_;  // validated copy of what storage holds
   LssStored lss_;
   bool corrupt_ = false;

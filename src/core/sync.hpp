@@ -21,6 +21,8 @@ class Node;
 class SyncConsumer : private NodeService {
  public:
   explicit SyncConsumer(Node& node) : NodeService(node) {}
+  // Its slots of the node's deadline board (core/node_service.hpp).
+  static constexpr DeadlineSlots kDeadlines{DeadlineSlot::kSync};
   // True while synchronous PDOs may be sent: within 0x1007 µs after the last
   // SYNC (always, when 0x1007 = 0).
   bool window_open(TimeUs now) const;
@@ -42,7 +44,7 @@ class SyncConsumer : private NodeService {
   SdoAbort write_cob_id(const OdEntry& e, std::uint32_t v);
   SdoAbort write_overflow(const OdEntry& e, std::uint8_t v);
 
-  TimeUs next_ = kNever;
+  Deadline next_{node_, kDeadlines.first};
   TimeUs last_sync_ = kNever;
   TimeUs window_us_ = 0;
   std::uint32_t cob_id_ = 0;  // CAN-ID, with CanFrame::kExtended in extended_
