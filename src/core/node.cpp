@@ -24,6 +24,19 @@ static_assert(ServiceContract<LssSlave> && ServiceContract<NmtSlave> && ServiceC
               ServiceContract<Heartbeat> && ServiceContract<NodeGuarding> && ServiceContract<SyncConsumer> &&
               ServiceContract<PdoEngine> && ServiceContract<Emcy> && ServiceContract<StoreRestore>);
 
+// Every slot of the deadline board has exactly one service.
+template <typename... S>
+constexpr bool board_tiled() {
+  std::array<int, kDeadlineSlots> owners{};
+  for (const DeadlineSlots r : {S::kDeadlines...})
+    for (std::size_t i = 0; i < r.count; ++i) ++owners[std::size_t(r.first) + i];
+  for (int n : owners)
+    if (n != 1) return false;
+  return true;
+}
+static_assert(
+    board_tiled<LssSlave, NmtSlave, SdoServer, Heartbeat, NodeGuarding, SyncConsumer, PdoEngine, Emcy, StoreRestore>());
+
 template <typename Fn>
 void Node::for_each_service(Fn&& fn) {
   fn(lss_);

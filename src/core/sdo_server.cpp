@@ -134,8 +134,8 @@ void SdoServer::process(TimeUs now) {
     if (node_.allowed(Service::kSdo)) send_now(delayed_[delayed_head_].data);
     delayed_head_ = (delayed_head_ + 1) % delayed_.size();
     --delayed_n_;
+    delayed_changed();
   }
-  delayed_changed();
   now_ = now;
   answer_at_ = kNever;
   if (block_ack_at_ <= now) {
