@@ -284,14 +284,22 @@ void Daemon::apply_bus_model(Interface& iface, const io::KernelLink& link) {
   const io::BusModel model = timed ? io::BusModel::kTimed : io::BusModel::kIdeal;
   const bool changed = core_.bus_model(iface.bus) != model;
   if (changed) core_.set_bus_model(iface.bus, model);
+  update_pacer(iface);
+  const auto subject = LogSubject::interface(iface.can.name());
+  if (changed && iface.real_can && iface.bus_model == config::BusModelChoice::kTimed)
+    spdlog::info("{}: a real CAN controller paces this bus itself: bus_model: timed has no effect", iface.can.name());
+}
+
+// The kernel's pacing, the loop's, or none while the interface is closed
+// (Transport::carries()).
+void Daemon::update_pacer(Interface& iface) {
   core_.update_pacer(iface.bus);
   // Frames leave in sendmmsg batches at the end of a loop pass, except on a
   // bus the loop paces: there each is written when it ends (the pass's other
   // work would make it late, and the next one follows from then).
-  iface.can.set_deferred(!timed || core_.bus_pacer(iface.bus) == io::Pacer::kAhead);
-  const auto subject = LogSubject::interface(iface.can.name());
-  if (changed && iface.real_can && iface.bus_model == config::BusModelChoice::kTimed)
-    spdlog::info("{}: a real CAN controller paces this bus itself: bus_model: timed has no effect", iface.can.name());
+  const bool loop_paced =
+      core_.bus_model(iface.bus) == io::BusModel::kTimed && core_.bus_pacer(iface.bus) == io::Pacer::kLoop;
+  iface.can.set_deferred(!loop_paced);
 }
 
 void Daemon::on_can_events(Interface& iface, std::uint32_t events) {
@@ -393,6 +401,7 @@ void Daemon::sweep_interfaces(TimeUs now) {
       const auto subject = LogSubject::interface(i.can.name());
       i.in_epoll = false;  // closing the fd took it out of the epoll set
       i.retry_at = now + kRetryPeriod;
+      update_pacer(i);
       i.last_down_log = now;
       i.reported_down = true;
       spdlog::warn("{}: {}; its {} node(s) keep running off the bus, retrying every second", i.can.name(),
@@ -845,6 +854,7 @@ void Daemon::close_unconfigured_interfaces() {
       i.can.close();
       i.in_epoll = false;
       i.retry_at = 0;  // opened again when configured again
+      update_pacer(i);
     }
     if (!i.node_keys.empty()) {
       ++it;

@@ -185,6 +185,7 @@ class Daemon : public control::ControlHost {
   void start_control();
   Interface& ensure_interface(const config::InterfaceConfig& ic);
   void apply_bus_model(Interface& iface, const io::KernelLink& link);
+  void update_pacer(Interface& iface);
   void remove_node(NodeEntry& e);
   void erase_stored(const std::string& key);
   void on_can_events(Interface& iface, std::uint32_t events);

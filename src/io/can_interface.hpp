@@ -99,6 +99,7 @@ class CanInterface : public Transport {
     clock_base_ns_ = clock_base_ns;
   }
   bool paces() const override { return fd_ >= 0 && pacing_.available; }
+  bool carries() const override { return fd_ >= 0; }
   void transmit_at(const CanFrame& frame, std::int64_t end_ns, std::int64_t length_ns) override;
   // An error frame on the interface for the other programs on it (a
   // master's CAN_RAW_ERR_FILTER): written like a frame, never read back.

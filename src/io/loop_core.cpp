@@ -57,7 +57,7 @@ void LoopCore::set_bus_model(BusId bus, BusModel model, std::size_t queue_frames
   if ((model == BusModel::kTimed) == bool(b.timed)) return;
   if (model == BusModel::kTimed) {
     b.timed = std::make_unique<TimedBus>(bit_time_ns(b.bit_rate_index), queue_frames);
-    b.timed->set_pacer(b.transport->paces() ? Pacer::kAhead : Pacer::kLoop);
+    b.timed->set_pacer(pacer_for(*b.transport));
     ++timed_buses_;
   } else {
     std::unique_ptr<TimedBus> timed = std::move(b.timed);
@@ -71,10 +71,14 @@ void LoopCore::set_bus_model(BusId bus, BusModel model, std::size_t queue_frames
   update_bus_next();
 }
 
+Pacer LoopCore::pacer_for(const Transport& transport) {
+  return transport.paces() || !transport.carries() ? Pacer::kAhead : Pacer::kLoop;
+}
+
 void LoopCore::update_pacer(BusId bus) {
   Bus& b = *buses_[bus];
   if (!b.timed) return;
-  const Pacer want = b.transport->paces() ? Pacer::kAhead : Pacer::kLoop;
+  const Pacer want = pacer_for(*b.transport);
   if (b.timed->pacer() == want) return;
   b.timed->set_pacer(want);
   update_bus_next();

@@ -114,9 +114,10 @@ class LoopCore {
   void set_bus_model(BusId bus, BusModel model, std::size_t queue_frames = kDefaultBusQueue);
   BusModel bus_model(BusId bus) const { return buses_[bus]->timed ? BusModel::kTimed : BusModel::kIdeal; }
   // A timed bus is paced by the loop (a wake-up per frame end), or, when
-  // its transport paces (Transport::paces(): SO_TXTIME with the ETF qdisc),
-  // handed to it ahead in batches. The transport says which when the bus
-  // becomes timed; update_pacer() asks it again (an interface reopened).
+  // its transport paces (Transport::paces(): SO_TXTIME with the ETF qdisc)
+  // or carries nothing (Transport::carries(): an interface down), handed to
+  // it ahead in batches. The transport says which when the bus becomes
+  // timed; update_pacer() asks it again (an interface opened or closed).
   void update_pacer(BusId bus);
   Pacer bus_pacer(BusId bus) const;
   // The bus's traffic figures at now().
@@ -243,6 +244,7 @@ class LoopCore {
   static constexpr NodeRef kOutside = 0x80000000u;
   static bool outside(NodeRef from) { return from != kNoNode && (from & kOutside); }
 
+  static Pacer pacer_for(const Transport& transport);
   void on_send(NodeRef from, const CanFrame& frame, std::uint8_t controller);
   void on_withdraw(NodeRef from, const FrameFilter& filter, std::uint8_t controller);
   void on_error(BusId bus, BusError e);

@@ -147,6 +147,13 @@ bool TimedBus::settle_loop(std::int64_t now_ns, Phase phase, Departure& d) {
 // Frames handed over start no earlier than the moment they are: a caller
 // that comes late (the schedule handed over ran out) slips the bus.
 bool TimedBus::settle_ahead(std::int64_t now_ns, Phase phase, Departure& d) {
+  if (busy_) {  // the loop's pacer took it before the switch: it leaves at its end, as it would have
+    if (current_.end_ns > now_ns) return false;
+    busy_ = false;
+    next_stale_ = true;
+    d = current_;
+    return true;
+  }
   if (phase == Phase::kBefore || queue_.empty()) return false;
   if (next_start() > now_ns + horizon_ns_ || flight_.size() == queue_.capacity()) return false;
   const std::int64_t scheduled = next_start();
@@ -184,8 +191,8 @@ std::int64_t TimedBus::flight_due_ns() const {
 
 std::int64_t TimedBus::due_ns() const {
   std::int64_t due = kNeverNs;
-  if (pacer_ == Pacer::kLoop) due = busy_ ? current_.end_ns : queue_.empty() ? kNeverNs : free_ns_;
-  else if (!queue_.empty()) due = next_start() - (horizon_ns_ - batch_ns_);
+  if (busy_) due = current_.end_ns;  // kAhead too, after a switch from kLoop
+  else if (!queue_.empty()) due = pacer_ == Pacer::kLoop ? free_ns_ : next_start() - (horizon_ns_ - batch_ns_);
   return std::min(due, flight_due_ns());
 }
 

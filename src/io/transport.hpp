@@ -33,6 +33,12 @@ class Transport {
   // length there (intermission included: the least it may follow the one
   // before by).
   virtual bool paces() const { return false; }
+  // False while nothing carries the frames anywhere (a kernel interface
+  // down or missing): they are counted and dropped, so nobody can see when
+  // each ended, and a timed bus hands them over ahead in batches as to a
+  // pacing transport (one wake-up a batch, not one a frame); its local
+  // listeners still hear each at its end (docs/bus-model.md).
+  virtual bool carries() const { return true; }
   virtual void transmit_at(const CanFrame& frame, std::int64_t /*end_ns*/, std::int64_t /*length_ns*/) {
     transmit(frame);
   }
@@ -65,6 +71,7 @@ class MemoryTransport : public Transport {
   explicit MemoryTransport(const TimeUs* clock = nullptr) : clock_(clock) {}
   void transmit(const CanFrame& frame) override { log.push_back({clock_ ? *clock_ : 0, frame}); }
   bool paces() const override { return paced; }
+  bool carries() const override { return carrying; }
   void transmit_at(const CanFrame& frame, std::int64_t end_ns, std::int64_t) override {
     log.push_back({clock_ ? *clock_ : 0, frame, end_ns});
   }
@@ -82,6 +89,7 @@ class MemoryTransport : public Transport {
   }
   std::vector<Sent> log;
   bool paced = false;
+  bool carrying = true;  // false: as a kernel interface down
 
  private:
   const TimeUs* clock_;

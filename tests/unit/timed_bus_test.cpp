@@ -412,9 +412,12 @@ class PacedTimedBusTest : public TimedBusTest {
     return out;
   }
   std::int64_t end_ns(int bits) const { return at(bits) * 1000; }
+  void expect_burst_handed_over();
 };
 
-TEST_P(PacedTimedBusTest, ABurstIsHandedOverAtOnceWithItsSchedule) {
+TEST_P(PacedTimedBusTest, ABurstIsHandedOverAtOnceWithItsSchedule) { expect_burst_handed_over(); }
+
+void PacedTimedBusTest::expect_burst_handed_over() {
   EXPECT_EQ(core.bus_pacer(bus), Pacer::kAhead);
   add_burst_fleet();
   core.receive(bus, kSync, kT0);
@@ -462,6 +465,114 @@ TEST_P(PacedTimedBusTest, ALongQueueIsHandedOverInBatchesAhead) {
     }
   }
 }
+
+// A bus whose transport carries nothing (a kernel interface down or
+// missing): nobody can see when a frame ends but the other local nodes, so
+// the frames are handed over ahead as to a pacing transport (which drops
+// them), with the same schedule and one wake-up a batch instead of a frame.
+class OfflineTimedBusTest : public PacedTimedBusTest {
+ protected:
+  OfflineTimedBusTest() {
+    tx.paced = false;
+    tx.carrying = false;
+    core.update_pacer(bus);
+  }
+  // The loop's passes until the bus has nothing left, from kT0.
+  std::vector<TimeUs> passes_until_idle() {
+    std::vector<TimeUs> out;
+    for (TimeUs t = core.next_deadline(); core.bus_load(bus).queued > 0; t = core.next_deadline()) {
+      out.push_back(t);
+      core.run_due(t);
+    }
+    return out;
+  }
+};
+
+TEST_P(OfflineTimedBusTest, ABurstIsHandedOverAtOnceWithItsSchedule) { expect_burst_handed_over(); }
+
+TEST_P(OfflineTimedBusTest, OtherLocalNodesHearAFrameWhenItEnds) { expect_heard_when_it_ends(); }
+
+TEST_P(OfflineTimedBusTest, ALongQueueWakesTheLoopOnceABatchNotOnceAFrame) {
+  // 64 frames at once (29.2 ms of bus at 125 kbit/s, 3.6 ms at 1 Mbit/s),
+  // back to back: handed over up to 4 ms ahead, the loop back 1 ms before
+  // the first frame not handed over starts (every 3-3.5 ms) and at the end.
+  const CanFrame f = F(0x300, {0x55});
+  const int len = wire_bits(f);
+  ASSERT_EQ(len, 57);
+  Sender& node = add(1);
+  for (int i = 0; i < 64; ++i) node.script.push_back({kT0, f});
+  for (NodeRef r : refs) core.power_on(r, 0);
+  core.run_until(kT0 - 1);
+  launches();
+  ASSERT_EQ(core.next_deadline(), kT0);
+  core.run_due(kT0);
+  const std::vector<TimeUs> passes = passes_until_idle();
+  const Launches got = launches();
+  ASSERT_EQ(got.size(), 64u);
+  for (std::size_t i = 0; i < got.size(); ++i)
+    EXPECT_EQ(std::get<1>(got[i]), (kT0 + (TimeUs(i + 1) * len - 3) * bit) * 1000) << i;
+  const TimeUs last_end = kT0 + (64 * len - 3) * bit;
+  ASSERT_FALSE(passes.empty());
+  EXPECT_EQ(passes.back(), last_end);
+  TimeUs before = kT0;
+  for (std::size_t i = 0; i + 1 < passes.size(); ++i) {
+    EXPECT_GT(passes[i] - before, ms(3)) << i;  // 1 ms before the first frame not handed over
+    EXPECT_LE(passes[i] - before, ms(3) + len * bit) << i;
+    before = passes[i];
+  }
+  EXPECT_EQ(passes.size(), bit == 8 ? 9u : 1u);  // 64 wake-ups when the loop paces
+}
+
+TEST_P(OfflineTimedBusTest, AnInterfaceThatGoesDownOrComesBackKeepsTheSchedule) {
+  // The interface carries: the loop writes kB at its end. It goes down: the
+  // rest of the burst is handed over with the same schedule.
+  tx.carrying = true;
+  core.update_pacer(bus);
+  ASSERT_EQ(core.bus_pacer(bus), Pacer::kLoop);
+  add_burst_fleet();
+  core.receive(bus, kSync, kT0);
+  core.run_until(at(51 + 66));
+  EXPECT_EQ(frames(tx), (Log{{at(51 + 66), kB}}));
+  tx.carrying = false;
+  core.update_pacer(bus);
+  EXPECT_EQ(core.bus_pacer(bus), Pacer::kAhead);
+  core.run_until(at(51 + 66));
+  const Launches want = {{at(51 + 66), end_ns(120 + 45), kD},
+                         {at(51 + 66), end_ns(168 + 55), kC},
+                         {at(51 + 66), end_ns(226 + 110), kA1},
+                         {at(51 + 66), end_ns(339 + 122), kA2},
+                         {at(51 + 66), end_ns(464 + 99), kE}};
+  EXPECT_EQ(launches(), want);
+  // Back up: a participant's frame takes the idle bus at once. Down while it
+  // is on the wire: it still leaves at its end, written by the loop.
+  tx.carrying = true;
+  core.update_pacer(bus);
+  core.run_until(ms(20));
+  core.submit(bus, kE, 1, ms(20));
+  const TimeUs end = ms(20) + (wire_bits(kE) - 3) * bit;
+  core.run_until(ms(20) + 10 * bit);
+  tx.carrying = false;
+  core.update_pacer(bus);
+  core.run_until(end - 1);
+  EXPECT_TRUE(tx.take().empty());
+  core.run_until(end);
+  EXPECT_EQ(launches(), (Launches{{end, -1, kE}}));
+  // Up again: each frame of a burst is written at its end.
+  tx.carrying = true;
+  core.update_pacer(bus);
+  core.run_until(ms(30));
+  core.receive(bus, kSync, ms(30));
+  core.run_until(ms(40));
+  const Log written = frames(tx);
+  ASSERT_EQ(written.size(), 6u) << dump(written);
+  EXPECT_EQ(written[0], std::make_pair(ms(30) + (51 + 66) * bit, kB));
+  EXPECT_EQ(written[5], std::make_pair(ms(30) + (464 + 99) * bit, kE));
+}
+
+INSTANTIATE_TEST_SUITE_P(BitRates, OfflineTimedBusTest,
+                         ::testing::Values(std::pair<std::uint8_t, TimeUs>{4, 8},
+                                           std::pair<std::uint8_t, TimeUs>{0, 1}),
+                         [](const auto& info) { return info.param.first == 4 ? "kbit125" : "kbit1000"; });
 
 INSTANTIATE_TEST_SUITE_P(BitRates, PacedTimedBusTest,
                          ::testing::Values(std::pair<std::uint8_t, TimeUs>{4, 8},
