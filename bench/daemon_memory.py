@@ -3,7 +3,7 @@
 
 usage: bench/daemon_memory.py [--cansimd PATH] [--nodes 2000,4096] [--profile generic-404]
                               [--padding KIB] [--idle SECONDS] [--bus-model auto|timed|ideal]
-                              [--no-shrink]
+                              [--transport kernel|socketcand] [--no-shrink]
 
 Starts cansimd off the bus (the fleet's interfaces do not exist, so its
 nodes run without sending) and reads RssAnon from /proc/PID/status once
@@ -22,7 +22,9 @@ every node has booted:
             CPU from the scheduler's clock, in % of one core, and its
             wake-ups a second (the loop thread's voluntary context switches).
             --bus-model sets its buses' model (default auto: timed, as for
-            any interface that is not a real CAN controller).
+            any interface that is not a real CAN controller); --transport
+            socketcand: the buses are socketcand servers no client
+            connects to.
 """
 
 import argparse
@@ -66,12 +68,18 @@ def entries(n: int, profile: str, prefix: str = "vb", first_bus: int = 0) -> lis
     return out
 
 
-def fleet(n: int, profile: str, bus_model: str = "auto") -> str:
+def fleet(n: int, profile: str, bus_model: str = "auto", transport: str = "kernel") -> str:
     text = "nodes:\n" + "".join(f"  - {e}\n" for e in entries(n, profile))
-    if bus_model == "auto":
+    settings = []
+    if bus_model != "auto":
+        settings.append(f"bus_model: {bus_model}")
+    if transport == "socketcand":  # no client connects
+        settings.append("transport: socketcand, listen: '127.0.0.1:0'")
+    if not settings:
         return text
     buses = (n + PER_BUS - 1) // PER_BUS
-    return "interfaces:\n" + "".join(f"  vb{b}: {{bus_model: {bus_model}}}\n" for b in range(buses)) + text
+    line = ", ".join(settings)
+    return "interfaces:\n" + "".join(f"  vb{b}: {{{line}}}\n" for b in range(buses)) + text
 
 
 def wake_ups(pid: int) -> int:
@@ -98,8 +106,8 @@ def settle(pid: int) -> int:
     return last
 
 
-def started(binary: str, n: int, profile: str, bus_model: str = "auto"):
-    return cansim.start(fleet(n, profile, bus_model), binary=binary, timeout=120)
+def started(binary: str, n: int, profile: str, bus_model: str = "auto", transport: str = "kernel"):
+    return cansim.start(fleet(n, profile, bus_model, transport), binary=binary, timeout=120)
 
 
 def measure_fleet(binary: str, n: int, profile: str) -> int:
@@ -135,13 +143,14 @@ def grow_and_shrink(binary: str, top: int, profile: str) -> None:
               f"a 10-node fleet: {small} KiB; after the shrink {100.0 * (after - small) / small:+.1f} %", flush=True)
 
 
-def idle_cpu(binary: str, n: int, profile: str, seconds: float, bus_model: str) -> None:
-    with started(binary, n, profile, bus_model) as sim:
+def idle_cpu(binary: str, n: int, profile: str, seconds: float, bus_model: str, transport: str) -> None:
+    with started(binary, n, profile, bus_model, transport) as sim:
         time.sleep(2.0)  # start-up work done
         t0, c0, w0 = time.monotonic(), cpu_seconds(sim.pid), wake_ups(sim.pid)
         time.sleep(seconds)
         t1, c1, w1 = time.monotonic(), cpu_seconds(sim.pid), wake_ups(sim.pid)
-        print(f"idle {n} nodes, pre-operational, {bus_model} buses, {seconds:.0f} s: "
+        where = "socketcand buses without a client" if transport == "socketcand" else f"{bus_model} buses"
+        print(f"idle {n} nodes, pre-operational, {where}, {seconds:.0f} s: "
               f"{100.0 * (c1 - c0) / (t1 - t0):.2f} % of a core, {(w1 - w0) / (t1 - t0):.0f} wake-ups/s", flush=True)
 
 
@@ -166,6 +175,8 @@ def main() -> int:
     p.add_argument("--idle", type=float, default=0, help="seconds of idle CPU of a 2,000-node fleet")
     p.add_argument("--bus-model", choices=["auto", "timed", "ideal"], default="auto",
                    help="the idle fleet's bus model")
+    p.add_argument("--transport", choices=["kernel", "socketcand"], default="kernel",
+                   help="socketcand: the idle fleet's buses are socketcand servers without a client")
     p.add_argument("--no-shrink", action="store_true")
     a = p.parse_args()
     repo = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -188,7 +199,7 @@ def main() -> int:
     if not a.no_shrink and sizes:
         grow_and_shrink(binary, max(sizes), a.profile)
     if a.idle:
-        idle_cpu(binary, 2000, a.profile, a.idle, a.bus_model)
+        idle_cpu(binary, 2000, a.profile, a.idle, a.bus_model, a.transport)
     return 0
 
 

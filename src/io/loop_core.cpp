@@ -337,10 +337,14 @@ void LoopCore::on_send(NodeRef from, const CanFrame& frame, std::uint8_t control
   put_on_wire(bus, from, frame);
 }
 
-void LoopCore::put_on_wire(BusId bus, NodeRef from, const CanFrame& frame) {
-  Bus& b = *buses_[bus];
+void LoopCore::write(Bus& b, NodeRef from, const CanFrame& frame) {
   if (outside(from)) b.transport->transmit_from(frame, from & ~kOutside);
   else b.transport->transmit(frame);
+}
+
+void LoopCore::put_on_wire(BusId bus, NodeRef from, const CanFrame& frame) {
+  Bus& b = *buses_[bus];
+  write(b, from, frame);
   if (tap_ && b.tapped(frame)) tap_->on_frame(bus, frame, now_);
   // Other local nodes receive it in the flush, as they listen now.
   if (heard_locally(b, from, frame)) push_pending({bus, from, frame});
@@ -366,6 +370,10 @@ void LoopCore::settle_bus(BusId bus, TimedBus::Phase phase) {
     if (heard_locally(b, d.q.from, d.q.frame)) push_pending({bus, d.q.from, d.q.frame});
   }
   while (b.timed->settle(now_, phase, d)) {
+    if (d.recalled) {  // counted and heard when it was handed over
+      write(b, d.q.from, d.q.frame);
+      continue;
+    }
     // A collision before it: its error frames for the master's controller
     // (a receiver sees each error flag as a stuff error).
     for (int i = 0; i < d.collisions; ++i) b.transport->error(BusError::kStuff);

@@ -250,6 +250,7 @@ class LoopCore {
   void on_error(BusId bus, BusError e);
   // A frame is on the wire: to the transport and the other local nodes.
   void put_on_wire(BusId bus, NodeRef from, const CanFrame& frame);
+  void write(Bus& b, NodeRef from, const CanFrame& frame);  // to the transport only
   bool heard_locally(const Bus& b, NodeRef from, const CanFrame& frame) const;
   // Timed buses: frames that ended by now_ leave (TimedBus::settle).
   void settle_buses(TimedBus::Phase phase);

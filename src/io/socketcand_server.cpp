@@ -194,6 +194,16 @@ void SocketcandServer::close() {
   if (listen_fd_ >= 0) ::close(listen_fd_);
   listen_fd_ = -1;
   listener_.reset();
+  update_pacer();
+}
+
+bool SocketcandServer::carries() const {
+  return std::any_of(clients_.begin(), clients_.end(),
+                     [](const auto& c) { return !c->dead && c->session.receives_frames(); });
+}
+
+void SocketcandServer::update_pacer() {
+  if (core_ && core_->bus_valid(bus_)) core_->update_pacer(bus_);
 }
 
 std::size_t SocketcandServer::clients() const {
@@ -274,6 +284,7 @@ void SocketcandServer::read_client(Client& c) {
       c.hold_until = now + settings_.rawmode_hold;
       c.hold_mark = c.out.size();
       c.hold_messages = c.session.messages();
+      update_pacer();  // the loop paces the bus now (frames handed over before are written at their end)
     }
   }
 }
@@ -381,6 +392,7 @@ void SocketcandServer::reap() {
     if (c->dead) loop_.remove(c->fd);
     return c->dead;
   });
+  update_pacer();
 }
 
 TimeUs SocketcandServer::next_deadline() const {

@@ -93,6 +93,10 @@ class SocketcandServer : public Transport {
 
   // Transport: a frame on the wire goes to every client in RAW mode (but its sender).
   void transmit(const CanFrame& frame) override { transmit_from(frame, 0); }
+  // While no client is in RAW mode nobody sees the bus's frames: a timed
+  // bus hands them over ahead (LoopCore::update_pacer, asked again as
+  // clients enter RAW mode and leave).
+  bool carries() const override;
   void transmit_from(const CanFrame& frame, Participant from) override;
   // An error the master's controller would report: `< error CLASS ... >`
   // to every client in RAW mode.
@@ -120,6 +124,7 @@ class SocketcandServer : public Transport {
   void update_interest(Client& c);
   void drop(Client& c, const std::string& why);
   void reap();
+  void update_pacer();
   void log(Level level, const std::string& line) const;
   Participant next_participant();
 

@@ -16,6 +16,7 @@ TimedBus::TimedBus(std::int64_t bit_ns, std::size_t queue_frames)
     : bit_ns_(bit_ns), queue_(queue_frames), flight_(queue_.capacity()), heard_(queue_.capacity()) {}
 
 void TimedBus::set_pacer(Pacer pacer, std::int64_t horizon_ns, std::int64_t batch_ns) {
+  if (pacer_ == Pacer::kAhead && pacer == Pacer::kLoop) recalled_ = flight_.size();
   pacer_ = pacer;
   horizon_ns_ = std::max<std::int64_t>(horizon_ns, 0);
   batch_ns_ = std::clamp<std::int64_t>(batch_ns, 0, horizon_ns_);
@@ -114,8 +115,17 @@ void TimedBus::collide(Departure& d) {
 bool TimedBus::settle(TimeUs now, Phase phase, Departure& d) {
   const std::int64_t now_ns = now * 1000;
   while (!flight_.empty() && flight_.front().end_ns <= now_ns) {
+    const Flight f = flight_.front();
     flight_.pop();
     next_stale_ = true;
+    if (recalled_ > 0) {
+      --recalled_;
+      d = Departure{};
+      d.q = f.q;
+      d.end_ns = f.end_ns;
+      d.recalled = true;
+      return true;
+    }
   }
   return pacer_ == Pacer::kLoop ? settle_loop(now_ns, phase, d) : settle_ahead(now_ns, phase, d);
 }
@@ -185,6 +195,7 @@ bool TimedBus::heard(TimeUs now, Departure& d) {
 
 std::int64_t TimedBus::flight_due_ns() const {
   const std::int64_t heard = heard_.empty() ? kNeverNs : heard_.front().end_ns;
+  if (recalled_ > 0) return std::min(heard, flight_.front().end_ns);  // before the last's end
   // At the end of the last launched frame, queued() and holds_before() follow.
   return std::min(heard, flight_.empty() ? kNeverNs : flight_.back().end_ns);
 }

@@ -71,6 +71,7 @@ struct Departure {
   std::int64_t end_ns = 0;    // end of EOF: written (kLoop) or launched (kAhead), heard
   std::int64_t slip_ns = 0;   // how much later than the schedule it leaves
   bool launched = false;      // kAhead: handed over ahead of end_ns
+  bool recalled = false;      // handed over before a switch to kLoop: the loop writes it now (set_pacer)
   int collisions = 0;         // attempts destroyed by a collision before it (kCollisionAttempts)
   int collision_bits = 0;     // the wire time they took
 };
@@ -92,6 +93,10 @@ class TimedBus {
     next_stale_ = true;
   }
   std::int64_t bit_ns() const { return bit_ns_; }
+  // From kAhead to kLoop, the frames handed over that have not ended are
+  // recalled: settle() yields each again at its end (Departure::recalled),
+  // for the caller to write then. The transport they were handed to carried
+  // nothing (an interface down, Transport::carries()) or is gone.
   void set_pacer(Pacer pacer, std::int64_t horizon_ns = kDefaultHorizonNs, std::int64_t batch_ns = kDefaultBatchNs);
   Pacer pacer() const { return pacer_; }
 
@@ -155,6 +160,7 @@ class TimedBus {
     busy_ = false;
     for (; !queue_.empty(); queue_.pop()) fn(queue_.top());
     flight_.clear();
+    recalled_ = 0;
     heard_.clear();
     babbling_ = 0;
     next_stale_ = true;
@@ -218,8 +224,9 @@ class TimedBus {
   std::int64_t free_ns_ = 0;  // the bus is free for the next start (after intermission)
   bool busy_ = false;         // kLoop: current_ is on the wire
   Departure current_;
-  Ring<Flight> flight_;    // kAhead: launched, for queued() and holds_before()
-  Ring<Departure> heard_;  // kAhead: launched frames local nodes hear at their end
+  Ring<Flight> flight_;       // kAhead: launched, for queued() and holds_before()
+  std::size_t recalled_ = 0;  // the first of them, launched before a switch to kLoop
+  Ring<Departure> heard_;     // kAhead: launched frames local nodes hear at their end
   std::uint64_t dropped_ = 0;
   std::uint64_t merged_ = 0;
   std::size_t babbling_ = 0;

@@ -2,7 +2,8 @@
 // loop (io::EventLoop), with the loop core on a clock the test sets: two
 // clients see each other's frames (never their own), a node answers a
 // client's SDO request, the rawmode hold, the bounds (clients, a client that
-// does not read), malformed messages answered.
+// does not read), malformed messages answered, the pacer a timed bus uses
+// with and without a client in RAW mode.
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <poll.h>
@@ -169,6 +170,28 @@ TEST_F(SocketcandServerTest, ANodeAnswersAClientOnATimedBus) {
   now += (124 + 119) * 4;
   core.run_until(now);
   EXPECT_EQ(until(master, ">"), record("< frame 585 1700000000.123456 4300100094010200 >"));
+}
+
+TEST_F(SocketcandServerTest, WithoutAClientInRawModeATimedBusIsHandedOverAhead) {
+  // Nobody sees the frames: a burst is handed over ahead (one wake-up a
+  // batch). A client in RAW mode: the loop paces each frame again, and what
+  // was handed over and ends later reaches it at its end; gone: ahead again.
+  start();
+  core.set_bus_model(bus, BusModel::kTimed);
+  EXPECT_EQ(core.bus_pacer(bus), Pacer::kAhead);
+  {
+    Client master(server->port());
+    ASSERT_EQ(until(master, "< hi >"), "< hi >");
+    EXPECT_EQ(core.bus_pacer(bus), Pacer::kAhead);  // connected, not yet in RAW mode
+    master.send("< open bench >");
+    ASSERT_EQ(until(master, "< ok >"), "< ok >");
+    master.send("< rawmode >");
+    ASSERT_EQ(until(master, "< ok >"), "< ok >");
+    EXPECT_EQ(core.bus_pacer(bus), Pacer::kLoop);
+  }
+  for (int i = 0; i < 10 && server->clients() > 0; ++i) pass(5);
+  EXPECT_EQ(server->clients(), 0u);
+  EXPECT_EQ(core.bus_pacer(bus), Pacer::kAhead);
 }
 
 TEST_F(SocketcandServerTest, ErrorsForTheMasterAreSocketcandsErrorMessages) {

@@ -525,7 +525,7 @@ TEST_P(OfflineTimedBusTest, ALongQueueWakesTheLoopOnceABatchNotOnceAFrame) {
 
 TEST_P(OfflineTimedBusTest, AnInterfaceThatGoesDownOrComesBackKeepsTheSchedule) {
   // The interface carries: the loop writes kB at its end. It goes down: the
-  // rest of the burst is handed over with the same schedule.
+  // rest of the burst is handed over with the same schedule (to nobody).
   tx.carrying = true;
   core.update_pacer(bus);
   ASSERT_EQ(core.bus_pacer(bus), Pacer::kLoop);
@@ -543,11 +543,16 @@ TEST_P(OfflineTimedBusTest, AnInterfaceThatGoesDownOrComesBackKeepsTheSchedule) 
                          {at(51 + 66), end_ns(339 + 122), kA2},
                          {at(51 + 66), end_ns(464 + 99), kE}};
   EXPECT_EQ(launches(), want);
-  // Back up: a participant's frame takes the idle bus at once. Down while it
-  // is on the wire: it still leaves at its end, written by the loop.
+  // Up again at bit 200: kD ended while it was down; the frames handed over
+  // that end later are written at their ends, as the loop would have.
+  core.run_until(at(200));
   tx.carrying = true;
   core.update_pacer(bus);
+  EXPECT_EQ(core.bus_pacer(bus), Pacer::kLoop);
   core.run_until(ms(20));
+  EXPECT_EQ(frames(tx), (Log{{at(168 + 55), kC}, {at(226 + 110), kA1}, {at(339 + 122), kA2}, {at(464 + 99), kE}}));
+  // A participant's frame takes the idle bus at once. Down while it is on
+  // the wire: it still leaves at its end, written by the loop.
   core.submit(bus, kE, 1, ms(20));
   const TimeUs end = ms(20) + (wire_bits(kE) - 3) * bit;
   core.run_until(ms(20) + 10 * bit);
