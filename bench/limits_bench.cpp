@@ -136,7 +136,11 @@ void fleet_calls(std::size_t nodes, int reps, const std::string& folder) {
   settings.config_file = file;
   settings.control_socket = "none";
   settings.bus = control::BusChoice::kNone;
-  settings.load = [file] { return config::load_fleet(file, daemon::profile_search(file)); };
+  settings.load = [file](config::ProfileStore* store) {
+    config::ProfileSearch search = daemon::profile_search(file);
+    search.store = store;
+    return config::load_fleet(file, search);
+  };
   daemon::Daemon d(settings);
   d.start();
   test::BusPair bus(*d.control());

@@ -1049,7 +1049,7 @@ void Daemon::reload() {
       d.ready_when_sent();
     }
   } ready{*this};
-  config::FleetConfig fresh = settings_.load();
+  config::FleetConfig fresh = settings_.load(&profile_store_);
   profile_store_.put_all(fresh);
   std::swap(file_config_, fresh);
   std::set<std::string> removed;
@@ -1229,7 +1229,7 @@ void Daemon::start() {
   epoch_ = io::monotonic_now();
   TimeUs now = clock_now();
   last_status_ = now;
-  file_config_ = settings_.load();
+  file_config_ = settings_.load(&profile_store_);
   profile_store_.put_all(file_config_);
   start_control();
   apply(combined(), now);

@@ -80,9 +80,11 @@ NodeSetup node_setup(const config::NodeConfig& node, std::uint64_t fleet_seed);
 
 struct DaemonSettings {
   std::string state_dir = "state";
-  std::optional<std::uint64_t> seed;          // --seed overrides the config's
-  std::function<config::FleetConfig()> load;  // (re)reads the configuration
-  std::string config_file;                    // the fleet file or the single profile
+  std::optional<std::uint64_t> seed;  // --seed overrides the config's
+  // (Re)reads the configuration; a profile file whose text `store` holds
+  // is not parsed again (the search's ProfileSearch::store).
+  std::function<config::FleetConfig(config::ProfileStore* store)> load;
+  std::string config_file;  // the fleet file or the single profile
   control::BusChoice bus = control::BusChoice::kAuto;
   std::string control_socket;                            // empty: the default path; "none": no socket
   std::size_t max_clients = limits::kDefaultMaxClients;  // private-socket clients served at once

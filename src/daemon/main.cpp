@@ -25,11 +25,12 @@ using namespace cansim;
 
 namespace {
 
-config::FleetConfig load(const daemon::CliOptions& o) {
+config::FleetConfig load(const daemon::CliOptions& o, config::ProfileStore* store = nullptr) {
   const bool single = o.config.empty();
   config::ProfileSearch search = daemon::profile_search(single ? "" : o.config);
   search.strict = o.strict;
   search.strict_eds = o.strict_eds;
+  search.store = store;
   config::FleetConfig fleet = single ? config::single_node_fleet(o.profile, o.interface, o.node_id, search)
                                      : config::load_fleet(o.config, search);
   config::apply_record_option(fleet, o.record, single);
@@ -132,8 +133,8 @@ int main(int argc, char** argv) {
     daemon::DaemonSettings settings;
     settings.state_dir = o.state_dir;
     settings.seed = o.seed;
-    settings.load = [o] {
-      config::FleetConfig fleet = load(o);
+    settings.load = [o](config::ProfileStore* store) {
+      config::FleetConfig fleet = load(o, store);
       for (const std::string& w : daemon::load_warnings(fleet)) spdlog::warn("{}", w);
       return fleet;
     };

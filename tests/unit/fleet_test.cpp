@@ -11,6 +11,7 @@
 #include "config/profile.hpp"
 #include "daemon/daemon.hpp"
 #include "personalities/sensor_application.hpp"
+#include "support/captured_log.hpp"
 
 namespace cansim::config {
 namespace {
@@ -405,6 +406,48 @@ TEST_F(FleetTest, TheDaemonLogsAMismatchOncePerEntryWithTheCountAndTheFix) {
                 "on interface cansimfz0)"),
       std::string::npos)
       << text;
+}
+
+// A reload parses a profile file again only when its text changed: a node of
+// an unchanged file shares the running nodes' profile, one whose file was
+// edited restarts with the edit, one unchanged keeps running.
+TEST_F(FleetTest, AReloadParsesAProfileAgainOnlyWhenItsTextChanged) {
+  std::string generic;
+  {
+    std::ifstream in(dir + "/profiles/generic-404.yaml");
+    generic.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  std::ofstream(dir + "/profiles/other.yaml") << generic;
+  const std::string a = "  - {profile: profiles/generic-404.yaml, interface: cansimfz1, node_id: 1, name: a}\n";
+  const std::string b = "  - {profile: profiles/other.yaml, interface: cansimfz1, node_id: 2, name: b}\n";
+  const std::string c = "  - {profile: profiles/generic-404.yaml, interface: cansimfz1, node_id: 3, name: c}\n";
+  std::ofstream(dir + "/fleet.yaml") << "nodes:\n" << a << b;
+  test::CapturedLog quiet;
+  daemon::DaemonSettings settings;
+  settings.state_dir = dir + "/state";
+  settings.config_file = dir + "/fleet.yaml";
+  settings.bus = control::BusChoice::kNone;
+  settings.control_socket = "none";
+  settings.load = [&](ProfileStore* store) {
+    ProfileSearch s = daemon::profile_search(settings.config_file);
+    s.store = store;
+    return load_fleet(settings.config_file, s);
+  };
+  daemon::Daemon d(settings);
+  d.reload();
+  const control::NodeHandle* node_a = d.find("cansimfz1/a/0");
+  ASSERT_TRUE(node_a);
+  const Application* app_a = node_a->app;
+  ASSERT_EQ(d.find("cansimfz1/b/0")->profile, "generic-404");
+  std::string edited = generic;
+  edited.replace(edited.find("name: generic-404"), 17, "name: edited-404");
+  std::ofstream(dir + "/profiles/other.yaml") << edited;
+  std::ofstream(dir + "/fleet.yaml") << "nodes:\n" << a << b << c;
+  d.reload();
+  ASSERT_EQ(d.nodes().size(), 3u);
+  EXPECT_EQ(d.find("cansimfz1/a/0")->app, app_a);  // unchanged: not restarted
+  EXPECT_EQ(d.find("cansimfz1/b/0")->profile, "edited-404");
+  EXPECT_EQ(d.find("cansimfz1/c/0")->emcy_codes, d.find("cansimfz1/a/0")->emcy_codes);  // one profile, held once
 }
 
 TEST_F(FleetTest, RecordFilesPerNode) {

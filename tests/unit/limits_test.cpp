@@ -189,7 +189,7 @@ TEST(ConfinedProfiles, TheDaemonAllowsTheFleetsFolders) {
   daemon::DaemonSettings settings;
   settings.state_dir = dir.path + "/state";
   settings.config_file = dir.path + "/fleet.yaml";
-  settings.load = [&] {
+  settings.load = [&](config::ProfileStore*) {
     return config::load_fleet(settings.config_file, daemon::profile_search(settings.config_file));
   };
   daemon::Daemon d(settings);
