@@ -58,14 +58,17 @@ void LoopCore::set_bus_model(BusId bus, BusModel model, std::size_t queue_frames
   if (model == BusModel::kTimed) {
     b.timed = std::make_unique<TimedBus>(bit_time_ns(b.bit_rate_index), queue_frames);
     b.timed->set_pacer(pacer_for(*b.transport));
+    b.carrying = b.transport->carries();
     ++timed_buses_;
   } else {
     std::unique_ptr<TimedBus> timed = std::move(b.timed);
     --timed_buses_;
-    timed->drain([&](const QueuedFrame& q) {
-      b.meter.carried(q.bits, now_);
-      put_on_wire(bus, q.from, q.frame);
-    });
+    timed->drain([&](const QueuedFrame& q) { write(b, q.from, q.frame); },
+                 [&](const Departure& d) { hear_locally(bus, d); },
+                 [&](const QueuedFrame& q) {
+                   b.meter.carried(q.bits, now_);
+                   put_on_wire(bus, q.from, q.frame);
+                 });
     flush(now_);
   }
   update_bus_next();
@@ -78,9 +81,11 @@ Pacer LoopCore::pacer_for(const Transport& transport) {
 void LoopCore::update_pacer(BusId bus) {
   Bus& b = *buses_[bus];
   if (!b.timed) return;
+  const bool carrying = b.transport->carries();
+  if (carrying && !b.carrying) b.timed->recall();  // what was handed to nobody and ends later is written then
+  b.carrying = carrying;
   const Pacer want = pacer_for(*b.transport);
-  if (b.timed->pacer() == want) return;
-  b.timed->set_pacer(want);
+  if (b.timed->pacer() != want) b.timed->set_pacer(want);
   update_bus_next();
 }
 
@@ -360,15 +365,18 @@ bool LoopCore::heard_locally(const Bus& b, NodeRef from, const CanFrame& frame) 
   return false;
 }
 
+void LoopCore::hear_locally(BusId bus, const Departure& d) {
+  const Bus& b = *buses_[bus];
+  if (tap_ && b.tapped(d.q.frame)) tap_->on_frame(bus, d.q.frame, now_);
+  if (heard_locally(b, d.q.from, d.q.frame)) push_pending({bus, d.q.from, d.q.frame});
+}
+
 void LoopCore::settle_bus(BusId bus, TimedBus::Phase phase) {
   Bus& b = *buses_[bus];
   Departure d;
   bus_next_stale_ = true;
   // kAhead: launched frames the other local nodes (and the tap) hear at their end.
-  while (b.timed->heard(now_, d)) {
-    if (tap_ && b.tapped(d.q.frame)) tap_->on_frame(bus, d.q.frame, now_);
-    if (heard_locally(b, d.q.from, d.q.frame)) push_pending({bus, d.q.from, d.q.frame});
-  }
+  while (b.timed->heard(now_, d)) hear_locally(bus, d);
   while (b.timed->settle(now_, phase, d)) {
     if (d.recalled) {  // counted and heard when it was handed over
       write(b, d.q.from, d.q.frame);

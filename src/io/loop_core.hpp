@@ -228,6 +228,7 @@ class LoopCore {
     std::size_t nodes = 0;
     RxDispatch dispatch;
     std::unique_ptr<TimedBus> timed;  // null: ideal
+    bool carrying = true;             // timed: its transport carried frames when last asked (update_pacer)
     BusMeter meter;
     CanState controller = CanState::kErrorActive;
     // Tapped CAN-IDs: a bit per 11-bit identifier, a sorted list of 29-bit ones.
@@ -252,6 +253,8 @@ class LoopCore {
   void put_on_wire(BusId bus, NodeRef from, const CanFrame& frame);
   void write(Bus& b, NodeRef from, const CanFrame& frame);  // to the transport only
   bool heard_locally(const Bus& b, NodeRef from, const CanFrame& frame) const;
+  // A launched frame at its end: to the tap and the other local nodes.
+  void hear_locally(BusId bus, const Departure& d);
   // Timed buses: frames that ended by now_ leave (TimedBus::settle).
   void settle_buses(TimedBus::Phase phase);
   void settle_bus(BusId bus, TimedBus::Phase phase);

@@ -198,8 +198,7 @@ void SocketcandServer::close() {
 }
 
 bool SocketcandServer::carries() const {
-  return std::any_of(clients_.begin(), clients_.end(),
-                     [](const auto& c) { return !c->dead && c->session.receives_frames(); });
+  return std::any_of(clients_.begin(), clients_.end(), [](const auto& c) { return !c->dead; });
 }
 
 void SocketcandServer::update_pacer() {
@@ -238,6 +237,7 @@ void SocketcandServer::accept_clients() {
     ++stats_.clients_served;
     log(Level::kDebug, settings_.bus + ": socketcand client " + peer + " connected");
     clients_.push_back(std::move(client));
+    update_pacer();  // the loop paces the bus while a client is connected
     write_client(*clients_.back(), now_());
   }
 }
@@ -284,7 +284,6 @@ void SocketcandServer::read_client(Client& c) {
       c.hold_until = now + settings_.rawmode_hold;
       c.hold_mark = c.out.size();
       c.hold_messages = c.session.messages();
-      update_pacer();  // the loop paces the bus now (frames handed over before are written at their end)
     }
   }
 }

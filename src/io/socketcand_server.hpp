@@ -93,9 +93,11 @@ class SocketcandServer : public Transport {
 
   // Transport: a frame on the wire goes to every client in RAW mode (but its sender).
   void transmit(const CanFrame& frame) override { transmit_from(frame, 0); }
-  // While no client is in RAW mode nobody sees the bus's frames: a timed
-  // bus hands them over ahead (LoopCore::update_pacer, asked again as
-  // clients enter RAW mode and leave).
+  // While no client is connected nobody sees the bus's frames: a timed bus
+  // hands them over ahead (LoopCore::update_pacer, asked again as clients
+  // come and go). A connected client, whatever its mode, has the loop pace
+  // each frame: its own frames are counted back to it (max_in_flight) when
+  // they end, and it sees those that end once it is in RAW mode.
   bool carries() const override;
   void transmit_from(const CanFrame& frame, Participant from) override;
   // An error the master's controller would report: `< error CLASS ... >`

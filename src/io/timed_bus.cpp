@@ -16,7 +16,6 @@ TimedBus::TimedBus(std::int64_t bit_ns, std::size_t queue_frames)
     : bit_ns_(bit_ns), queue_(queue_frames), flight_(queue_.capacity()), heard_(queue_.capacity()) {}
 
 void TimedBus::set_pacer(Pacer pacer, std::int64_t horizon_ns, std::int64_t batch_ns) {
-  if (pacer_ == Pacer::kAhead && pacer == Pacer::kLoop) recalled_ = flight_.size();
   pacer_ = pacer;
   horizon_ns_ = std::max<std::int64_t>(horizon_ns, 0);
   batch_ns_ = std::clamp<std::int64_t>(batch_ns, 0, horizon_ns_);

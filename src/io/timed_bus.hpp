@@ -71,7 +71,7 @@ struct Departure {
   std::int64_t end_ns = 0;    // end of EOF: written (kLoop) or launched (kAhead), heard
   std::int64_t slip_ns = 0;   // how much later than the schedule it leaves
   bool launched = false;      // kAhead: handed over ahead of end_ns
-  bool recalled = false;      // handed over before a switch to kLoop: the loop writes it now (set_pacer)
+  bool recalled = false;      // handed over to nobody: the caller writes it now (recall())
   int collisions = 0;         // attempts destroyed by a collision before it (kCollisionAttempts)
   int collision_bits = 0;     // the wire time they took
 };
@@ -93,11 +93,15 @@ class TimedBus {
     next_stale_ = true;
   }
   std::int64_t bit_ns() const { return bit_ns_; }
-  // From kAhead to kLoop, the frames handed over that have not ended are
-  // recalled: settle() yields each again at its end (Departure::recalled),
-  // for the caller to write then. The transport they were handed to carried
-  // nothing (an interface down, Transport::carries()) or is gone.
   void set_pacer(Pacer pacer, std::int64_t horizon_ns = kDefaultHorizonNs, std::int64_t batch_ns = kDefaultBatchNs);
+  // The frames handed over that have not ended are recalled: settle()
+  // yields each again at its end (Departure::recalled), for the caller to
+  // write then. The transport they were handed to carried nothing (an
+  // interface down, Transport::carries()) and now does.
+  void recall() {
+    recalled_ = flight_.size();
+    next_stale_ = true;
+  }
   Pacer pacer() const { return pacer_; }
 
   // A local node's frame, sent at `now`. False when the queue is full (the
@@ -152,15 +156,19 @@ class TimedBus {
     flight_.for_each([&](Flight& f) { fn(f.q); });
     heard_.for_each([&](Departure& d) { fn(d.q); });
   }
-  // Takes every frame out at once, in arbitration order (switching to
-  // ideal); launched frames are the transport's already.
-  template <typename Fn>
-  void drain(Fn&& fn) {
+  // Takes every frame out at once (switching to ideal), in the order they
+  // would have ended: the recalled ones to write(const QueuedFrame&), the
+  // launched ones local nodes hear to hear(const Departure&) (the other
+  // launched frames are the transport's already), then the one on the wire
+  // and the queue in arbitration order to fn(const QueuedFrame&).
+  template <typename Write, typename Hear, typename Fn>
+  void drain(Write&& write, Hear&& hear, Fn&& fn) {
+    for (; recalled_ > 0; --recalled_, flight_.pop()) write(flight_.front().q);
+    heard_.for_each([&](const Departure& d) { hear(d); });
     if (busy_) fn(current_.q);
     busy_ = false;
     for (; !queue_.empty(); queue_.pop()) fn(queue_.top());
     flight_.clear();
-    recalled_ = 0;
     heard_.clear();
     babbling_ = 0;
     next_stale_ = true;
@@ -225,7 +233,7 @@ class TimedBus {
   bool busy_ = false;         // kLoop: current_ is on the wire
   Departure current_;
   Ring<Flight> flight_;       // kAhead: launched, for queued() and holds_before()
-  std::size_t recalled_ = 0;  // the first of them, launched before a switch to kLoop
+  std::size_t recalled_ = 0;  // the first of them, handed over to nobody (recall())
   Ring<Departure> heard_;     // kAhead: launched frames local nodes hear at their end
   std::uint64_t dropped_ = 0;
   std::uint64_t merged_ = 0;

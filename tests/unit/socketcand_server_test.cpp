@@ -172,26 +172,44 @@ TEST_F(SocketcandServerTest, ANodeAnswersAClientOnATimedBus) {
   EXPECT_EQ(until(master, ">"), record("< frame 585 1700000000.123456 4300100094010200 >"));
 }
 
-TEST_F(SocketcandServerTest, WithoutAClientInRawModeATimedBusIsHandedOverAhead) {
+TEST_F(SocketcandServerTest, WithoutAClientATimedBusIsHandedOverAhead) {
   // Nobody sees the frames: a burst is handed over ahead (one wake-up a
-  // batch). A client in RAW mode: the loop paces each frame again, and what
-  // was handed over and ends later reaches it at its end; gone: ahead again.
+  // batch). A client connects: the loop paces each frame again, and what
+  // was handed over and ends later is written at its end; gone: ahead again.
   start();
   core.set_bus_model(bus, BusModel::kTimed);
   EXPECT_EQ(core.bus_pacer(bus), Pacer::kAhead);
   {
     Client master(server->port());
     ASSERT_EQ(until(master, "< hi >"), "< hi >");
-    EXPECT_EQ(core.bus_pacer(bus), Pacer::kAhead);  // connected, not yet in RAW mode
-    master.send("< open bench >");
-    ASSERT_EQ(until(master, "< ok >"), "< ok >");
-    master.send("< rawmode >");
-    ASSERT_EQ(until(master, "< ok >"), "< ok >");
     EXPECT_EQ(core.bus_pacer(bus), Pacer::kLoop);
   }
   for (int i = 0; i < 10 && server->clients() > 0; ++i) pass(5);
   EXPECT_EQ(server->clients(), 0u);
   EXPECT_EQ(core.bus_pacer(bus), Pacer::kAhead);
+}
+
+TEST_F(SocketcandServerTest, AClientThatSendsWithoutRawModeIsReadOnAsItsFramesEnd) {
+  // A client's frames waiting for the bus are bounded (max_in_flight): each
+  // counts back to it when it ends on the wire, whether or not a client
+  // reads the bus (no client in RAW mode here).
+  start();
+  core.set_bus_model(bus, BusModel::kTimed);
+  Client sender(server->port());
+  ASSERT_EQ(until(sender, "< hi >"), "< hi >");
+  sender.send("< open bench >");
+  ASSERT_EQ(until(sender, "< ok >"), "< ok >");
+  std::string sends;
+  for (int i = 0; i < 120; ++i) sends += "< send 123 1 00 >";
+  sender.send(sends);
+  ASSERT_GT(120u, limits::kSocketcandInFlight);
+  for (int i = 0; i < 400 && server->stats().frames_in < 120; ++i) {
+    now += 1000;
+    core.run_until(now);
+    pass(1);
+  }
+  EXPECT_EQ(server->stats().frames_in, 120u);
+  EXPECT_EQ(server->stats().frames_out, 0u);  // none of them counted as a node's
 }
 
 TEST_F(SocketcandServerTest, ErrorsForTheMasterAreSocketcandsErrorMessages) {

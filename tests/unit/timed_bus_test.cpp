@@ -574,6 +574,39 @@ TEST_P(OfflineTimedBusTest, AnInterfaceThatGoesDownOrComesBackKeepsTheSchedule) 
   EXPECT_EQ(written[5], std::make_pair(ms(30) + (464 + 99) * bit, kE));
 }
 
+TEST_P(OfflineTimedBusTest, AnInterfaceBackWithTheKernelsPacerWritesWhatEndsLaterAtItsEnd) {
+  // Down, the burst was handed to nobody; back at bit 200 with the
+  // kernel's pacer (still ahead): what ends later is written at its end.
+  tx.paced = true;
+  core.update_pacer(bus);
+  add_burst_fleet();
+  core.receive(bus, kSync, kT0);
+  core.run_until(at(200));
+  ASSERT_EQ(launches().size(), 6u);
+  tx.carrying = true;
+  core.update_pacer(bus);
+  EXPECT_EQ(core.bus_pacer(bus), Pacer::kAhead);
+  core.run_until(ms(20));
+  EXPECT_EQ(
+      launches(),
+      (Launches{{at(168 + 55), -1, kC}, {at(226 + 110), -1, kA1}, {at(339 + 122), -1, kA2}, {at(464 + 99), -1, kE}}));
+}
+
+TEST_P(OfflineTimedBusTest, SwitchingToIdealWritesTheRecalledFramesAtOnce) {
+  // Handed over while the interface was down, recalled when it came back:
+  // a switch to ideal before they end writes them at once, in their order.
+  add_burst_fleet();
+  core.receive(bus, kSync, kT0);
+  core.run_until(kT0);
+  ASSERT_EQ(launches().size(), 6u);
+  tx.carrying = true;
+  core.update_pacer(bus);
+  core.set_bus_model(bus, BusModel::kIdeal);
+  EXPECT_EQ(frames(tx), (Log{{kT0, kB}, {kT0, kD}, {kT0, kC}, {kT0, kA1}, {kT0, kA2}, {kT0, kE}}));
+  core.run_until(ms(20));
+  EXPECT_TRUE(frames(tx).empty());  // none again at its end
+}
+
 INSTANTIATE_TEST_SUITE_P(BitRates, OfflineTimedBusTest,
                          ::testing::Values(std::pair<std::uint8_t, TimeUs>{4, 8},
                                            std::pair<std::uint8_t, TimeUs>{0, 1}),
