@@ -50,6 +50,12 @@ std::uint64_t mix(std::uint64_t z) {
   return z ^ (z >> 31);
 }
 
+TableDigests digests_of(const FilesRead& read) {
+  TableDigests out;
+  for (const auto& [path, text] : read.files()) out.emplace_back(path, Digest{}.add(text));
+  return out;
+}
+
 // Loads each profile file once per configuration; variants are copies.
 class ProfileCache {
  public:
@@ -76,13 +82,22 @@ class ProfileCache {
     std::shared_ptr<Profile> p;
     try {
       texts_[path] = read_text(path);
-      const Digest& digest = digests_[path] = Digest{}.add(texts_[path]);
-      if (search_.store) p = search_.store->find(path, digest, search_.strict, search_.strict_eds);
-      if (!p && is_device_description(path))
-        p = std::make_shared<Profile>(load_any_profile(path, search_.strict, search_.strict_eds));
-      else if (!p)  // parsed once: the variants of its entries start from copies
-        p = std::make_shared<Profile>(parse_profile(document(path), path, search_.strict));
-      out_.loaded.push_back({path, digest, search_.strict, search_.strict_eds, p});
+      const Digest text = Digest{}.add(texts_[path]);
+      TableDigests tables;
+      if (search_.store) p = search_.store->find(path, text, search_.strict, search_.strict_eds, &tables);
+      if (!p) {
+        FilesRead read;
+        if (is_device_description(path))
+          p = std::make_shared<Profile>(load_any_profile(path, search_.strict, search_.strict_eds));
+        else  // parsed once: the variants of its entries start from copies
+          p = std::make_shared<Profile>(parse_profile(document(path), path, search_.strict));
+        tables = digests_of(read);
+      }
+      // What its nodes' digests start from: the text and its tables' (an
+      // edited table restarts them at a reload).
+      Digest& digest = digests_[path] = text;
+      for (const auto& [table, d] : tables) digest.add("\n--- table ").add(table).add(d);
+      out_.loaded.push_back({path, text, search_.strict, search_.strict_eds, p, std::move(tables)});
       if (search_.store) search_.store->put(out_.loaded.back());
     } catch (const TooLarge&) {
       throw;  // names the file and its size only
@@ -94,7 +109,7 @@ class ProfileCache {
     out_.profiles.push_back(p);
     return p;
   }
-  // The digest of the profile file's text.
+  // The digest of the profile file's text and of the tables it read.
   const Digest& digest(const std::string& path) { return digests_[path]; }
   // The profile's YAML document (an empty node for an EDS / DCF), parsed
   // when first asked for (a profile from the store may need none).
@@ -176,6 +191,23 @@ void parse_interfaces(const Where& w, const YAML::Node& map, FleetConfig& out) {
 // each channel, faults as a whole list.
 // Returns the entry's process as parsed at its place (its plant terms name
 // the fleet file).
+// The `csv:` tables of an entry's physics named from the fleet file's folder,
+// as the entry was checked (physics_config.cpp), not the profile's, where
+// the merged document is parsed.
+void tables_from(YAML::Node n, const std::string& file) {
+  const auto slash = file.rfind('/');
+  if (slash == std::string::npos) return;
+  if (n.IsSequence())
+    for (YAML::Node item : n) tables_from(item, file);
+  if (!n.IsMap()) return;
+  for (auto kv : n) {
+    if (kv.first.Scalar() == "csv" && kv.second.IsScalar() && !kv.second.Scalar().empty() &&
+        kv.second.Scalar()[0] != '/')
+      kv.second = file.substr(0, slash + 1) + kv.second.Scalar();
+    else tables_from(kv.second, file);
+  }
+}
+
 std::optional<physics::ProcessSpec> merge_physics(const Where& w, const YAML::Node& entry, YAML::Node& root) {
   std::optional<physics::ProcessSpec> process;
   if (const YAML::Node& e = entry["physics"]) {
@@ -189,7 +221,11 @@ std::optional<physics::ProcessSpec> merge_physics(const Where& w, const YAML::No
     } else if (e["pressure"] || e["temperature"]) {
       physics.remove("gas_volume");
     }
-    for (const auto& kv : e) physics[kv.first.Scalar()] = YAML::Clone(kv.second);
+    for (const auto& kv : e) {
+      YAML::Node value = YAML::Clone(kv.second);
+      tables_from(value, w.file);
+      physics[kv.first.Scalar()] = value;
+    }
   }
   if (const YAML::Node& e = entry["sensor"]) {
     parse_sensor(w.child("sensor"), e, default_sensor());
@@ -340,14 +376,18 @@ void parse_node_entry(const Where& w, const YAML::Node& entry, ProfileCache& cac
     if (record.empty() || record.back() == '/')
       fail(w.child("record"), entry["record"], "expected a CSV file name, e.g. recordings/dps-{id}.csv");
   }
+  TableDigests variant_tables;  // an entry's own tables (`physics:` with a `csv:`)
   if (entry["options"] || entry["vendor"] || entry["physics"] || entry["sensor"] || entry["faults"] ||
       entry["strict"]) {
+    FilesRead read;
     profile = make_variant(w, entry, *profile, cache.document(path), cache.strict());
     cache.add_variant(profile);
+    variant_tables = digests_of(read);
   }
   if (!serial) serial = first_serial(*profile, count);
   // A node that reads a plant restarts when the plants change.
   Digest fingerprint_base = Digest(cache.digest(path)).add("\n---\n").add(YAML::Dump(entry));
+  for (const auto& [table, d] : variant_tables) fingerprint_base.add("\n--- table ").add(table).add(d);
   if (reads_plant(*profile)) fingerprint_base.add("\n--- plants\n").add(plants_fingerprint);
   // Appended piece by piece: GCC 12 -O3 reports a false -Wrestrict for a
   // chain of std::string operator+ here (as in name += '-' above).
@@ -534,6 +574,11 @@ Digest& Digest::add(std::string_view text) {
   return *this;
 }
 
+Digest& Digest::add(const Digest& other) {
+  const std::uint64_t both[2] = {other.a, other.b};
+  return add(std::string_view(reinterpret_cast<const char*>(both), sizeof both));
+}
+
 ProfileSearch default_search(const std::string& config_file, const std::string& installed_dir) {
   ProfileSearch s;
   if (!config_file.empty()) {
@@ -615,13 +660,29 @@ FleetConfig parse_fleet_fragment(const std::string& text, const std::string& fil
   return out;
 }
 
-std::shared_ptr<Profile> ProfileStore::find(const std::string& path, const Digest& text, bool strict,
-                                            bool strict_eds) const {
+namespace {
+bool tables_unchanged(const TableDigests& tables) {
+  for (const auto& [path, digest] : tables) {
+    try {
+      if (!(Digest{}.add(read_regular_file(path, limits::kTableFileBytes)) == digest)) return false;
+    } catch (const std::exception&) {
+      return false;  // gone or unreadable: the parse says why
+    }
+  }
+  return true;
+}
+}  // namespace
+
+std::shared_ptr<Profile> ProfileStore::find(const std::string& path, const Digest& text, bool strict, bool strict_eds,
+                                            TableDigests* tables) const {
   auto it = by_path_.find(path);
   if (it == by_path_.end()) return nullptr;
   for (const Entry& e : it->second)
     if (e.text == text && e.strict == strict && e.strict_eds == strict_eds)
-      if (auto p = e.profile.lock()) return p;
+      if (auto p = e.profile.lock(); p && tables_unchanged(e.tables)) {
+        if (tables) *tables = e.tables;
+        return p;
+      }
   return nullptr;
 }
 
@@ -630,7 +691,7 @@ void ProfileStore::put(const LoadedProfile& p) {
   std::erase_if(entries, [&](const Entry& e) {
     return e.profile.expired() || (e.text == p.text && e.strict == p.strict && e.strict_eds == p.strict_eds);
   });
-  entries.push_back({p.text, p.strict, p.strict_eds, p.profile});
+  entries.push_back({p.text, p.strict, p.strict_eds, p.profile, p.tables});
 }
 
 void NodeIndex::insert(const NodeConfig& n) {

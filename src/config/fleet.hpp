@@ -56,6 +56,7 @@ struct Digest {
   std::uint64_t a = 0, b = 0;
   // Appends `text` (order matters: add("ab").add("c") differs from add("a").add("bc")).
   Digest& add(std::string_view text);
+  Digest& add(const Digest& other);
   bool operator==(const Digest&) const = default;
 };
 
@@ -82,12 +83,16 @@ struct NodeConfig {
   std::string origin;  // "<file>:<line>:<column>: nodes[i]": its entry, for error messages
 };
 
+// The table files a profile's parse read (FilesRead), with their texts' digests.
+using TableDigests = std::vector<std::pair<std::string, Digest>>;
+
 // A profile file as a parse loaded it: what a ProfileStore keeps.
 struct LoadedProfile {
   std::string path;
   Digest text;  // of the file's text
   bool strict = false, strict_eds = false;
   std::shared_ptr<Profile> profile;
+  TableDigests tables;
 };
 
 struct FleetConfig {
@@ -111,7 +116,10 @@ struct FleetConfig {
 // them weakly: a profile no node uses any more is gone.
 class ProfileStore {
  public:
-  std::shared_ptr<Profile> find(const std::string& path, const Digest& text, bool strict, bool strict_eds) const;
+  // The profile parsed from this text, while every table file its parse
+  // read still has the text it had (its `tables` then); else null.
+  std::shared_ptr<Profile> find(const std::string& path, const Digest& text, bool strict, bool strict_eds,
+                                TableDigests* tables = nullptr) const;
   void put(const LoadedProfile& loaded);
   void put_all(const FleetConfig& fleet) {
     for (const LoadedProfile& p : fleet.loaded) put(p);
@@ -122,6 +130,7 @@ class ProfileStore {
     Digest text;
     bool strict = false, strict_eds = false;
     std::weak_ptr<Profile> profile;
+    TableDigests tables;
   };
   std::map<std::string, std::vector<Entry>> by_path_;
 };

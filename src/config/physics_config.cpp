@@ -174,6 +174,7 @@ TableSpec parse_table(const Where& w, const YAML::Node& m, Dim value_dim, const 
     } catch (const ConfigError& e) {
       fail(w.child("csv"), m["csv"], std::string("cannot load table: ") + e.what());
     }
+    FilesRead::note(path, text);
     if (!parse_table_csv(text, t.points, &error, time_scale, value_scale, value_offset))
       fail(w.child("csv"), m["csv"], "cannot load table: " + path + ": " + error);
   } else {

@@ -232,6 +232,14 @@ const std::vector<std::string>* ConfinedFiles::current() {
   return confined_files ? &confined_files->folders_ : nullptr;
 }
 
+thread_local FilesRead* files_read = nullptr;
+
+FilesRead::FilesRead() : outer_(files_read) { files_read = this; }
+FilesRead::~FilesRead() { files_read = outer_; }
+void FilesRead::note(const std::string& path, const std::string& text) {
+  if (files_read) files_read->files_.emplace_back(path, text);
+}
+
 std::string read_regular_file(const std::string& path, std::size_t max_bytes) {
   const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
   if (fd < 0) throw ConfigError(path + ": cannot open file: " + std::strerror(errno));

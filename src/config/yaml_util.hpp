@@ -12,6 +12,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 namespace cansim::config {
@@ -86,6 +87,24 @@ class ConfinedFiles {
  private:
   std::vector<std::string> folders_;
   const ConfinedFiles* outer_;
+};
+
+// While one lives, every table file a parse reads (a `csv:` table) is noted
+// with its text: what a profile depends on besides its own file (a reload
+// tells an edited table by it, config::ProfileStore checks it again before
+// it hands a parsed profile out). Scopes nest (the inner one notes).
+class FilesRead {
+ public:
+  FilesRead();
+  ~FilesRead();
+  FilesRead(const FilesRead&) = delete;
+  FilesRead& operator=(const FilesRead&) = delete;
+  static void note(const std::string& path, const std::string& text);  // nothing when none lives
+  const std::vector<std::pair<std::string, std::string>>& files() const { return files_; }
+
+ private:
+  std::vector<std::pair<std::string, std::string>> files_;  // path, text
+  FilesRead* outer_;
 };
 
 // A file's bytes, read without blocking the loop: opened O_NONBLOCK, refused

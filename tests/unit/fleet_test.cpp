@@ -450,6 +450,49 @@ TEST_F(FleetTest, AReloadParsesAProfileAgainOnlyWhenItsTextChanged) {
   EXPECT_EQ(d.find("cansimfz1/c/0")->emcy_codes, d.find("cansimfz1/a/0")->emcy_codes);  // one profile, held once
 }
 
+// A profile's `csv:` table is part of what defines its nodes: edited alone
+// (the profile's text the same), a reload parses the profile again and
+// restarts them; unchanged, nothing restarts.
+TEST_F(FleetTest, AReloadRestartsTheNodesOfAProfileWhoseTableWasEdited) {
+  std::string text;
+  {
+    std::ifstream in(dir + "/profiles/generic-404.yaml");
+    text.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  text.replace(text.find("    - constant: 5 bar\n"), 22, "    - table: {csv: p.csv, value_unit: bar}\n");
+  std::ofstream(dir + "/profiles/tabled.yaml") << text;
+  std::ofstream(dir + "/profiles/p.csv") << "0,5\n10,6\n";
+  std::ofstream(dir + "/fleet.yaml")
+      << "nodes:\n"
+      << "  - {profile: profiles/tabled.yaml, interface: cansimfz2, node_id: 1, name: t}\n"
+      << "  - {profile: profiles/tabled.yaml, interface: cansimfz2, node_id: 2, name: v,"
+      << " physics: {temperature: {table: {csv: profiles/p.csv, value_unit: degC}}}}\n";
+  test::CapturedLog quiet;
+  daemon::DaemonSettings settings;
+  settings.state_dir = dir + "/state";
+  settings.config_file = dir + "/fleet.yaml";
+  settings.bus = control::BusChoice::kNone;
+  settings.control_socket = "none";
+  settings.load = [&](ProfileStore* store) {
+    ProfileSearch s = daemon::profile_search(settings.config_file);
+    s.store = store;
+    return load_fleet(settings.config_file, s);
+  };
+  daemon::Daemon d(settings);
+  d.reload();
+  const Application* t = d.find("cansimfz2/t/0")->app;
+  const Application* v = d.find("cansimfz2/v/0")->app;
+  const auto* codes = d.find("cansimfz2/t/0")->emcy_codes;
+  d.reload();
+  EXPECT_EQ(d.find("cansimfz2/t/0")->app, t);  // nothing changed: nothing restarts
+  EXPECT_EQ(d.find("cansimfz2/v/0")->app, v);
+  std::ofstream(dir + "/profiles/p.csv") << "0,5\n10,7\n";
+  d.reload();
+  EXPECT_NE(d.find("cansimfz2/t/0")->app, t);             // restarted
+  EXPECT_NE(d.find("cansimfz2/t/0")->emcy_codes, codes);  // on a profile parsed again
+  EXPECT_NE(d.find("cansimfz2/v/0")->app, v);
+}
+
 TEST_F(FleetTest, RecordFilesPerNode) {
   FleetConfig f = parse(std::string(kIfaces) +
                         "nodes:\n"
