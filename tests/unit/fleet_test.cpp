@@ -40,6 +40,21 @@ class FleetTest : public ::testing::Test {
     }
     return "no error";
   }
+  // A daemon off the bus that reloads dir/fleet.yaml with its profile
+  // store, as cansimd does.
+  daemon::DaemonSettings reloading() const {
+    daemon::DaemonSettings s;
+    s.state_dir = dir + "/state";
+    s.config_file = dir + "/fleet.yaml";
+    s.bus = control::BusChoice::kNone;
+    s.control_socket = "none";
+    s.load = [file = s.config_file](ProfileStore* store) {
+      ProfileSearch search = daemon::profile_search(file);
+      search.store = store;
+      return load_fleet(file, search);
+    };
+    return s;
+  }
   std::string dir;
   ProfileSearch search;
 };
@@ -423,17 +438,7 @@ TEST_F(FleetTest, AReloadParsesAProfileAgainOnlyWhenItsTextChanged) {
   const std::string c = "  - {profile: profiles/generic-404.yaml, interface: cansimfz1, node_id: 3, name: c}\n";
   std::ofstream(dir + "/fleet.yaml") << "nodes:\n" << a << b;
   test::CapturedLog quiet;
-  daemon::DaemonSettings settings;
-  settings.state_dir = dir + "/state";
-  settings.config_file = dir + "/fleet.yaml";
-  settings.bus = control::BusChoice::kNone;
-  settings.control_socket = "none";
-  settings.load = [&](ProfileStore* store) {
-    ProfileSearch s = daemon::profile_search(settings.config_file);
-    s.store = store;
-    return load_fleet(settings.config_file, s);
-  };
-  daemon::Daemon d(settings);
+  daemon::Daemon d(reloading());
   d.reload();
   const control::NodeHandle* node_a = d.find("cansimfz1/a/0");
   ASSERT_TRUE(node_a);
@@ -468,17 +473,7 @@ TEST_F(FleetTest, AReloadRestartsTheNodesOfAProfileWhoseTableWasEdited) {
       << "  - {profile: profiles/tabled.yaml, interface: cansimfz2, node_id: 2, name: v,"
       << " physics: {temperature: {table: {csv: profiles/p.csv, value_unit: degC}}}}\n";
   test::CapturedLog quiet;
-  daemon::DaemonSettings settings;
-  settings.state_dir = dir + "/state";
-  settings.config_file = dir + "/fleet.yaml";
-  settings.bus = control::BusChoice::kNone;
-  settings.control_socket = "none";
-  settings.load = [&](ProfileStore* store) {
-    ProfileSearch s = daemon::profile_search(settings.config_file);
-    s.store = store;
-    return load_fleet(settings.config_file, s);
-  };
-  daemon::Daemon d(settings);
+  daemon::Daemon d(reloading());
   d.reload();
   const Application* t = d.find("cansimfz2/t/0")->app;
   const Application* v = d.find("cansimfz2/v/0")->app;
