@@ -85,6 +85,11 @@ class ProfileCache {
       const Digest text = Digest{}.add(texts_[path]);
       TableDigests tables;
       if (search_.store) p = search_.store->find(path, text, search_.strict, search_.strict_eds, &tables);
+      // Parsed unconfined (the fleet file's), with a table a confined parse refuses: parsed again, refused.
+      if (p && confined && !std::all_of(tables.begin(), tables.end(), [&](const auto& t) {
+            return inside_any(t.first, search_.confined_to);
+          }))
+        p = nullptr;
       if (!p) {
         FilesRead read;
         if (is_device_description(path))
@@ -194,18 +199,24 @@ void parse_interfaces(const Where& w, const YAML::Node& map, FleetConfig& out) {
 // The `csv:` tables of an entry's physics named from the fleet file's folder,
 // as the entry was checked (physics_config.cpp), not the profile's, where
 // the merged document is parsed.
-void tables_from(YAML::Node n, const std::string& file) {
-  const auto slash = file.rfind('/');
-  if (slash == std::string::npos) return;
+void tables_from(YAML::Node n, const fs::path& folder) {
   if (n.IsSequence())
-    for (YAML::Node item : n) tables_from(item, file);
+    for (YAML::Node item : n) tables_from(item, folder);
   if (!n.IsMap()) return;
   for (auto kv : n) {
     if (kv.first.Scalar() == "csv" && kv.second.IsScalar() && !kv.second.Scalar().empty() &&
         kv.second.Scalar()[0] != '/')
-      kv.second = file.substr(0, slash + 1) + kv.second.Scalar();
-    else tables_from(kv.second, file);
+      kv.second = (folder / kv.second.Scalar()).lexically_normal().string();
+    else tables_from(kv.second, folder);
   }
+}
+
+// The folder a file's relative `csv:` paths are read from (physics_config.cpp), absolute.
+fs::path folder_of(const std::string& file) {
+  const fs::path parent = fs::path(file).parent_path();
+  std::error_code ec;
+  const fs::path folder = fs::absolute(parent.empty() ? fs::path(".") : parent, ec);
+  return ec ? parent : folder;
 }
 
 std::optional<physics::ProcessSpec> merge_physics(const Where& w, const YAML::Node& entry, YAML::Node& root) {
@@ -223,7 +234,7 @@ std::optional<physics::ProcessSpec> merge_physics(const Where& w, const YAML::No
     }
     for (const auto& kv : e) {
       YAML::Node value = YAML::Clone(kv.second);
-      tables_from(value, w.file);
+      tables_from(value, folder_of(w.file));
       physics[kv.first.Scalar()] = value;
     }
   }
@@ -754,6 +765,7 @@ FleetConfig single_node_fleet(const std::string& profile_ref, const std::string&
   if (path.empty()) throw ConfigError(profile_ref + ": profile not found (expected a file or a profile name)");
   FleetConfig out;
   out.file = path;
+  FilesRead read;
   auto profile = std::make_shared<Profile>(load_any_profile(path, search.strict, search.strict_eds));
   out.profiles.push_back(profile);
   InterfaceConfig ic;
@@ -768,6 +780,7 @@ FleetConfig single_node_fleet(const std::string& profile_ref, const std::string&
   n.bit_rate_kbit = profile->bit_rate_kbit;
   n.profile = profile;
   n.fingerprint = Digest{}.add(read_text(path));
+  for (const auto& [table, d] : digests_of(read)) n.fingerprint.add("\n--- table ").add(table).add(d);
   out.nodes.push_back(std::move(n));
   check_plants(out);  // a profile that reads a plant needs a fleet that has it
   return out;

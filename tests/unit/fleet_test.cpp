@@ -40,6 +40,17 @@ class FleetTest : public ::testing::Test {
     }
     return "no error";
   }
+  std::string generic_text() const {
+    std::ifstream in(dir + "/profiles/generic-404.yaml");
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  }
+  // profiles/tabled.yaml: generic-404 with its pressure from profiles/p.csv.
+  void write_tabled_profile() const {
+    std::string text = generic_text();
+    text.replace(text.find("    - constant: 5 bar\n"), 22, "    - table: {csv: p.csv, value_unit: bar}\n");
+    std::ofstream(dir + "/profiles/tabled.yaml") << text;
+    std::ofstream(dir + "/profiles/p.csv") << "0,5\n10,6\n";
+  }
   // A daemon off the bus that reloads dir/fleet.yaml with its profile
   // store, as cansimd does.
   daemon::DaemonSettings reloading() const {
@@ -427,11 +438,7 @@ TEST_F(FleetTest, TheDaemonLogsAMismatchOncePerEntryWithTheCountAndTheFix) {
 // an unchanged file shares the running nodes' profile, one whose file was
 // edited restarts with the edit, one unchanged keeps running.
 TEST_F(FleetTest, AReloadParsesAProfileAgainOnlyWhenItsTextChanged) {
-  std::string generic;
-  {
-    std::ifstream in(dir + "/profiles/generic-404.yaml");
-    generic.assign(std::istreambuf_iterator<char>(in), {});
-  }
+  const std::string generic = generic_text();
   std::ofstream(dir + "/profiles/other.yaml") << generic;
   const std::string a = "  - {profile: profiles/generic-404.yaml, interface: cansimfz1, node_id: 1, name: a}\n";
   const std::string b = "  - {profile: profiles/other.yaml, interface: cansimfz1, node_id: 2, name: b}\n";
@@ -459,14 +466,7 @@ TEST_F(FleetTest, AReloadParsesAProfileAgainOnlyWhenItsTextChanged) {
 // (the profile's text the same), a reload parses the profile again and
 // restarts them; unchanged, nothing restarts.
 TEST_F(FleetTest, AReloadRestartsTheNodesOfAProfileWhoseTableWasEdited) {
-  std::string text;
-  {
-    std::ifstream in(dir + "/profiles/generic-404.yaml");
-    text.assign(std::istreambuf_iterator<char>(in), {});
-  }
-  text.replace(text.find("    - constant: 5 bar\n"), 22, "    - table: {csv: p.csv, value_unit: bar}\n");
-  std::ofstream(dir + "/profiles/tabled.yaml") << text;
-  std::ofstream(dir + "/profiles/p.csv") << "0,5\n10,6\n";
+  write_tabled_profile();
   std::ofstream(dir + "/fleet.yaml")
       << "nodes:\n"
       << "  - {profile: profiles/tabled.yaml, interface: cansimfz2, node_id: 1, name: t}\n"
@@ -486,6 +486,37 @@ TEST_F(FleetTest, AReloadRestartsTheNodesOfAProfileWhoseTableWasEdited) {
   EXPECT_NE(d.find("cansimfz2/t/0")->app, t);             // restarted
   EXPECT_NE(d.find("cansimfz2/t/0")->emcy_codes, codes);  // on a profile parsed again
   EXPECT_NE(d.find("cansimfz2/v/0")->app, v);
+}
+
+// An entry's own table is named from the fleet file's folder, however the
+// fleet file is named (a relative --config, as config/cansimd.yaml).
+TEST_F(FleetTest, AnEntrysTableIsReadFromTheFleetFilesFolder) {
+  fs::create_directories(dir + "/tables");
+  std::ofstream(dir + "/tables/t.csv") << "0,20\n10,25\n";
+  std::ofstream(dir + "/fleet.yaml") << "nodes:\n  - {profile: profiles/generic-404.yaml, interface: vcan0, "
+                                     << "physics: {temperature: {table: {csv: tables/t.csv, value_unit: degC}}}}\n";
+  const fs::path before = fs::current_path();
+  struct Back {
+    fs::path to;
+    ~Back() { fs::current_path(to); }
+  } back{before};
+  for (const auto& [cwd, file] :
+       {std::pair<std::string, std::string>{dir, "fleet.yaml"},
+        {fs::path(dir).parent_path().string(), fs::path(dir).filename().string() + "/fleet.yaml"},
+        {"/", dir + "/fleet.yaml"}}) {
+    fs::current_path(cwd);
+    EXPECT_NO_THROW(load_fleet(file, default_search(file, ""))) << cwd << " " << file;
+  }
+}
+
+// cansimd --profile: its table is part of what defines the node.
+TEST_F(FleetTest, ASingleNodesDigestFollowsItsTable) {
+  write_tabled_profile();
+  const std::string profile = dir + "/profiles/tabled.yaml";
+  const Digest first = single_node_fleet(profile, "vcan0", std::nullopt, search).nodes.at(0).fingerprint;
+  EXPECT_EQ(single_node_fleet(profile, "vcan0", std::nullopt, search).nodes.at(0).fingerprint, first);
+  std::ofstream(dir + "/profiles/p.csv") << "0,5\n10,7\n";
+  EXPECT_FALSE(single_node_fleet(profile, "vcan0", std::nullopt, search).nodes.at(0).fingerprint == first);
 }
 
 TEST_F(FleetTest, RecordFilesPerNode) {

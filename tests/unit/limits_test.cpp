@@ -178,6 +178,39 @@ TEST(ConfinedProfiles, OutsideIsRefusedAndInsideNeverEchoed) {
   EXPECT_EQ(error_of("/etc/shadow").find("SECRET"), std::string::npos);
 }
 
+// A profile the fleet file loaded (not confined) whose table lies outside
+// the profile folders is not handed to an AddNodes caller by the store: it
+// is refused as a confined parse refuses it.
+TEST(ConfinedProfiles, AStoredProfileWithATableOutsideIsRefusedToo) {
+  TempDir dir, outside;
+  fs::create_directories(dir.path + "/profiles");
+  std::ofstream(outside.path + "/t.csv") << "0,5\n10,6\n";
+  std::string text;
+  {
+    std::ifstream in(std::string(CANSIM_SOURCE_DIR) + "/profiles/generic-404.yaml");
+    text.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  text.replace(text.find("    - constant: 5 bar\n"), 22,
+               "    - table: {csv: " + outside.path + "/t.csv, value_unit: bar}\n");
+  std::ofstream(dir.path + "/profiles/tabled.yaml") << text;
+  config::ProfileStore store;
+  config::ProfileSearch open;
+  open.dirs = {dir.path + "/profiles"};
+  open.store = &store;
+  const config::FleetConfig running =  // holds the profile: the store keeps it while it is used
+      config::parse_fleet("nodes:\n  - {profile: tabled, interface: vcan0}\n", dir.path + "/fleet.yaml", open);
+  ASSERT_EQ(running.nodes.size(), 1u);
+  config::ProfileSearch confined = open;
+  confined.confined_to = open.dirs;
+  for (config::ProfileStore* with : {&store, static_cast<config::ProfileStore*>(nullptr)}) {
+    confined.store = with;
+    EXPECT_THROW(config::parse_fleet_fragment("{profile: tabled, interface: vcan0, node_id: 9}", "<AddNodes #1>",
+                                              confined, config::FleetConfig{}),
+                 config::ConfigError)
+        << (with ? "from the store" : "parsed");
+  }
+}
+
 // The running daemon allows the profile search folders, the fleet file's
 // folder and the folders its profiles came from.
 TEST(ConfinedProfiles, TheDaemonAllowsTheFleetsFolders) {
