@@ -50,6 +50,11 @@ std::uint64_t mix(std::uint64_t z) {
   return z ^ (z >> 31);
 }
 
+// What a node's digest gets of the tables its profile read.
+void add_tables(Digest& digest, const TableDigests& tables) {
+  for (const auto& [table, d] : tables) digest.add("\n--- table ").add(table).add(d);
+}
+
 TableDigests digests_of(const FilesRead& read) {
   TableDigests out;
   for (const auto& [path, text] : read.files()) out.emplace_back(path, Digest{}.add(text));
@@ -101,7 +106,7 @@ class ProfileCache {
       // What its nodes' digests start from: the text and its tables' (an
       // edited table restarts them at a reload).
       Digest& digest = digests_[path] = text;
-      for (const auto& [table, d] : tables) digest.add("\n--- table ").add(table).add(d);
+      add_tables(digest, tables);
       out_.loaded.push_back({path, text, search_.strict, search_.strict_eds, p, std::move(tables)});
       if (search_.store) search_.store->put(out_.loaded.back());
     } catch (const TooLarge&) {
@@ -398,7 +403,7 @@ void parse_node_entry(const Where& w, const YAML::Node& entry, ProfileCache& cac
   if (!serial) serial = first_serial(*profile, count);
   // A node that reads a plant restarts when the plants change.
   Digest fingerprint_base = Digest(cache.digest(path)).add("\n---\n").add(YAML::Dump(entry));
-  for (const auto& [table, d] : variant_tables) fingerprint_base.add("\n--- table ").add(table).add(d);
+  add_tables(fingerprint_base, variant_tables);
   if (reads_plant(*profile)) fingerprint_base.add("\n--- plants\n").add(plants_fingerprint);
   // Appended piece by piece: GCC 12 -O3 reports a false -Wrestrict for a
   // chain of std::string operator+ here (as in name += '-' above).
@@ -780,7 +785,7 @@ FleetConfig single_node_fleet(const std::string& profile_ref, const std::string&
   n.bit_rate_kbit = profile->bit_rate_kbit;
   n.profile = profile;
   n.fingerprint = Digest{}.add(read_text(path));
-  for (const auto& [table, d] : digests_of(read)) n.fingerprint.add("\n--- table ").add(table).add(d);
+  add_tables(n.fingerprint, digests_of(read));
   out.nodes.push_back(std::move(n));
   check_plants(out);  // a profile that reads a plant needs a fleet that has it
   return out;

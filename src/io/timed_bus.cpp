@@ -126,21 +126,26 @@ bool TimedBus::settle(TimeUs now, Phase phase, Departure& d) {
       return true;
     }
   }
+  if (busy_) return leave_wire(now_ns, d);
   return pacer_ == Pacer::kLoop ? settle_loop(now_ns, phase, d) : settle_ahead(now_ns, phase, d);
+}
+
+// The frame on the wire leaves at its end, whatever the pacer is by then
+// (it may have changed since the loop's pacer took it).
+bool TimedBus::leave_wire(std::int64_t now_ns, Departure& d) {
+  if (current_.end_ns > now_ns) return false;
+  busy_ = false;
+  next_stale_ = true;
+  d = current_;
+  d.slip_ns = now_ns - d.end_ns >= kLateNs ? now_ns - d.end_ns : 0;
+  // It leaves now: the next frame follows it from here.
+  if (d.slip_ns) free_ns_ = std::max(free_ns_, now_ns + kIntermissionBits * bit_ns_);
+  return true;
 }
 
 bool TimedBus::settle_loop(std::int64_t now_ns, Phase phase, Departure& d) {
   for (;;) {
-    if (busy_) {
-      if (current_.end_ns > now_ns) return false;
-      busy_ = false;
-      next_stale_ = true;
-      d = current_;
-      d.slip_ns = now_ns - d.end_ns >= kLateNs ? now_ns - d.end_ns : 0;
-      // It leaves now: the next frame follows it from here.
-      if (d.slip_ns) free_ns_ = std::max(free_ns_, now_ns + kIntermissionBits * bit_ns_);
-      return true;
-    }
+    if (busy_) return leave_wire(now_ns, d);
     if (queue_.empty()) return false;
     // Arbitration when the bus is free: before `now` only among the frames
     // queued earlier (every frame queued then was there by free_ns_), at
@@ -156,13 +161,6 @@ bool TimedBus::settle_loop(std::int64_t now_ns, Phase phase, Departure& d) {
 // Frames handed over start no earlier than the moment they are: a caller
 // that comes late (the schedule handed over ran out) slips the bus.
 bool TimedBus::settle_ahead(std::int64_t now_ns, Phase phase, Departure& d) {
-  if (busy_) {  // the loop's pacer took it before the switch: it leaves at its end, as it would have
-    if (current_.end_ns > now_ns) return false;
-    busy_ = false;
-    next_stale_ = true;
-    d = current_;
-    return true;
-  }
   if (phase == Phase::kBefore || queue_.empty()) return false;
   if (next_start() > now_ns + horizon_ns_ || flight_.size() == queue_.capacity()) return false;
   const std::int64_t scheduled = next_start();

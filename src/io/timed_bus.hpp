@@ -218,6 +218,7 @@ class TimedBus {
   std::int64_t next_start() const { return next_start_of(queue_.top()); }
   // heard() and the end of the last launched frame.
   std::int64_t flight_due_ns() const;
+  bool leave_wire(std::int64_t now_ns, Departure& d);
   bool settle_loop(std::int64_t now_ns, Phase phase, Departure& d);
   bool settle_ahead(std::int64_t now_ns, Phase phase, Departure& d);
   void take(Departure& d);  // the winner, from the queue onto the wire
