@@ -100,6 +100,10 @@ class CanInterface : public Transport {
   }
   bool paces() const override { return fd_ >= 0 && pacing_.available; }
   bool carries() const override { return fd_ >= 0; }
+  // Counted as sent while down when it was handed over; written now.
+  void recalled() override {
+    if (stats_.tx_offline > 0) --stats_.tx_offline;
+  }
   void transmit_at(const CanFrame& frame, std::int64_t end_ns, std::int64_t length_ns) override;
   // An error frame on the interface for the other programs on it (a
   // master's CAN_RAW_ERR_FILTER): written like a frame, never read back.

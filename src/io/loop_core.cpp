@@ -63,8 +63,7 @@ void LoopCore::set_bus_model(BusId bus, BusModel model, std::size_t queue_frames
   } else {
     std::unique_ptr<TimedBus> timed = std::move(b.timed);
     --timed_buses_;
-    timed->drain([&](const QueuedFrame& q) { write(b, q.from, q.frame); },
-                 [&](const Departure& d) { hear_locally(bus, d); },
+    timed->drain([&](const QueuedFrame& q) { write_recalled(b, q); }, [&](const Departure& d) { hear_at_end(bus, d); },
                  [&](const QueuedFrame& q) {
                    b.meter.carried(q.bits, now_);
                    put_on_wire(bus, q.from, q.frame);
@@ -365,7 +364,12 @@ bool LoopCore::heard_locally(const Bus& b, NodeRef from, const CanFrame& frame) 
   return false;
 }
 
-void LoopCore::hear_locally(BusId bus, const Departure& d) {
+void LoopCore::write_recalled(Bus& b, const QueuedFrame& q) {
+  b.transport->recalled();
+  write(b, q.from, q.frame);
+}
+
+void LoopCore::hear_at_end(BusId bus, const Departure& d) {
   const Bus& b = *buses_[bus];
   if (tap_ && b.tapped(d.q.frame)) tap_->on_frame(bus, d.q.frame, now_);
   if (heard_locally(b, d.q.from, d.q.frame)) push_pending({bus, d.q.from, d.q.frame});
@@ -376,10 +380,10 @@ void LoopCore::settle_bus(BusId bus, TimedBus::Phase phase) {
   Departure d;
   bus_next_stale_ = true;
   // kAhead: launched frames the other local nodes (and the tap) hear at their end.
-  while (b.timed->heard(now_, d)) hear_locally(bus, d);
+  while (b.timed->heard(now_, d)) hear_at_end(bus, d);
   while (b.timed->settle(now_, phase, d)) {
-    if (d.recalled) {  // counted and heard when it was handed over
-      write(b, d.q.from, d.q.frame);
+    if (d.recalled) {  // metered and heard when it was handed over
+      write_recalled(b, d.q);
       continue;
     }
     // A collision before it: its error frames for the master's controller

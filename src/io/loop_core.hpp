@@ -252,9 +252,12 @@ class LoopCore {
   // A frame is on the wire: to the transport and the other local nodes.
   void put_on_wire(BusId bus, NodeRef from, const CanFrame& frame);
   void write(Bus& b, NodeRef from, const CanFrame& frame);  // to the transport only
+  // A frame handed to a transport that carried nothing, written at its end.
+  void write_recalled(Bus& b, const QueuedFrame& q);
+  // Whether another local node listens to the frame (it is queued for them).
   bool heard_locally(const Bus& b, NodeRef from, const CanFrame& frame) const;
   // A launched frame at its end: to the tap and the other local nodes.
-  void hear_locally(BusId bus, const Departure& d);
+  void hear_at_end(BusId bus, const Departure& d);
   // Timed buses: frames that ended by now_ leave (TimedBus::settle).
   void settle_buses(TimedBus::Phase phase);
   void settle_bus(BusId bus, TimedBus::Phase phase);

@@ -42,6 +42,10 @@ class Transport {
   virtual void transmit_at(const CanFrame& frame, std::int64_t /*end_ns*/, std::int64_t /*length_ns*/) {
     transmit(frame);
   }
+  // A frame handed over while it carried nothing is written again now (a
+  // timed bus's recall, TimedBus::recall()): a transport that counted it
+  // lost then takes that back, as it goes on the wire after all.
+  virtual void recalled() {}
   // An error the master's controller reports (fault error_frames, a
   // collision): SocketCAN writes it as a CAN_ERR_FLAG frame, a kernel-free
   // transport as its protocol's error message.
@@ -72,6 +76,7 @@ class MemoryTransport : public Transport {
   void transmit(const CanFrame& frame) override { log.push_back({clock_ ? *clock_ : 0, frame}); }
   bool paces() const override { return paced; }
   bool carries() const override { return carrying; }
+  void recalled() override { ++recalled_frames; }
   void transmit_at(const CanFrame& frame, std::int64_t end_ns, std::int64_t) override {
     log.push_back({clock_ ? *clock_ : 0, frame, end_ns});
   }
@@ -90,6 +95,7 @@ class MemoryTransport : public Transport {
   std::vector<Sent> log;
   bool paced = false;
   bool carrying = true;  // false: as a kernel interface down
+  std::size_t recalled_frames = 0;
 
  private:
   const TimeUs* clock_;

@@ -551,6 +551,7 @@ TEST_P(OfflineTimedBusTest, AnInterfaceThatGoesDownOrComesBackKeepsTheSchedule) 
   EXPECT_EQ(core.bus_pacer(bus), Pacer::kLoop);
   core.run_until(ms(20));
   EXPECT_EQ(frames(tx), (Log{{at(168 + 55), kC}, {at(226 + 110), kA1}, {at(339 + 122), kA2}, {at(464 + 99), kE}}));
+  EXPECT_EQ(tx.recalled_frames, 4u);  // each counted lost when handed over, and on the wire after all
   // A participant's frame takes the idle bus at once. Down while it is on
   // the wire: it still leaves at its end, written by the loop.
   core.submit(bus, kE, 1, ms(20));
@@ -590,6 +591,7 @@ TEST_P(OfflineTimedBusTest, AnInterfaceBackWithTheKernelsPacerWritesWhatEndsLate
   EXPECT_EQ(
       launches(),
       (Launches{{at(168 + 55), -1, kC}, {at(226 + 110), -1, kA1}, {at(339 + 122), -1, kA2}, {at(464 + 99), -1, kE}}));
+  EXPECT_EQ(tx.recalled_frames, 4u);
 }
 
 TEST_P(OfflineTimedBusTest, SwitchingToIdealWritesTheRecalledFramesAtOnce) {
@@ -603,6 +605,7 @@ TEST_P(OfflineTimedBusTest, SwitchingToIdealWritesTheRecalledFramesAtOnce) {
   core.update_pacer(bus);
   core.set_bus_model(bus, BusModel::kIdeal);
   EXPECT_EQ(frames(tx), (Log{{kT0, kB}, {kT0, kD}, {kT0, kC}, {kT0, kA1}, {kT0, kA2}, {kT0, kE}}));
+  EXPECT_EQ(tx.recalled_frames, 6u);
   core.run_until(ms(20));
   EXPECT_TRUE(frames(tx).empty());  // none again at its end
 }
