@@ -67,6 +67,13 @@ class ControlHost {
   virtual TimeUs now() const = 0;
   // Every node, ordered by key.
   virtual std::vector<const NodeHandle*> nodes() const = 0;
+  // The nodes on one interface, ordered by key (a host that keeps them
+  // apart answers without a look at the rest of the fleet).
+  virtual std::vector<const NodeHandle*> nodes_on(const std::string& interface) const {
+    std::vector<const NodeHandle*> out = nodes();
+    std::erase_if(out, [&](const NodeHandle* h) { return h->interface != interface; });
+    return out;
+  }
   virtual const NodeHandle* find(const std::string& key) const = 0;
   // Adds the nodes of a YAML fragment (one entry, a list, or a fleet
   // document); returns their keys. Throws config::ConfigError, changing nothing.

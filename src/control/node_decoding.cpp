@@ -104,15 +104,16 @@ int node_get_pdo_mapping(sd_bus_message* m, void* userdata, sd_bus_error*) {
 
 // Fleet1.GetPdoMappings: what a monitor needs of every node of a bus, in one
 // call (a bus of 127 nodes in one round trip, not 127; one bus at a time, so
-// that no call holds the loop for the whole fleet: 14 us a node here).
+// that no call holds the loop for the whole fleet: 14 us a node here, and
+// nothing for the nodes of other buses).
 int fleet_get_pdo_mappings(sd_bus_message* m, void* userdata, sd_bus_error*) {
   ControlService& s = *static_cast<ControlService*>(userdata);
   const char* interface = nullptr;
   if (int r = sd_bus_message_read(m, "s", &interface); r < 0) return r;
   return reply_with(m, [&](sd_bus_message* reply) {
     int r = sd_bus_message_open_container(reply, 'a', "(sa(subya(qyyssds))a(qydds))");
-    for (const NodeHandle* h : s.host().nodes()) {
-      NodeContext* n = h->interface == interface ? s.context(h->key) : nullptr;
+    for (const NodeHandle* h : s.host().nodes_on(interface)) {
+      NodeContext* n = s.context(h->key);
       if (!n || r < 0) continue;
       const std::vector<personalities::PdoView> pdos = personalities::pdo_views(n->node());
       r = sd_bus_message_open_container(reply, 'r', "sa(subya(qyyssds))a(qydds)");

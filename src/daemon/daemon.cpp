@@ -1103,6 +1103,16 @@ std::vector<const control::NodeHandle*> Daemon::nodes() const {
   return out;
 }
 
+std::vector<const control::NodeHandle*> Daemon::nodes_on(const std::string& interface) const {
+  std::vector<const control::NodeHandle*> out;
+  for (const auto& i : interfaces_) {
+    if (i->can.name() != interface) continue;
+    out.reserve(i->node_keys.size());
+    for (const std::string& key : i->node_keys) out.push_back(&nodes_.at(key).handle);
+  }
+  return out;
+}
+
 const control::NodeHandle* Daemon::find(const std::string& key) const {
   auto it = nodes_.find(key);
   return it == nodes_.end() ? nullptr : &it->second.handle;

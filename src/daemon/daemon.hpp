@@ -117,6 +117,7 @@ class Daemon : public control::ControlHost {
   io::LoopCore& core() override { return core_; }
   TimeUs now() const override { return clock_now(); }
   std::vector<const control::NodeHandle*> nodes() const override;
+  std::vector<const control::NodeHandle*> nodes_on(const std::string& interface) const override;
   const control::NodeHandle* find(const std::string& key) const override;
   std::vector<std::string> add_nodes(const std::string& yaml) override;
   void remove_node(const std::string& key) override;

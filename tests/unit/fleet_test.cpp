@@ -462,6 +462,37 @@ TEST_F(FleetTest, AReloadParsesAProfileAgainOnlyWhenItsTextChanged) {
   EXPECT_EQ(d.find("cansimfz1/c/0")->emcy_codes, d.find("cansimfz1/a/0")->emcy_codes);  // one profile, held once
 }
 
+// The nodes of one interface (GetPdoMappings) are what the whole fleet
+// holds on it, in key order, after a removal as at start.
+TEST_F(FleetTest, TheNodesOnAnInterfaceAreTheFleetsNodesThere) {
+  std::ofstream(dir + "/fleet.yaml")
+      << "nodes:\n"
+      << "  - {profile: profiles/generic-404.yaml, interface: cansimfz5, node_id: 1, name: a, count: 3}\n"
+      << "  - {profile: profiles/generic-404.yaml, interface: cansimfz6, node_id: 1, name: b, count: 2}\n"
+      << "  - {profile: profiles/generic-404.yaml, interface: cansimfz5, node_id: 9, name: c}\n";
+  test::CapturedLog quiet;
+  daemon::Daemon d(reloading());
+  d.reload();
+  const auto keys_on = [&](const std::string& interface) {
+    std::vector<std::string> keys;
+    for (const control::NodeHandle* h : d.nodes_on(interface)) keys.push_back(h->key);
+    return keys;
+  };
+  const auto filtered = [&](const std::string& interface) {
+    std::vector<std::string> keys;
+    for (const control::NodeHandle* h : d.nodes())
+      if (h->interface == interface) keys.push_back(h->key);
+    return keys;
+  };
+  EXPECT_EQ(keys_on("cansimfz5"),
+            (std::vector<std::string>{"cansimfz5/a/0", "cansimfz5/a/1", "cansimfz5/a/2", "cansimfz5/c/0"}));
+  EXPECT_EQ(keys_on("cansimfz6"), filtered("cansimfz6"));
+  d.remove_node("cansimfz5/a/1");
+  EXPECT_EQ(keys_on("cansimfz5"), filtered("cansimfz5"));
+  EXPECT_EQ(keys_on("cansimfz5").size(), 3u);
+  EXPECT_TRUE(keys_on("cansimfz7").empty());
+}
+
 // A profile's `csv:` table is part of what defines its nodes: edited alone
 // (the profile's text the same), a reload parses the profile again and
 // restarts them; unchanged, nothing restarts.
