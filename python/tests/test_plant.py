@@ -1,8 +1,8 @@
 """cansim.plant against a real cansimd on this host: a plant's variables in
 units (attributes, items, any unit of a kind), its inputs, overrides and
 faults, and the transmitter that reads it. No CAN needed (the nodes run off
-the bus); the frames of a closed loop are checked in the VM
-(tests/integration/test_example_closed_loop.py).
+the bus); the frames of a closed loop are checked on a socketcand bus
+(tests/native/test_example_closed_loop.py).
 
     CANSIMD=build/cansimd python3 -m pytest -q python/tests/test_plant.py
 """
